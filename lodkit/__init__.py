@@ -1,0 +1,27 @@
+"""lodkit: mesh simplification that keeps what people notice.
+
+>>> import lodkit
+>>> result = lodkit.simplify(lodkit.load("bunny.ply"), target_ratio=0.1)
+>>> lodkit.save(result.mesh, "bunny_10.ply")
+"""
+from .errors import LodkitError, MeshError, MeshIOError, OptionError
+from .mesh import Mesh
+from .io import load, save
+from .api import SimplifyResult, simplify
+from .topology import TopologyReport, topology
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "LodkitError",
+    "Mesh",
+    "MeshError",
+    "MeshIOError",
+    "OptionError",
+    "SimplifyResult",
+    "TopologyReport",
+    "load",
+    "save",
+    "simplify",
+    "topology",
+]

@@ -1,0 +1,1 @@
+"""Cython core: half-edge arrays, indexed heap, collapse drivers."""

@@ -1,0 +1,60 @@
+# cython: language_level=3
+from .halfedge cimport HalfEdgeMesh, HEArrays
+from .heap cimport IndexedHeap
+
+cdef enum BoundaryPolicy:
+    BOUNDARY_LOCK = 0
+    BOUNDARY_PRESERVE = 1
+    BOUNDARY_FREE = 2
+
+cdef enum Placement:
+    PLACE_OPTIMAL = 0
+    PLACE_ENDPOINT = 1
+
+cdef enum RunStatus:
+    RUN_TARGET = 0       # face target reached
+    RUN_CHUNK = 1        # max_steps collapses done, call again
+    RUN_EXHAUSTED = 2    # no legal collapse left (or none within max_error)
+
+# quadric layout: a11 a12 a13 a22 a23 a33 b1 b2 b3 c w   (w = summed face area)
+cdef enum:
+    QSIZE = 11
+
+cdef class EdgeCollapser:
+    cdef HalfEdgeMesh hm
+    cdef HEArrays* m            # raw views of hm's arrays
+    cdef double* P              # pos, (n, 3)
+    cdef double* Q              # quad, (n, QSIZE)
+    cdef double* A              # attr, (n, n_attr)
+    cdef IndexedHeap heap
+    cdef double[:, ::1] pos
+    cdef double[:, ::1] quad
+    cdef double[:, ::1] attr
+    cdef int n_attr
+    cdef unsigned char[::1] fixed
+    cdef unsigned char[::1] moved
+    cdef int placement
+    cdef int boundary
+    cdef double cos_max_angle
+    cdef double min_quality
+    cdef double max_error
+    cdef int[::1] rec_removed
+    cdef int[::1] rec_kept
+    cdef double[:, ::1] rec_pos
+    cdef double[::1] rec_cost
+    cdef double[::1] rec_error
+    cdef readonly int n_collapses
+    cdef readonly double max_error_done
+    cdef readonly int n_rejected_error
+    cdef readonly int n_rejected_topology
+    cdef readonly int n_rejected_geometry
+    cdef int collapses_since_rescan
+
+    cdef int plan(self, int e, int* h_out, int* r_out, double* p, double* cost, double* err) noexcept nogil
+    cdef bint geometry_ok(self, int h, int r, int k, const double* p) noexcept nogil
+    cdef bint fan_ok(self, int center, int fa, int fb, const double* p) noexcept nogil
+    cdef void recost(self, int e) noexcept nogil
+    cdef void recost_ring(self, int v) noexcept nogil
+    cdef void rescan(self) noexcept nogil
+    cdef void perform(self, int h, int r, const double* p, double cost, double err) noexcept nogil
+    cdef int run_c(self, int target_faces, int max_steps) noexcept nogil

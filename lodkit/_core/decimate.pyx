@@ -1,0 +1,520 @@
+# cython: language_level=3
+"""Greedy edge-collapse driver with Garland-Heckbert quadrics.
+
+The loop (``EdgeCollapser.run_c``) reads as the pipeline of the papers:
+
+    pop the cheapest edge -> re-plan it (cost, placement, which end goes) -> check the
+    link condition -> check the moved faces (normal flip, quality) -> collapse -> add the
+    quadrics -> re-cost the edges around the kept vertex.
+
+Everything is allocated in ``__init__``; ``run_c`` runs without the GIL and never allocates.
+A candidate that fails a check leaves the heap; it comes back when one of its ends is touched
+again, and, when the heap runs dry, a full rescan gives every live edge another chance -- so
+"no valid collapse left" is only reported after a rescan that found none.
+"""
+import numpy as np
+cimport numpy as cnp
+from libc.math cimport sqrt, fabs, cos, M_PI, INFINITY
+
+from .halfedge cimport HalfEdgeMesh, HEArrays, he_next, he_prev, he_dest, he_ring_next, he_is_boundary
+from .heap cimport IndexedHeap
+
+cnp.import_array()
+
+# An ill-conditioned quadric (flat or crease region) has det(A) ~ 0; below this fraction of
+# (trace/3)^3 the 3x3 solve is not trusted and the placement falls back to the edge itself.
+cdef double DET_EPS = 1e-9
+cdef double SQRT3 = 1.7320508075688772
+
+
+cdef inline double sq(double x) noexcept nogil:
+    return x * x
+
+
+cdef inline double quadric_eval(const double* q, const double* p) noexcept nogil:
+    cdef double x = p[0], y = p[1], z = p[2]
+    return (q[0] * x * x + 2.0 * q[1] * x * y + 2.0 * q[2] * x * z
+            + q[3] * y * y + 2.0 * q[4] * y * z + q[5] * z * z
+            + 2.0 * (q[6] * x + q[7] * y + q[8] * z) + q[9])
+
+
+cdef inline bint quadric_solve(const double* q, double* p) noexcept nogil:
+    """Minimise the quadric: solve A p = -b.  False when A is too ill-conditioned."""
+    cdef double a11 = q[0], a12 = q[1], a13 = q[2], a22 = q[3], a23 = q[4], a33 = q[5]
+    cdef double c11 = a22 * a33 - a23 * a23
+    cdef double c12 = a13 * a23 - a12 * a33
+    cdef double c13 = a12 * a23 - a13 * a22
+    cdef double det = a11 * c11 + a12 * c12 + a13 * c13
+    cdef double tr = (a11 + a22 + a33) / 3.0
+    if not (fabs(det) > DET_EPS * tr * tr * tr) or tr <= 0.0:
+        return False
+    cdef double c22 = a11 * a33 - a13 * a13
+    cdef double c23 = a12 * a13 - a11 * a23
+    cdef double c33 = a11 * a22 - a12 * a12
+    cdef double inv = -1.0 / det
+    p[0] = (c11 * q[6] + c12 * q[7] + c13 * q[8]) * inv
+    p[1] = (c12 * q[6] + c22 * q[7] + c23 * q[8]) * inv
+    p[2] = (c13 * q[6] + c23 * q[7] + c33 * q[8]) * inv
+    return True
+
+
+cdef inline void add_plane(double* q, double nx, double ny, double nz, double d, double w) noexcept nogil:
+    q[0] += w * nx * nx
+    q[1] += w * nx * ny
+    q[2] += w * nx * nz
+    q[3] += w * ny * ny
+    q[4] += w * ny * nz
+    q[5] += w * nz * nz
+    q[6] += w * nx * d
+    q[7] += w * ny * d
+    q[8] += w * nz * d
+    q[9] += w * d * d
+
+
+cdef inline void cross3(const double* a, const double* b, double* out) noexcept nogil:
+    out[0] = a[1] * b[2] - a[2] * b[1]
+    out[1] = a[2] * b[0] - a[0] * b[2]
+    out[2] = a[0] * b[1] - a[1] * b[0]
+
+
+cdef inline double dot3(const double* a, const double* b) noexcept nogil:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0):
+    """(n, 11) per-vertex quadrics: a11 a12 a13 a22 a23 a33 b1 b2 b3 c w.
+
+    Each face adds its plane weighted by its area (Garland-Heckbert); ``w`` sums the areas.
+    With ``boundary_weight > 0`` every boundary edge adds, to both ends, the plane through
+    the edge perpendicular to its face, weighted by ``boundary_weight * length^2`` (a
+    length^2 weight keeps the constraint scale-invariant, like the area weight of faces).
+    """
+    cdef double[:, ::1] P = np.ascontiguousarray(positions, dtype=np.float64)
+    if P.shape[0] != hm.n_vertices or P.shape[1] != 3:
+        raise ValueError(f"positions must have shape ({hm.n_vertices}, 3)")
+    out = np.zeros((hm.n_vertices, QSIZE), dtype=np.float64)
+    cdef double[:, ::1] Q = out
+    cdef int f, h, i, a, b, c
+    cdef double e1[3]
+    cdef double e2[3]
+    cdef double nrm[3]
+    cdef double m[3]
+    cdef double length, area, d, w, el
+    with nogil:
+        for f in range(hm.n_faces):
+            if not hm.face_alive[f]:
+                continue
+            a = hm.corner[3 * f]
+            b = hm.corner[3 * f + 1]
+            c = hm.corner[3 * f + 2]
+            for i in range(3):
+                e1[i] = P[b, i] - P[a, i]
+                e2[i] = P[c, i] - P[a, i]
+            cross3(e1, e2, nrm)
+            length = sqrt(dot3(nrm, nrm))
+            if length <= 0.0:
+                continue
+            area = 0.5 * length
+            for i in range(3):
+                nrm[i] /= length
+            d = -(nrm[0] * P[a, 0] + nrm[1] * P[a, 1] + nrm[2] * P[a, 2])
+            for i in range(3):
+                add_plane(&Q[hm.corner[3 * f + i], 0], nrm[0], nrm[1], nrm[2], d, area)
+                Q[hm.corner[3 * f + i], 10] += area
+            if boundary_weight <= 0.0:
+                continue
+            for i in range(3):
+                h = 3 * f + i
+                if hm.twin[h] >= 0:
+                    continue
+                a = hm.corner[h]
+                b = hm.corner[he_next(h)]
+                for c in range(3):
+                    e1[c] = P[b, c] - P[a, c]
+                el = dot3(e1, e1)
+                cross3(e1, nrm, m)
+                length = sqrt(dot3(m, m))
+                if length <= 0.0:
+                    continue
+                for c in range(3):
+                    m[c] /= length
+                d = -(m[0] * P[a, 0] + m[1] * P[a, 1] + m[2] * P[a, 2])
+                w = boundary_weight * el
+                add_plane(&Q[a, 0], m[0], m[1], m[2], d, w)
+                add_plane(&Q[b, 0], m[0], m[1], m[2], d, w)
+    return out
+
+
+cdef class EdgeCollapser:
+    """Greedy QEM edge collapse over a :class:`HalfEdgeMesh` (modified in place).
+
+    positions : (n, 3) float64, preferably normalised (centred, unit bbox diagonal)
+    quadrics  : (n, 11) float64 from :func:`vertex_quadrics`
+    attributes: (n, k) float64 or None, interpolated along the edge at each collapse
+                (C-contiguous float64 arrays are used in place, not copied)
+    fixed     : (n,) uint8, 1 = the vertex may not move nor be removed
+    placement : 0 optimal, 1 endpoint (half-edge collapse)
+    boundary  : 0 lock, 1 preserve, 2 free
+    """
+
+    def __init__(self, HalfEdgeMesh hm, positions, quadrics, attributes, fixed,
+                 int placement=PLACE_OPTIMAL, int boundary=BOUNDARY_PRESERVE,
+                 double max_normal_angle=90.0, double min_quality=0.0,
+                 double max_error=INFINITY):
+        cdef int n = hm.n_vertices
+        self.hm = hm
+        # no copies: the collapser updates positions and quadrics in place (memory budget)
+        self.pos = np.ascontiguousarray(positions, dtype=np.float64)
+        self.quad = np.ascontiguousarray(quadrics, dtype=np.float64)
+        if self.pos.shape[0] != n or self.pos.shape[1] != 3:
+            raise ValueError(f"positions must have shape ({n}, 3)")
+        if self.quad.shape[0] != n or self.quad.shape[1] != QSIZE:
+            raise ValueError(f"quadrics must have shape ({n}, {QSIZE})")
+        if attributes is None:
+            attributes = np.zeros((n, 0))
+        self.attr = np.ascontiguousarray(attributes, dtype=np.float64)
+        if self.attr.shape[0] != n:
+            raise ValueError(f"attributes must have {n} rows")
+        self.n_attr = self.attr.shape[1]
+        self.fixed = np.array(fixed, dtype=np.uint8, copy=True).reshape(-1)
+        if self.fixed.shape[0] != n:
+            raise ValueError(f"fixed must have {n} entries")
+        self.moved = np.zeros(n, dtype=np.uint8)
+        if placement not in (PLACE_OPTIMAL, PLACE_ENDPOINT):
+            raise ValueError(f"unknown placement {placement}")
+        if boundary not in (BOUNDARY_LOCK, BOUNDARY_PRESERVE, BOUNDARY_FREE):
+            raise ValueError(f"unknown boundary policy {boundary}")
+        if not (0.0 < max_normal_angle <= 180.0):
+            raise ValueError("max_normal_angle must be in (0, 180] degrees")
+        self.placement = placement
+        self.boundary = boundary
+        self.cos_max_angle = cos(max_normal_angle * M_PI / 180.0)
+        self.min_quality = min_quality
+        self.max_error = max_error
+        self.rec_removed = np.empty(n, dtype=np.intc)
+        self.rec_kept = np.empty(n, dtype=np.intc)
+        self.rec_pos = np.empty((n, 3), dtype=np.float64)
+        self.rec_cost = np.empty(n, dtype=np.float64)
+        self.rec_error = np.empty(n, dtype=np.float64)
+        self.n_collapses = 0
+        self.max_error_done = 0.0
+        self.heap = IndexedHeap(hm.n_edges)
+        self.m = &hm.c
+        self.P = &self.pos[0, 0] if n else NULL
+        self.Q = &self.quad[0, 0] if n else NULL
+        self.A = &self.attr[0, 0] if n and self.n_attr else NULL
+        with nogil:
+            self.rescan()
+
+    # ------------------------------------------------------------- planning
+    cdef int plan(self, int e, int* h_out, int* r_out, double* p, double* cost, double* err) noexcept nogil:
+        """Cost and placement of collapsing edge ``e``; -1 if it may not collapse at all."""
+        cdef int h = self.m.edge_he[e]
+        cdef int u = self.m.corner[h]
+        cdef int v = he_dest(self.m, h)
+        cdef bint bu = he_is_boundary(self.m, u)
+        cdef bint bv = he_is_boundary(self.m, v)
+        cdef bint fu = self.fixed[u]
+        cdef bint fv = self.fixed[v]
+        cdef double q[QSIZE]
+        cdef double cand[3]
+        cdef double best, c, t, denom, d0, d1
+        cdef double du[3]
+        cdef int i, keep
+        if bu and bv and self.m.twin[h] >= 0:
+            return -1                     # would pinch the surface (link condition)
+        if self.boundary == BOUNDARY_PRESERVE:
+            # Li et al.: a boundary vertex never moves into the interior
+            if bu and not bv:
+                fu = True
+            elif bv and not bu:
+                fv = True
+        if fu and fv:
+            return -1
+        for i in range(QSIZE):
+            q[i] = self.Q[QSIZE * u + i] + self.Q[QSIZE * v + i]
+        h_out[0] = h
+        if fu or fv:
+            keep = u if fu else v
+            for i in range(3):
+                p[i] = self.P[3 * keep + i]
+            r_out[0] = v if fu else u
+            c = quadric_eval(q, p)
+        elif self.placement == PLACE_ENDPOINT:
+            d0 = quadric_eval(q, &self.P[3 * u])
+            d1 = quadric_eval(q, &self.P[3 * v])
+            keep = u if (d0 < d1 or (d0 == d1 and u < v)) else v
+            for i in range(3):
+                p[i] = self.P[3 * keep + i]
+            r_out[0] = v if keep == u else u
+            c = d0 if keep == u else d1
+        else:
+            if quadric_solve(q, p):
+                c = quadric_eval(q, p)
+            else:
+                # fallback: the best of both ends, the midpoint and the minimum along the edge
+                for i in range(3):
+                    p[i] = self.P[3 * u + i]
+                    du[i] = self.P[3 * v + i] - self.P[3 * u + i]
+                best = quadric_eval(q, &self.P[3 * u])
+                c = quadric_eval(q, &self.P[3 * v])
+                if c < best:
+                    best = c
+                    for i in range(3):
+                        p[i] = self.P[3 * v + i]
+                for i in range(3):
+                    cand[i] = self.P[3 * u + i] + 0.5 * du[i]
+                c = quadric_eval(q, cand)
+                if c < best:
+                    best = c
+                    for i in range(3):
+                        p[i] = cand[i]
+                # Q(u + t du) = alpha t^2 + 2 beta t + const  ->  t* = -beta / alpha
+                denom = (q[0] * du[0] * du[0] + 2 * q[1] * du[0] * du[1] + 2 * q[2] * du[0] * du[2]
+                         + q[3] * du[1] * du[1] + 2 * q[4] * du[1] * du[2] + q[5] * du[2] * du[2])
+                if denom > 0.0:
+                    t = -((q[0] * self.P[3 * u + 0] + q[1] * self.P[3 * u + 1] + q[2] * self.P[3 * u + 2] + q[6]) * du[0]
+                          + (q[1] * self.P[3 * u + 0] + q[3] * self.P[3 * u + 1] + q[4] * self.P[3 * u + 2] + q[7]) * du[1]
+                          + (q[2] * self.P[3 * u + 0] + q[4] * self.P[3 * u + 1] + q[5] * self.P[3 * u + 2] + q[8]) * du[2]) / denom
+                    if 0.0 < t < 1.0:
+                        for i in range(3):
+                            cand[i] = self.P[3 * u + i] + t * du[i]
+                        c = quadric_eval(q, cand)
+                        if c < best:
+                            best = c
+                            for i in range(3):
+                                p[i] = cand[i]
+                c = best
+            # the kept slot is the end nearer to the new position (provenance)
+            d0 = 0.0
+            d1 = 0.0
+            for i in range(3):
+                d0 += (p[i] - self.P[3 * u + i]) * (p[i] - self.P[3 * u + i])
+                d1 += (p[i] - self.P[3 * v + i]) * (p[i] - self.P[3 * v + i])
+            r_out[0] = v if (d0 < d1 or (d0 == d1 and u < v)) else u
+        if c < 0.0:
+            c = 0.0
+        cost[0] = c
+        err[0] = sqrt(c / q[10]) if q[10] > 0.0 else 0.0
+        return 0
+
+    # ------------------------------------------------------------- checks
+    cdef bint fan_ok(self, int center, int fa, int fb, const double* p) noexcept nogil:
+        """Do the faces around ``center`` (except fa, fb) stay valid when it moves to p?"""
+        cdef int start = self.m.v_he[center]
+        cdef int y = start
+        cdef int f, b, c, i
+        cdef double e1[3]
+        cdef double e2[3]
+        cdef double n0[3]
+        cdef double n1[3]
+        cdef double l0, l1, l2, len0, len1, q0, q1
+        while True:
+            f = y // 3
+            if f != fa and f != fb:
+                b = he_dest(self.m, y)
+                c = self.m.corner[he_prev(y)]
+                for i in range(3):
+                    e1[i] = self.P[3 * b + i] - self.P[3 * center + i]
+                    e2[i] = self.P[3 * c + i] - self.P[3 * center + i]
+                cross3(e1, e2, n0)
+                len0 = sqrt(dot3(n0, n0))
+                if len0 > 0.0:
+                    for i in range(3):
+                        e1[i] = self.P[3 * b + i] - p[i]
+                        e2[i] = self.P[3 * c + i] - p[i]
+                    cross3(e1, e2, n1)
+                    len1 = sqrt(dot3(n1, n1))
+                    l0 = dot3(e1, e1)
+                    l1 = dot3(e2, e2)
+                    if len1 <= 1e-12 * (l0 + l1):
+                        return False                 # the face would degenerate
+                    if dot3(n0, n1) < self.cos_max_angle * len0 * len1:
+                        return False                 # the face would turn too far (or flip)
+                    if self.min_quality > 0.0:
+                        l2 = 0.0
+                        for i in range(3):
+                            l2 += sq(self.P[3 * b + i] - self.P[3 * c + i])
+                        q1 = 2.0 * SQRT3 * len1 / (l0 + l1 + l2)
+                        if q1 < self.min_quality:
+                            l0 = 0.0
+                            l1 = 0.0
+                            for i in range(3):
+                                l0 += sq(self.P[3 * b + i] - self.P[3 * center + i])
+                                l1 += sq(self.P[3 * c + i] - self.P[3 * center + i])
+                            q0 = 2.0 * SQRT3 * len0 / (l0 + l1 + l2)
+                            if q1 < q0:
+                                return False         # a sliver, worse than before
+            y = he_ring_next(self.m, y)
+            if y < 0 or y == start:
+                return True
+
+    cdef bint geometry_ok(self, int h, int r, int k, const double* p) noexcept nogil:
+        cdef int fa = h // 3
+        cdef int fb = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
+        if not self.fan_ok(r, fa, fb, p):
+            return False
+        if p[0] != self.P[3 * k + 0] or p[1] != self.P[3 * k + 1] or p[2] != self.P[3 * k + 2]:
+            return self.fan_ok(k, fa, fb, p)
+        return True
+
+    # ------------------------------------------------------------- heap upkeep
+    cdef void recost(self, int e) noexcept nogil:
+        """Re-rank edge ``e`` after a change around it (or drop it if it may not collapse)."""
+        cdef int h, r
+        cdef double p[3]
+        cdef double cost, err
+        if self.plan(e, &h, &r, p, &cost, &err) == 0:
+            self.heap.push_fast(e, cost)
+        else:
+            self.heap.remove_fast(e)
+
+    cdef void recost_ring(self, int v) noexcept nogil:
+        cdef int start = self.m.v_he[v]
+        cdef int y = start
+        cdef int ny
+        while True:
+            self.recost(self.m.edge[y])
+            ny = he_ring_next(self.m, y)
+            if ny < 0:
+                self.recost(self.m.edge[he_prev(y)])
+                return
+            if ny == start:
+                return
+            y = ny
+
+    cdef void rescan(self) noexcept nogil:
+        cdef int e
+        cdef int h, r
+        cdef double p[3]
+        cdef double cost, err
+        self.heap.clear_fast()
+        for e in range(self.hm.n_edges):
+            if self.m.edge_alive[e] and self.plan(e, &h, &r, p, &cost, &err) == 0:
+                self.heap.append_unordered(e, cost)
+        self.heap.heapify_fast()
+        self.collapses_since_rescan = 0
+        self.n_rejected_error = 0
+        self.n_rejected_topology = 0
+        self.n_rejected_geometry = 0
+
+    # ------------------------------------------------------------- the collapse
+    cdef void perform(self, int h, int r, const double* p, double cost, double err) noexcept nogil:
+        cdef int dead[3]
+        cdef int k, i
+        cdef double t = 0.0, len2 = 0.0
+        k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
+        # where p falls along r -> k decides how the attributes mix
+        for i in range(3):
+            len2 += sq(self.P[3 * k + i] - self.P[3 * r + i])
+            t += (p[i] - self.P[3 * r + i]) * (self.P[3 * k + i] - self.P[3 * r + i])
+        t = t / len2 if len2 > 0.0 else 1.0
+        t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
+        self.hm.collapse(h, r, dead)
+        for i in range(3):
+            if dead[i] >= 0:
+                self.heap.remove_fast(dead[i])
+        for i in range(QSIZE):
+            self.Q[QSIZE * k + i] += self.Q[QSIZE * r + i]
+        for i in range(self.n_attr):
+            self.A[self.n_attr * k + i] = self.A[self.n_attr * r + i] + t * (self.A[self.n_attr * k + i] - self.A[self.n_attr * r + i])
+        if p[0] != self.P[3 * k + 0] or p[1] != self.P[3 * k + 1] or p[2] != self.P[3 * k + 2]:
+            for i in range(3):
+                self.P[3 * k + i] = p[i]
+            self.moved[k] = 1
+        i = self.n_collapses
+        self.rec_removed[i] = r
+        self.rec_kept[i] = k
+        self.rec_pos[i, 0] = p[0]
+        self.rec_pos[i, 1] = p[1]
+        self.rec_pos[i, 2] = p[2]
+        self.rec_cost[i] = cost
+        self.rec_error[i] = err
+        self.n_collapses += 1
+        if err > self.max_error_done:
+            self.max_error_done = err
+        self.collapses_since_rescan += 1
+        self.recost_ring(k)
+
+    cdef int run_c(self, int target_faces, int max_steps) noexcept nogil:
+        cdef int e, h, r, k, steps = 0
+        cdef double key, cost, err
+        cdef double p[3]
+        while self.hm.n_alive_faces > target_faces:
+            if steps >= max_steps:
+                return RUN_CHUNK
+            if self.heap.pop_fast(&e, &key) < 0:
+                if self.collapses_since_rescan == 0:
+                    return RUN_EXHAUSTED
+                self.rescan()
+                continue
+            if self.plan(e, &h, &r, p, &cost, &err) < 0:
+                continue
+            if err > self.max_error:
+                self.n_rejected_error += 1
+                continue
+            if not self.hm.link_ok(h):
+                self.n_rejected_topology += 1
+                continue
+            k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
+            if not self.geometry_ok(h, r, k, p):
+                self.n_rejected_geometry += 1
+                continue
+            self.perform(h, r, p, cost, err)
+            steps += 1
+        return RUN_TARGET
+
+    # ------------------------------------------------------------- Python API
+    def run(self, int target_faces, int max_steps=2**31 - 1):
+        """Collapse until ``target_faces`` live faces remain, ``max_steps`` collapses are done,
+        or nothing legal is left.  Returns 0 (target), 1 (step budget) or 2 (exhausted)."""
+        cdef int status
+        with nogil:
+            status = self.run_c(target_faces, max_steps)
+        return status
+
+    def plan_edge(self, int u, int v):
+        """``(removed, kept, position, cost, error)`` for edge (u, v), or None if it may not
+        collapse.  Checks nothing but the fixed/boundary rules; for tests."""
+        h = self.hm._find_halfedge(u, v)
+        if h < 0:
+            raise ValueError(f"({u}, {v}) is not an edge")
+        cdef int hh, r
+        cdef double p[3]
+        cdef double cost, err
+        if self.plan(self.hm.edge[h], &hh, &r, p, &cost, &err) < 0:
+            return None
+        k = self.hm.dest(hh) if self.hm.corner[hh] == r else self.hm.corner[hh]
+        return r, k, np.array([p[0], p[1], p[2]]), cost, err
+
+    @property
+    def n_alive_faces(self):
+        return self.hm.n_alive_faces
+
+    @property
+    def positions(self):
+        return np.asarray(self.pos)
+
+    @property
+    def attributes(self):
+        return np.asarray(self.attr)
+
+    @property
+    def moved_vertices(self):
+        return np.asarray(self.moved).astype(bool)
+
+    @property
+    def quadrics(self):
+        return np.asarray(self.quad)
+
+    def records(self):
+        """The collapse sequence: dict of removed, kept (vertex slots), position (n, 3),
+        cost and error, one row per collapse in the order they were done."""
+        n = self.n_collapses
+        return {
+            "removed": np.asarray(self.rec_removed)[:n].copy(),
+            "kept": np.asarray(self.rec_kept)[:n].copy(),
+            "position": np.asarray(self.rec_pos)[:n].copy(),
+            "cost": np.asarray(self.rec_cost)[:n].copy(),
+            "error": np.asarray(self.rec_error)[:n].copy(),
+        }

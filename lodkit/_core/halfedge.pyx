@@ -1,0 +1,522 @@
+# cython: language_level=3
+"""Half-edge arrays: O(m) construction, 1-ring walks, the link condition and edge collapse.
+
+Non-manifold input is cut into a manifold-with-border structure: an edge with more than two
+faces, or whose two faces run it in the same direction, becomes one boundary edge per face;
+a vertex whose faces form several fans gets one vertex slot per fan.  Vertices touched by
+either repair are locked (they never move and are never removed) so that welding the copies
+back on output restores the input's non-manifold configuration exactly.
+"""
+import numpy as np
+cimport numpy as cnp
+
+cnp.import_array()
+
+
+cdef class HalfEdgeMesh:
+    """Half-edge connectivity of a triangle mesh.  Build with :func:`build`."""
+
+    # --------------------------------------------------------------- navigation
+    cdef inline int dest(self, int h) noexcept nogil:
+        return he_dest(&self.c, h)
+
+    cdef inline int ring_next(self, int h) noexcept nogil:
+        return he_ring_next(&self.c, h)
+
+    cdef inline bint is_boundary(self, int v) noexcept nogil:
+        return he_is_boundary(&self.c, v)
+
+    cdef void _bind(self) noexcept:
+        """Point the raw views at the arrays (after the arrays are set)."""
+        self.c.corner = &self.corner[0]
+        self.c.twin = &self.twin[0]
+        self.c.edge = &self.edge[0]
+        self.c.edge_he = &self.edge_he[0] if self.edge_he.shape[0] else NULL
+        self.c.v_he = &self.v_he[0]
+        self.c.face_alive = &self.face_alive[0]
+        self.c.vertex_alive = &self.vertex_alive[0]
+        self.c.edge_alive = &self.edge_alive[0] if self.edge_alive.shape[0] else NULL
+
+    cdef int valence(self, int v) noexcept nogil:
+        cdef int start = self.c.v_he[v]
+        cdef int h = start
+        cdef int n = 0
+        while True:
+            n += 1
+            h = self.ring_next(h)
+            if h < 0:
+                return n + 1        # the boundary fan ends with one more neighbour
+            if h == start:
+                return n
+
+    cdef int find_fan_start(self, int h) noexcept nogil:
+        """From outgoing ``h``, walk backwards to the fan's boundary half-edge (or back to h)."""
+        cdef int start = h
+        cdef int t
+        while True:
+            t = self.c.twin[h]
+            if t < 0:
+                return h
+            h = he_next(t)
+            if h == start:
+                return h
+
+    cdef bint link_ok(self, int h) noexcept nogil:
+        """Can the edge of ``h`` collapse without changing the topology?
+
+        The link condition (Dey et al.): the vertices adjacent to both ends are exactly the
+        opposite vertices of the edge's faces; plus: no interior edge between two boundary
+        vertices (that would pinch the surface), no isolated triangle, no tetrahedron.
+        """
+        cdef int u = self.c.corner[h]
+        cdef int v = self.dest(h)
+        cdef int hb = self.c.twin[h]
+        cdef int x, nx, w, start, common, expected
+        if hb < 0:
+            if self.c.twin[he_next(h)] < 0 and self.c.twin[he_prev(h)] < 0:
+                return False
+            expected = 1
+        else:
+            if self.is_boundary(u) and self.is_boundary(v):
+                return False
+            expected = 2
+        # mark the neighbours of u
+        self.stamp_counter += 1
+        if self.stamp_counter == 0x7fffffff:
+            self.stamp[:] = 0
+            self.stamp_counter = 1
+        start = self.c.v_he[u]
+        x = start
+        while True:
+            self.stamp[self.dest(x)] = self.stamp_counter
+            nx = self.ring_next(x)
+            if nx < 0:
+                self.stamp[self.c.corner[he_prev(x)]] = self.stamp_counter
+                break
+            x = nx
+            if x == start:
+                break
+        # count the marked neighbours of v (other than u)
+        common = 0
+        start = self.c.v_he[v]
+        x = start
+        while True:
+            w = self.dest(x)
+            if w != u and self.stamp[w] == self.stamp_counter:
+                common += 1
+                self.stamp[w] = 0       # count a neighbour once, even across parallel edges
+            nx = self.ring_next(x)
+            if nx < 0:
+                w = self.c.corner[he_prev(x)]
+                if w != u and self.stamp[w] == self.stamp_counter:
+                    common += 1
+                    self.stamp[w] = 0
+                break
+            x = nx
+            if x == start:
+                break
+        if common != expected:
+            return False
+        if hb >= 0 and self.valence(u) == 3 and self.valence(v) == 3 and not self.is_boundary(u) and not self.is_boundary(v):
+            return False    # the two ends and their common neighbours form a tetrahedron
+        return True
+
+    cdef int collapse(self, int h, int removed, int* dead_edges) noexcept nogil:
+        """Collapse the edge of ``h``; ``removed`` (one of its ends) goes, the other stays.
+
+        Returns the kept vertex.  ``dead_edges`` receives the ids of the edges that vanish
+        (the collapsed edge, then one per removed face; -1 for unused slots).  The caller has
+        checked ``link_ok(h)``.
+        """
+        cdef int r = removed
+        cdef int k = self.dest(h) if self.c.corner[h] == r else self.c.corner[h]
+        cdef int xs[2]
+        cdef int ts[2]
+        cdef int td[2]
+        cdef int es[2]
+        cdef int opp[2]
+        cdef int i, x, s, d, start, y, ny, hk, hc
+        cdef bint r_border = self.c.twin[self.c.v_he[r]] < 0
+        xs[0] = h
+        xs[1] = self.c.twin[h]
+        dead_edges[0] = self.c.edge[h]
+        dead_edges[1] = -1
+        dead_edges[2] = -1
+        for i in range(2):
+            x = xs[i]
+            if x < 0:
+                continue
+            if self.c.corner[x] == r:      # x: r -> k, next(x): k -> c survives, prev(x): c -> r dies
+                s = he_next(x)
+                d = he_prev(x)
+            else:                        # x: k -> r, prev(x): c -> k survives, next(x): r -> c dies
+                s = he_prev(x)
+                d = he_next(x)
+            ts[i] = self.c.twin[s]
+            td[i] = self.c.twin[d]
+            es[i] = self.c.edge[s]
+            dead_edges[1 + i] = self.c.edge[d]
+            opp[i] = self.c.corner[he_prev(x)]
+        # 1. every half-edge leaving r now leaves k (walk r's fan before the twins change)
+        start = self.c.v_he[r]
+        y = start
+        while True:
+            self.c.corner[y] = k
+            ny = self.ring_next(y)
+            if ny < 0 or ny == start:
+                break
+            y = ny
+        # 2. glue the outer twins of each removed face: two edges become one
+        for i in range(2):
+            x = xs[i]
+            if x < 0:
+                continue
+            if ts[i] >= 0:
+                self.c.twin[ts[i]] = td[i]
+            if td[i] >= 0:
+                self.c.twin[td[i]] = ts[i]
+                self.c.edge[td[i]] = es[i]
+            self.c.edge_he[es[i]] = ts[i] if ts[i] >= 0 else td[i]
+            self.c.edge_alive[dead_edges[1 + i]] = 0
+            self.c.face_alive[x // 3] = 0
+            self.n_alive_faces -= 1
+        self.c.edge_alive[dead_edges[0]] = 0
+        self.c.vertex_alive[r] = 0
+        self.n_alive_vertices -= 1
+        # 3. re-anchor v_he of k and of the opposite vertices where it went with a removed
+        #    face (or, for k, where it inherits r's border): the glued edge k-c has a
+        #    half-edge k -> c and/or c -> k, and either gives one leaving each end
+        for i in range(2):
+            x = xs[i]
+            if x < 0:
+                continue
+            hk = ts[i] if ts[i] >= 0 and self.c.corner[ts[i]] == k else td[i]
+            hc = td[i] if hk == ts[i] else ts[i]
+            if hk >= 0 and self.c.corner[hk] != k:
+                hk, hc = hc, hk
+            if r_border or not self.c.face_alive[self.c.v_he[k] // 3]:
+                self.c.v_he[k] = self.find_fan_start(hk if hk >= 0 else he_next(hc))
+            if not self.c.face_alive[self.c.v_he[opp[i]] // 3]:
+                self.c.v_he[opp[i]] = self.find_fan_start(hc if hc >= 0 else he_next(hk))
+        return k
+
+    # ------------------------------------------------------------- Python API
+    @property
+    def corners(self):
+        """(n_faces, 3) int32 view of the face slots (dead faces keep stale values)."""
+        return np.asarray(self.corner).reshape(-1, 3)
+
+    @property
+    def twins(self):
+        return np.asarray(self.twin)
+
+    @property
+    def edges(self):
+        return np.asarray(self.edge)
+
+    @property
+    def edge_halfedges(self):
+        return np.asarray(self.edge_he)
+
+    @property
+    def vertex_halfedges(self):
+        return np.asarray(self.v_he)
+
+    @property
+    def vertex_sources(self):
+        """(n_vertices,) int32: for each vertex slot, the input vertex it copies."""
+        return np.asarray(self.vertex_source)
+
+    @property
+    def locked_vertices(self):
+        return np.asarray(self.locked).astype(bool)
+
+    @property
+    def alive_faces(self):
+        return np.asarray(self.face_alive).astype(bool)
+
+    @property
+    def alive_vertices(self):
+        return np.asarray(self.vertex_alive).astype(bool)
+
+    @property
+    def alive_edges(self):
+        return np.asarray(self.edge_alive).astype(bool)
+
+    def faces(self):
+        """(k, 3) int32 array of the live faces, in face-slot order."""
+        return self.corners[self.alive_faces].copy()
+
+    def neighbors(self, int v):
+        """The 1-ring of vertex ``v`` in fan order (boundary fans start at the border)."""
+        self._check_vertex(v)
+        out = []
+        cdef int start = self.v_he[v]
+        cdef int h = start
+        cdef int nh
+        while True:
+            out.append(self.dest(h))
+            nh = self.ring_next(h)
+            if nh < 0:
+                out.append(self.corner[he_prev(h)])
+                break
+            h = nh
+            if h == start:
+                break
+        return out
+
+    def vertex_is_boundary(self, int v):
+        self._check_vertex(v)
+        return bool(self.is_boundary(v))
+
+    def can_collapse(self, int u, int v):
+        """Whether edge (u, v) exists and passes the link condition."""
+        h = self._find_halfedge(u, v)
+        return h >= 0 and bool(self.link_ok(h))
+
+    def collapse_edge(self, int u, int v):
+        """Collapse edge (u, v) removing ``u`` (topology only).  ValueError if not allowed."""
+        cdef int dead[3]
+        h = self._find_halfedge(u, v)
+        if h < 0:
+            raise ValueError(f"({u}, {v}) is not an edge")
+        if not self.link_ok(h):
+            raise ValueError(f"collapsing ({u}, {v}) would change the topology")
+        self.collapse(h, u, dead)
+        return v
+
+    def _check_vertex(self, int v):
+        if v < 0 or v >= self.n_vertices or not self.vertex_alive[v]:
+            raise ValueError(f"vertex {v} is not a live vertex")
+
+    def _find_halfedge(self, int u, int v):
+        self._check_vertex(u)
+        self._check_vertex(v)
+        cdef int start = self.v_he[u]
+        cdef int h = start
+        cdef int nh
+        while True:
+            if self.dest(h) == v:
+                return h
+            nh = self.ring_next(h)
+            if nh < 0:
+                if self.corner[he_prev(h)] == v:
+                    return he_prev(h)
+                return -1
+            h = nh
+            if h == start:
+                return -1
+
+    def check(self):
+        """Verify every invariant of the structure; raises AssertionError naming the first
+        broken one.  O(size); for tests."""
+        cdef int h, t, v, e, n_out
+        corner = np.asarray(self.corner)
+        fa = np.asarray(self.face_alive).astype(bool)
+        for h in range(3 * self.n_faces):
+            if not self.face_alive[h // 3]:
+                continue
+            if not self.vertex_alive[self.corner[h]]:
+                raise AssertionError(f"half-edge {h} starts at dead vertex {self.corner[h]}")
+            t = self.twin[h]
+            if t >= 0:
+                if not self.face_alive[t // 3]:
+                    raise AssertionError(f"twin of {h} is in a dead face")
+                if self.twin[t] != h:
+                    raise AssertionError(f"twin not symmetric at {h}")
+                if self.corner[t] != self.dest(h) or self.dest(t) != self.corner[h]:
+                    raise AssertionError(f"twin {t} of {h} does not run the other way")
+                if self.edge[t] != self.edge[h]:
+                    raise AssertionError(f"twins {h}, {t} have different edge ids")
+            e = self.edge[h]
+            if not self.edge_alive[e]:
+                raise AssertionError(f"half-edge {h} has dead edge {e}")
+            if self.edge[self.edge_he[e]] != e or not self.face_alive[self.edge_he[e] // 3]:
+                raise AssertionError(f"edge_he of edge {e} is stale")
+        # each live vertex: one fan holding all its outgoing half-edges
+        live = corner.reshape(-1)[np.repeat(fa, 3)]
+        out_count = np.bincount(live, minlength=self.n_vertices)
+        for v in range(self.n_vertices):
+            if not self.vertex_alive[v]:
+                continue
+            h = self.v_he[v]
+            if not self.face_alive[h // 3] or self.corner[h] != v:
+                raise AssertionError(f"v_he of vertex {v} is not a live outgoing half-edge")
+            if self.find_fan_start(h) != h:
+                raise AssertionError(f"v_he of boundary vertex {v} is not its boundary half-edge")
+            n_out = 0
+            t = h
+            while True:
+                n_out += 1
+                t = self.ring_next(t)
+                if t < 0 or t == h:
+                    break
+                if n_out > out_count[v]:
+                    break
+            if n_out != out_count[v]:
+                raise AssertionError(f"vertex {v} has {out_count[v]} faces but its fan has {n_out}")
+        return True
+
+
+def build(faces, int n_vertices):
+    """Half-edge arrays for ``faces`` ((m, 3) int32, no repeated index within a face, every
+    index in ``0..n_vertices-1``).  O(m + n): two counting sorts pair the half-edges.
+
+    Returns a :class:`HalfEdgeMesh`.  Non-manifold edges and vertices are cut as described
+    in the module docstring; the counts are in ``n_nonmanifold_edges`` / ``n_split_vertices``.
+    """
+    cdef int[:, ::1] F = np.ascontiguousarray(faces, dtype=np.intc)
+    cdef Py_ssize_t m = F.shape[0]
+    if m >= 700_000_000:
+        raise ValueError("too many faces for 32-bit half-edge ids")
+    cdef int H = <int>(3 * m)
+    cdef int n = n_vertices
+    cdef int[::1] corner = np.ascontiguousarray(F).reshape(-1).copy()
+    cdef int[::1] twin = np.full(H, -1, dtype=np.intc)
+    cdef int[::1] edge = np.empty(H, dtype=np.intc)
+    cdef int[::1] count = np.zeros(n + 1, dtype=np.intc)
+    cdef int[::1] order1 = np.empty(H, dtype=np.intc)
+    cdef int[::1] order2 = np.empty(H, dtype=np.intc)
+    cdef unsigned char[::1] nm_vertex = np.zeros(n, dtype=np.uint8)
+    cdef int h, a, b, i, j, g, lo, hi, h0, h1, n_edges = 0, n_nm = 0
+    cdef int v, start, t, nxt, n_new, slot, fan_vertex
+    with nogil:
+        for h in range(H):
+            if corner[h] < 0 or corner[h] >= n:
+                with gil:
+                    raise ValueError(f"face {h // 3} has a vertex index outside 0..{n - 1}")
+        # ---- pair half-edges: counting sort by max end, then stable by min end
+        for h in range(H):
+            a = corner[h]
+            b = corner[he_next(h)]
+            count[(a if a > b else b) + 1] += 1
+        for i in range(n):
+            count[i + 1] += count[i]
+        for h in range(H):
+            a = corner[h]
+            b = corner[he_next(h)]
+            hi = a if a > b else b
+            order1[count[hi]] = h
+            count[hi] += 1
+        count[:] = 0
+        for h in range(H):
+            a = corner[h]
+            b = corner[he_next(h)]
+            count[(a if a < b else b) + 1] += 1
+        for i in range(n):
+            count[i + 1] += count[i]
+        for j in range(H):
+            h = order1[j]
+            a = corner[h]
+            b = corner[he_next(h)]
+            lo = a if a < b else b
+            order2[count[lo]] = h
+            count[lo] += 1
+        # ---- walk the groups of equal (min, max)
+        i = 0
+        while i < H:
+            h0 = order2[i]
+            a = corner[h0]
+            b = corner[he_next(h0)]
+            j = i + 1
+            while j < H:
+                h1 = order2[j]
+                if not ((corner[h1] == a and corner[he_next(h1)] == b) or
+                        (corner[h1] == b and corner[he_next(h1)] == a)):
+                    break
+                j += 1
+            g = j - i
+            if g == 2 and corner[order2[i + 1]] == b:
+                h1 = order2[i + 1]
+                twin[h0] = h1
+                twin[h1] = h0
+                edge[h0] = n_edges
+                edge[h1] = n_edges
+                n_edges += 1
+            else:
+                if g > 1:
+                    n_nm += 1
+                    nm_vertex[a] = 1
+                    nm_vertex[b] = 1
+                for t in range(i, j):
+                    edge[order2[t]] = n_edges
+                    n_edges += 1
+            i = j
+    # ---- split vertices with several fans (CSR of outgoing half-edges by origin)
+    count = np.zeros(n + 1, dtype=np.intc)
+    cdef int[::1] out_he = order1          # reuse the scratch array
+    cdef unsigned char[::1] seen = np.zeros(H, dtype=np.uint8)
+    cdef int[::1] source = np.empty(n + H, dtype=np.intc)
+    cdef int[::1] vhe = np.empty(n + H, dtype=np.intc)
+    cdef unsigned char[::1] multi = np.zeros(n, dtype=np.uint8)
+    with nogil:
+        for h in range(H):
+            count[corner[h] + 1] += 1
+        for i in range(n):
+            count[i + 1] += count[i]
+        for h in range(H):
+            out_he[count[corner[h]]] = h
+            count[corner[h]] += 1
+        # count[v] is now the end of v's run; its start is count[v-1] (0 for v=0)
+        n_new = n
+        for v in range(n):
+            source[v] = v
+            vhe[v] = -1
+        for v in range(n):
+            lo = count[v - 1] if v > 0 else 0
+            hi = count[v]
+            fan_vertex = v
+            for slot in range(lo, hi):
+                h = out_he[slot]
+                if seen[h]:
+                    continue
+                # find the fan's first half-edge, then give the whole fan one vertex slot
+                start = h
+                while True:
+                    t = twin[start]
+                    if t < 0:
+                        break
+                    nxt = he_next(t)
+                    if nxt == h:
+                        break
+                    start = nxt
+                if vhe[v] >= 0:          # a second (third, ...) fan around v
+                    fan_vertex = n_new
+                    source[n_new] = v
+                    n_new += 1
+                    multi[v] = 1
+                vhe[fan_vertex] = start
+                t = start
+                while True:
+                    seen[t] = 1
+                    corner[t] = fan_vertex
+                    t = twin[he_prev(t)]
+                    if t < 0 or t == start:
+                        break
+    cdef HalfEdgeMesh hm = HalfEdgeMesh.__new__(HalfEdgeMesh)
+    hm.n_vertices = n_new
+    hm.n_faces = <int>m
+    hm.n_edges = n_edges
+    hm.n_alive_faces = <int>m
+    hm.n_alive_vertices = n_new
+    hm.n_split_vertices = n_new - n
+    hm.n_nonmanifold_edges = n_nm
+    hm.corner = corner
+    hm.twin = twin
+    hm.edge = edge
+    edge_he = np.empty(n_edges, dtype=np.intc)
+    edge_arr = np.asarray(edge)
+    edge_he[edge_arr] = np.arange(H, dtype=np.intc)
+    hm.edge_he = edge_he
+    hm.v_he = np.asarray(vhe)[:n_new].copy()
+    src = np.asarray(source)[:n_new].copy()
+    hm.vertex_source = src
+    bad = np.asarray(nm_vertex).astype(bool) | np.asarray(multi).astype(bool)
+    hm.locked = bad[src].astype(np.uint8)
+    hm.face_alive = np.ones(m, dtype=np.uint8)
+    hm.vertex_alive = np.ones(n_new, dtype=np.uint8)
+    hm.edge_alive = np.ones(n_edges, dtype=np.uint8)
+    hm.stamp = np.zeros(n_new, dtype=np.intc)
+    hm.stamp_counter = 0
+    hm._bind()
+    return hm

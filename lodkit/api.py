@@ -1,0 +1,329 @@
+"""``simplify()``: validation and dtype handling around the Cython collapse driver."""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any, Optional
+
+import numpy as np
+
+from .errors import MeshError, OptionError
+from .mesh import Mesh
+
+__all__ = ["SimplifyResult", "simplify", "prepare"]
+
+PLACEMENTS = {"optimal": 0, "endpoint": 1}
+BOUNDARY_POLICIES = {"lock": 0, "preserve": 1, "free": 2}
+METRICS = ("qem",)
+
+#: Stop reasons, as found in :attr:`SimplifyResult.stop_reason`.
+STOP_TARGET = "target_faces"          # the face target (target_faces / target_ratio) was reached
+STOP_MAX_ERROR = "max_error"          # every remaining collapse would exceed max_error
+STOP_NO_COLLAPSE = "no_valid_collapse"  # no collapse passes the checks (topology, flips, locks)
+
+# Run the nogil loop in chunks of this fraction of the work, to draw the progress bar.
+_PROGRESS_CHUNKS = 50
+
+
+@dataclass
+class SimplifyResult:
+    """What :func:`simplify` returns.
+
+    mesh        : the simplified mesh (a lodkit.Mesh, or an open3d TriangleMesh if one was given)
+    vertex_map  : (n_out,) int64, for each output vertex the input vertex it comes from
+    face_map    : (m_out,) int64, for each output face the input face it comes from
+    error       : largest collapse error, as a fraction of the bbox diagonal (or in model
+                  units when ``absolute=True``): sqrt(quadric error / summed face area), the
+                  area-weighted RMS distance of the new vertex to the planes it stands for
+    stop_reason : "target_faces", "max_error" or "no_valid_collapse"
+    n_collapses : number of edge collapses done
+    """
+
+    mesh: Any
+    vertex_map: np.ndarray
+    face_map: np.ndarray
+    error: float
+    stop_reason: str
+    n_collapses: int
+    elapsed: float = 0.0
+    report: dict = field(default_factory=dict)
+    collapses: Optional[dict] = None
+
+    def __repr__(self) -> str:
+        return (f"SimplifyResult({self.mesh!r}, error={self.error:.3g}, "
+                f"stop_reason={self.stop_reason!r}, n_collapses={self.n_collapses})")
+
+
+@dataclass
+class Prepared:
+    """A mesh cleaned and turned into half-edge arrays, ready for a driver."""
+
+    hm: Any                      # lodkit._core.halfedge.HalfEdgeMesh
+    positions: np.ndarray        # (n_slots, 3) normalised positions
+    input_vertex: np.ndarray     # (n_slots,) input vertex index of each slot
+    input_face: np.ndarray       # (m_kept,) input face index of each face slot
+    center: np.ndarray
+    scale: float                 # bbox diagonal of the input
+    n_degenerate_faces: int
+    n_unreferenced_vertices: int
+
+
+def _as_mesh(mesh) -> tuple[Mesh, bool]:
+    if isinstance(mesh, Mesh):
+        return mesh, False
+    if type(mesh).__name__ == "TriangleMesh" and hasattr(mesh, "triangles"):
+        return Mesh.from_open3d(mesh), True
+    if isinstance(mesh, tuple) and len(mesh) == 2:
+        return Mesh(*mesh), False
+    raise MeshError(f"expected a lodkit.Mesh, an open3d TriangleMesh or (vertices, faces), got {type(mesh).__name__}")
+
+
+def prepare(mesh: Mesh) -> Prepared:
+    """Drop faces with a repeated index and unreferenced vertices, normalise positions
+    (centre of the bbox at the origin, unit diagonal) and build the half-edge arrays."""
+    from ._core.halfedge import build
+
+    faces = mesh.faces
+    if faces.shape[0] == 0:
+        raise MeshError("the mesh has no faces")
+    degenerate = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 0] == faces[:, 2])
+    input_face = np.flatnonzero(~degenerate)
+    if input_face.size == 0:
+        raise MeshError(f"all {faces.shape[0]} faces repeat a vertex index (zero area); nothing to simplify")
+    faces = faces[input_face]
+    used = np.zeros(mesh.n_vertices, dtype=bool)
+    used[faces.reshape(-1)] = True
+    input_vertex = np.flatnonzero(used)
+    remap = np.full(mesh.n_vertices, -1, dtype=np.int64)
+    remap[input_vertex] = np.arange(input_vertex.size)
+    faces = remap[faces].astype(np.intc)
+    pts = mesh.vertices[input_vertex]
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    center = 0.5 * (lo + hi)
+    scale = float(np.linalg.norm(hi - lo))
+    if not scale > 0.0:
+        raise MeshError("all vertices used by faces coincide: the bounding box has zero size")
+    hm = build(faces, int(input_vertex.size))
+    slot_input = input_vertex[hm.vertex_sources]
+    positions = (mesh.vertices[slot_input] - center) / scale
+    return Prepared(hm, positions, slot_input, input_face, center, scale,
+                    int(degenerate.sum()), int(mesh.n_vertices - input_vertex.size))
+
+
+def _resolve_target(n_faces: int, target_faces, target_ratio, max_error) -> int:
+    if target_faces is None and target_ratio is None and max_error is None:
+        raise OptionError("give a stop criterion: target_faces=, target_ratio= or max_error=")
+    target = 0
+    if target_faces is not None:
+        if isinstance(target_faces, bool) or not isinstance(target_faces, (int, np.integer)) or target_faces < 0:
+            raise OptionError(f"target_faces must be a non-negative integer, got {target_faces!r}")
+        target = max(target, int(target_faces))
+    if target_ratio is not None:
+        r = float(target_ratio)
+        if not (0.0 <= r <= 1.0):
+            raise OptionError(f"target_ratio must be in [0, 1], got {target_ratio!r}")
+        target = max(target, int(round(r * n_faces)))
+    return target
+
+
+def simplify(
+    mesh,
+    *,
+    target_faces: Optional[int] = None,
+    target_ratio: Optional[float] = None,
+    max_error: Optional[float] = None,
+    absolute: bool = False,
+    metric: str = "qem",
+    placement: str = "optimal",
+    boundary: str = "preserve",
+    boundary_weight: float = 10.0,
+    locked=None,
+    max_normal_angle: float = 90.0,
+    min_quality: float = 0.0,
+    progress: bool = False,
+    record: bool = False,
+) -> SimplifyResult:
+    """Simplify a triangle mesh by greedy edge collapse with quadric error metrics.
+
+    Stops at whichever comes first: ``target_faces`` faces, ``target_ratio`` times the input
+    face count, or a collapse error above ``max_error`` (a fraction of the bbox diagonal
+    unless ``absolute=True``).  With no legal collapse left it stops and says so in
+    ``stop_reason``.
+
+    placement        : "optimal" (minimise the quadric; falls back to the edge when the 3x3
+                       system is ill-conditioned) or "endpoint" (half-edge collapse: output
+                       vertices are a subset of the input)
+    boundary         : "preserve" (boundary planes weighted by ``boundary_weight``; a boundary
+                       vertex never moves into the interior), "lock" (boundary vertices never
+                       move nor go) or "free" (no special treatment)
+    locked           : (n,) bool mask or index array of vertices that must stay as they are
+    max_normal_angle : reject a collapse that turns any face normal by more than this (degrees)
+    min_quality      : reject a collapse that makes a face with quality
+                       Q = 4*sqrt(3)*A/(l0^2+l1^2+l2^2) below this (and below its old Q); 0 = off
+    progress         : draw a progress bar on stderr
+    record           : keep the collapse sequence in ``result.collapses``
+
+    An open3d.geometry.TriangleMesh in gives one out.  Per-vertex normals, colours and uvs
+    are carried along (interpolated on the collapsed edge at the new position).
+    """
+    from ._core.decimate import EdgeCollapser, vertex_quadrics
+
+    t0 = time.perf_counter()
+    src, was_o3d = _as_mesh(mesh)
+    if metric not in METRICS:
+        raise OptionError(f"unknown metric {metric!r}; available: {', '.join(METRICS)}")
+    if placement not in PLACEMENTS:
+        raise OptionError(f"placement must be one of {', '.join(PLACEMENTS)}, got {placement!r}")
+    if boundary not in BOUNDARY_POLICIES:
+        raise OptionError(f"boundary must be one of {', '.join(BOUNDARY_POLICIES)}, got {boundary!r}")
+    if not (0.0 < float(max_normal_angle) <= 180.0):
+        raise OptionError(f"max_normal_angle must be in (0, 180] degrees, got {max_normal_angle!r}")
+    if not (0.0 <= float(min_quality) <= 1.0):
+        raise OptionError(f"min_quality must be in [0, 1], got {min_quality!r}")
+    if not (float(boundary_weight) >= 0.0 and math.isfinite(float(boundary_weight))):
+        raise OptionError(f"boundary_weight must be a finite number >= 0, got {boundary_weight!r}")
+    if max_error is not None and not (float(max_error) >= 0.0):
+        raise OptionError(f"max_error must be >= 0, got {max_error!r}")
+    target = _resolve_target(src.n_faces, target_faces, target_ratio, max_error)
+
+    prep = prepare(src)
+    hm = prep.hm
+    fixed = hm.locked_vertices.copy()
+    if locked is not None:
+        fixed |= _locked_mask(locked, src.n_vertices)[prep.input_vertex]
+    if boundary == "lock":
+        fixed |= _boundary_mask(hm)
+    attrs = src.attributes()
+    names, blocks = [], []
+    for name, arr in attrs.items():
+        names.append((name, arr.shape[1]))
+        blocks.append(arr[prep.input_vertex])
+    attr_in = np.concatenate(blocks, axis=1) if blocks else None
+
+    quadrics = vertex_quadrics(hm, prep.positions, float(boundary_weight) if boundary == "preserve" else 0.0)
+    err_limit = math.inf
+    if max_error is not None:
+        err_limit = float(max_error) / (prep.scale if absolute else 1.0)
+    collapser = EdgeCollapser(
+        hm, prep.positions, quadrics, attr_in, fixed.astype(np.uint8),
+        placement=PLACEMENTS[placement], boundary=BOUNDARY_POLICIES[boundary],
+        max_normal_angle=float(max_normal_angle), min_quality=float(min_quality),
+        max_error=err_limit,
+    )
+
+    bar = None
+    if progress:
+        from ._progress import Progress
+        bar = Progress(total=max(hm.n_alive_faces - target, 1), enabled=True)
+    start_faces = hm.n_alive_faces
+    chunk = max((start_faces - target) // (2 * _PROGRESS_CHUNKS), 1000) if bar else 2**31 - 1
+    while True:
+        status = collapser.run(target, chunk)
+        if bar:
+            bar.update(start_faces - hm.n_alive_faces)
+        if status != 1:
+            break
+    if bar:
+        bar.close()
+
+    if status == 0:
+        stop = STOP_TARGET
+    elif collapser.n_rejected_error > 0:
+        stop = STOP_MAX_ERROR
+    else:
+        stop = STOP_NO_COLLAPSE
+
+    out_mesh, vertex_map, face_map = _extract(src, prep, collapser, names)
+    scale = prep.scale if absolute else 1.0
+    records = None
+    if record:
+        records = collapser.records()
+        records["position"] = records["position"] * prep.scale + prep.center
+        records["removed"] = prep.input_vertex[records["removed"]]
+        records["kept"] = prep.input_vertex[records["kept"]]
+        records["error"] = records["error"] * scale
+    result = SimplifyResult(
+        mesh=out_mesh.to_open3d() if was_o3d else out_mesh,
+        vertex_map=vertex_map,
+        face_map=face_map,
+        error=float(collapser.max_error_done * scale),
+        stop_reason=stop,
+        n_collapses=int(collapser.n_collapses),
+        elapsed=time.perf_counter() - t0,
+        report={
+            "input_faces": src.n_faces,
+            "degenerate_faces_removed": prep.n_degenerate_faces,
+            "unreferenced_vertices_removed": prep.n_unreferenced_vertices,
+            "nonmanifold_edges_cut": hm.n_nonmanifold_edges,
+            "vertices_split": hm.n_split_vertices,
+            "target_faces": target,
+        },
+        collapses=records,
+    )
+    return result
+
+
+def _locked_mask(locked, n: int) -> np.ndarray:
+    arr = np.asarray(locked)
+    if arr.dtype == bool:
+        if arr.shape != (n,):
+            raise OptionError(f"locked as a mask must have shape ({n},), got {arr.shape}")
+        return arr
+    if arr.size == 0:
+        return np.zeros(n, dtype=bool)
+    if arr.dtype.kind not in "iu" or arr.ndim != 1:
+        raise OptionError("locked must be a boolean mask or a 1-D array of vertex indices")
+    if arr.min() < 0 or arr.max() >= n:
+        raise OptionError(f"locked holds a vertex index outside 0..{n - 1}")
+    mask = np.zeros(n, dtype=bool)
+    mask[arr] = True
+    return mask
+
+
+def _boundary_mask(hm) -> np.ndarray:
+    """(n_slots,) bool: vertices with a boundary edge."""
+    twin = hm.twins
+    corner = hm.corners.reshape(-1)
+    mask = np.zeros(hm.n_vertices, dtype=bool)
+    mask[corner[twin < 0]] = True
+    nxt = np.arange(twin.size)
+    nxt = nxt - nxt % 3 + (nxt + 1) % 3
+    mask[corner[nxt[twin < 0]]] = True
+    return mask
+
+
+def _extract(src: Mesh, prep: Prepared, collapser, names):
+    """Compact the live part of the half-edge arrays into an output Mesh, welding the copies
+    made for non-manifold vertices back together."""
+    hm = prep.hm
+    alive_faces = hm.alive_faces
+    faces_slots = hm.corners[alive_faces]
+    face_map = prep.input_face[np.flatnonzero(alive_faces)].astype(np.int64)
+    alive_v = hm.alive_vertices
+    slots = np.flatnonzero(alive_v)
+    # weld: one output vertex per input vertex (split copies are locked, so they coincide)
+    inputs = prep.input_vertex[slots]
+    vertex_map, first, inverse = np.unique(inputs, return_index=True, return_inverse=True)
+    slot_to_out = np.full(hm.n_vertices, -1, dtype=np.int64)
+    slot_to_out[slots] = inverse.reshape(-1)
+    out_faces = slot_to_out[faces_slots].astype(np.int32)
+    rep = slots[first]
+    moved = collapser.moved_vertices[rep]
+    verts = src.vertices[vertex_map].copy()
+    verts[moved] = collapser.positions[rep[moved]] * prep.scale + prep.center
+    out_attrs = {}
+    if names:
+        block = collapser.attributes[rep]
+        col = 0
+        for name, width in names:
+            a = block[:, col:col + width]
+            col += width
+            if name == "normals":
+                length = np.linalg.norm(a, axis=1, keepdims=True)
+                a = np.divide(a, length, out=np.zeros_like(a), where=length > 0)
+            elif name == "colors":
+                a = np.clip(a, 0.0, 1.0)
+            out_attrs[name] = a
+    out = Mesh(verts, out_faces, **out_attrs)
+    return out, vertex_map.astype(np.int64), face_map

@@ -1,0 +1,309 @@
+"""The ``lodkit`` command: ``simplify``, ``info`` and ``demo``.
+
+Every failure the user can cause (a missing or unreadable file, a bad option, a mesh
+lodkit cannot use) prints one line ``lodkit: error: ...`` on standard error and exits
+with status 2; an interrupt exits with 130. Tracebacks are kept for real bugs.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+
+import numpy as np
+
+from .errors import LodkitError, MeshIOError
+
+__all__ = ["main"]
+
+PROG = "lodkit"
+EXIT_OK = 0
+EXIT_USAGE = 2          # argparse's own code for usage errors; used for every user error
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, what shells report for Ctrl-C
+
+
+class _UsageError(Exception):
+    """An argparse error, turned into one line by :func:`main`."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """An ArgumentParser that raises instead of printing usage and exiting."""
+
+    def error(self, message):  # noqa: D401 - argparse's signature
+        hint = f"see '{self.prog} --help'"
+        raise _UsageError(f"{message} ({hint})")
+
+
+def main(argv=None) -> int:
+    """Run the command line ``argv`` (``sys.argv[1:]`` by default); returns the exit status."""
+    parser = _build_parser()
+    try:
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as exc:       # --help and --version exit 0 through here
+            return int(exc.code or 0) if not isinstance(exc.code, str) else EXIT_USAGE
+        if args.command is None:
+            parser.print_help(sys.stderr)
+            return EXIT_USAGE
+        return args.run(args)
+    except _UsageError as exc:
+        return _fail(str(exc))
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except BrokenPipeError:
+        # the reader of our output went away (e.g. `lodkit info x.ply | head -1`): stop quietly
+        _silence_stdout()
+        return EXIT_USAGE
+    except LodkitError as exc:
+        return _fail(str(exc))
+    except OSError as exc:
+        return _fail(_describe_os_error(exc))
+
+
+# ---------------------------------------------------------------------- the parser
+def _build_parser() -> argparse.ArgumentParser:
+    from . import __version__
+
+    parser = _Parser(prog=PROG, description="Simplify triangle meshes into levels of detail.")
+    parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    p = sub.add_parser(
+        "simplify", help="simplify a mesh file",
+        description="Simplify IN and write the result to OUT (any format lodkit can save: "
+                    "PLY, OBJ, OFF, STL, GLB/GLTF). Give at least one target; with several, "
+                    "simplification stops at whichever is reached first.",
+    )
+    p.add_argument("input", metavar="IN", help="input mesh file")
+    p.add_argument("output", metavar="OUT", help="output mesh file")
+    target = p.add_argument_group("targets (at least one)")
+    target.add_argument("--ratio", type=_ratio, metavar="R", help="keep this fraction of the faces, 0 < R <= 1")
+    target.add_argument("--faces", type=_count, metavar="N", help="stop at N faces")
+    target.add_argument("--max-error", type=_non_negative, metavar="E",
+                        help="stop before the error exceeds E (a fraction of the bounding-box "
+                             "diagonal, or model units with --absolute)")
+    p.add_argument("--absolute", action="store_true", help="--max-error and the reported error are in model units")
+    p.add_argument("--metric", metavar="M", help="cost metric (default: qem)")
+    p.add_argument("--placement", choices=("optimal", "endpoint"), help="where the merged vertex goes (default: optimal)")
+    p.add_argument("--boundary", choices=("lock", "preserve", "free"), help="how boundaries are treated (default: preserve)")
+    p.add_argument("--max-normal-angle", type=float, metavar="DEG",
+                   help="reject collapses that turn a face normal by more than DEG degrees")
+    p.add_argument("--min-quality", type=float, metavar="Q",
+                   help="reject collapses that make a triangle of quality below Q (0..1)")
+    p.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no summary line")
+    p.set_defaults(run=_run_simplify)
+
+    p = sub.add_parser("info", help="print counts, topology and attributes of a mesh file",
+                       description="Print counts, manifoldness, boundary loops, components, genus, "
+                                   "bounding-box diagonal and the attributes present.")
+    p.add_argument("file", metavar="FILE", help="mesh file")
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.set_defaults(run=_run_info)
+
+    p = sub.add_parser("demo", help="simplify a generated test surface to several levels",
+                       description="Generate the demo surface (creases, a boundary, fine detail, "
+                                   "colours), simplify it to 50 %%, 20 %%, 5 %% and 1 %% and write "
+                                   "one PLY per level.")
+    p.add_argument("--out", default="lodkit-demo", metavar="DIR", help="output directory (default: lodkit-demo)")
+    p.add_argument("--faces", type=_count, default=100_000, metavar="N", help="faces of the demo surface (default: 100000)")
+    p.set_defaults(run=_run_demo)
+    return parser
+
+
+def _number(text: str, kind=float):
+    try:
+        value = kind(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if kind is float and not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
+    return value
+
+
+def _ratio(text: str) -> float:
+    value = _number(text)
+    if not 0.0 < value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be in (0, 1], got {text}")
+    return value
+
+
+def _count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {text}")
+    return value
+
+
+def _non_negative(text: str) -> float:
+    value = _number(text)
+    if value < 0.0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {text}")
+    return value
+
+
+# ---------------------------------------------------------------------- commands
+def _run_simplify(args) -> int:
+    from . import load, save, simplify
+
+    if args.ratio is None and args.faces is None and args.max_error is None:
+        raise _UsageError("simplify needs a target: --ratio, --faces or --max-error (see 'lodkit simplify --help')")
+    _check_output(args.output)     # before the work, not after it
+    options = {
+        "target_ratio": args.ratio,
+        "target_faces": args.faces,
+        "max_error": args.max_error,
+        "absolute": args.absolute,
+        "metric": args.metric,
+        "placement": args.placement,
+        "boundary": args.boundary,
+        "max_normal_angle": args.max_normal_angle,
+        "min_quality": args.min_quality,
+    }
+    # leave out what the user did not give, so simplify()'s own defaults apply
+    options = {k: v for k, v in options.items() if v is not None}
+    options["progress"] = not args.quiet and _is_tty(sys.stderr)
+
+    mesh = load(args.input)
+    t0 = time.perf_counter()
+    result = simplify(mesh, **options)
+    seconds = time.perf_counter() - t0
+    save(result.mesh, args.output)
+    if not args.quiet:
+        out = result.mesh
+        unit = "model units" if args.absolute else "of bbox diagonal"
+        print(f"{args.input}: {mesh.n_faces} -> {out.n_faces} faces ({_percent(out.n_faces, mesh.n_faces)}), "
+              f"{mesh.n_vertices} -> {out.n_vertices} vertices, error {result.error:.3g} {unit}, "
+              f"stop: {result.stop_reason}, {seconds:.2f} s -> {args.output}")
+    return EXIT_OK
+
+
+def _run_info(args) -> int:
+    from . import load
+    from .topology import topology
+
+    mesh = load(args.file)
+    welded = mesh
+    if mesh.uvs is not None:
+        # load() gives a vertex per (position, uv) pair, which cuts the surface open along
+        # every uv seam; the topology of the shape is that of the welded positions
+        welded = _weld_positions(mesh)
+    report = topology(welded)
+    info = {
+        "file": str(args.file),
+        "n_vertices": mesh.n_vertices,
+        "n_faces": mesh.n_faces,
+        "bbox_diagonal": mesh.bbox_diagonal(),
+        "attributes": sorted(mesh.attributes()),
+        "uv_seam_split_vertices": mesh.n_vertices - welded.n_vertices,
+        "topology": report.as_dict(),
+    }
+    if args.json:
+        print(json.dumps(info, indent=2))
+        return EXIT_OK
+    rows = [
+        ("file", info["file"]),
+        ("vertices", f"{mesh.n_vertices} ({report.n_vertices - report.n_referenced_vertices} unreferenced"
+                     + (f", {welded.n_vertices} positions: split at uv seams)" if welded is not mesh else ")")),
+        ("faces", f"{report.n_faces} ({report.n_degenerate_faces} degenerate, {report.n_duplicate_faces} duplicate)"),
+        ("edges", f"{report.n_edges} ({report.n_boundary_edges} boundary, {report.n_nonmanifold_edges} non-manifold)"),
+        ("manifold", _manifold_text(report)),
+        ("closed", "yes" if report.is_closed else f"no, {report.n_boundary_loops} boundary loop(s)"),
+        ("oriented", "yes" if report.is_oriented else
+            f"no, {report.n_inconsistent_edges} edge(s) with conflicting faces"
+            + ("" if report.is_orientable else "; not orientable")),
+        ("components", str(report.n_components)),
+        ("euler characteristic", str(report.euler_characteristic)),
+        ("genus", "-" if report.genus is None else str(report.genus)),
+        ("bbox diagonal", f"{info['bbox_diagonal']:.6g}"),
+        ("attributes", ", ".join(info["attributes"]) or "none"),
+    ]
+    width = max(len(name) for name, _ in rows)
+    for name, value in rows:
+        print(f"{name:<{width}}  {value}")
+    return EXIT_OK
+
+
+def _run_demo(args) -> int:
+    from .demo import run_demo
+
+    run_demo(args.out, n_faces=args.faces, stream=sys.stdout)
+    return EXIT_OK
+
+
+# ---------------------------------------------------------------------- helpers
+def _manifold_text(report) -> str:
+    if report.is_manifold:
+        return "yes"
+    problems = []
+    if report.n_nonmanifold_edges:
+        problems.append(f"{report.n_nonmanifold_edges} non-manifold edge(s)")
+    if report.n_nonmanifold_vertices:
+        problems.append(f"{report.n_nonmanifold_vertices} non-manifold vertex(es)")
+    if report.n_degenerate_faces:
+        problems.append(f"{report.n_degenerate_faces} degenerate face(s)")
+    return "no, " + ", ".join(problems)
+
+
+def _percent(part: int, whole: int) -> str:
+    return f"{100.0 * part / whole:.1f} %" if whole else "-"
+
+
+def _check_output(path: str) -> None:
+    """Fail early on an output path save() would refuse: unknown format, missing directory."""
+    from .io import SUPPORTED_FORMATS
+
+    ext = os.path.splitext(path)[1].lower().lstrip(".")
+    if ext not in SUPPORTED_FORMATS:
+        raise MeshIOError(
+            f"cannot save {path}: unsupported file format ("
+            + (f"extension '.{ext}'" if ext else "no extension")
+            + "); supported: " + ", ".join("." + e for e in SUPPORTED_FORMATS)
+        )
+    directory = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(directory):
+        raise MeshIOError(f"cannot save {path}: directory {directory} does not exist")
+    if os.path.isdir(path):
+        raise MeshIOError(f"cannot save {path}: it is a directory")
+
+
+def _weld_positions(mesh):
+    """The mesh's faces over its distinct positions (attributes dropped): for topology only."""
+    from .mesh import Mesh
+
+    positions, inverse = np.unique(mesh.vertices, axis=0, return_inverse=True)
+    return Mesh(positions, inverse.reshape(-1)[mesh.faces])
+
+
+def _is_tty(stream) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):
+        return False
+
+
+def _describe_os_error(exc: OSError) -> str:
+    if exc.filename is not None and exc.strerror:
+        return f"{exc.filename}: {exc.strerror}"
+    return str(exc) or type(exc).__name__
+
+
+def _fail(message: str) -> int:
+    # one line, whatever the exception text looks like
+    line = " ".join(str(message).split())
+    print(f"{PROG}: error: {line}", file=sys.stderr)
+    return EXIT_USAGE
+
+
+def _silence_stdout() -> None:
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):
+        pass

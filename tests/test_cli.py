@@ -1,0 +1,277 @@
+"""The ``lodkit`` command, run in-process through lodkit.cli.main."""
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import lodkit
+from lodkit.cli import main
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _simplify_available() -> bool:
+    try:
+        from lodkit.api import simplify  # noqa: F401
+        import lodkit._core.decimate  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+needs_simplify = pytest.mark.skipif(
+    not _simplify_available(), reason="lodkit.simplify or its Cython core is not built yet"
+)
+
+TETRAHEDRON = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+TETRA_VERTICES = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]])
+
+
+@pytest.fixture
+def tetra_ply(tmp_path) -> Path:
+    """A closed tetrahedron written by Open3D itself (not by lodkit.save)."""
+    o3d = pytest.importorskip("open3d")
+    m = o3d.geometry.TriangleMesh()
+    m.vertices = o3d.utility.Vector3dVector(TETRA_VERTICES)
+    m.triangles = o3d.utility.Vector3iVector(TETRAHEDRON.astype(np.int32))
+    path = tmp_path / "tetra.ply"
+    assert o3d.io.write_triangle_mesh(str(path), m)
+    return path
+
+
+@pytest.fixture
+def surface_ply(tmp_path) -> Path:
+    """The demo surface at 2000 faces, with normals and colours, written by Open3D."""
+    pytest.importorskip("open3d")
+    from lodkit.demo import demo_mesh
+
+    import open3d as o3d
+
+    path = tmp_path / "surface.ply"
+    assert o3d.io.write_triangle_mesh(str(path), demo_mesh(2000).to_open3d())
+    return path
+
+
+def one_error_line(capsys) -> str:
+    """The single stderr line of a failed command (and no traceback)."""
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("lodkit: error: "), err
+    assert "Traceback" not in err
+    return lines[0]
+
+
+# ---------------------------------------------------------------------- info
+def test_info_table(tetra_ply, capsys):
+    assert main(["info", str(tetra_ply)]) == 0
+    out = capsys.readouterr().out
+    rows = dict(re.split(r"\s{2,}", line, maxsplit=1) for line in out.splitlines())
+    assert rows["vertices"].startswith("4 ")
+    assert rows["faces"].startswith("4 ")
+    assert rows["manifold"] == "yes"
+    assert rows["closed"] == "yes"
+    assert rows["genus"] == "0"
+    assert rows["components"] == "1"
+    assert rows["euler characteristic"] == "2"
+    assert float(rows["bbox diagonal"]) == pytest.approx(np.sqrt(3))
+    assert rows["attributes"] == "none"
+
+
+def test_info_json(tetra_ply, capsys):
+    assert main(["info", "--json", str(tetra_ply)]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["bbox_diagonal"] == pytest.approx(np.sqrt(3))
+    assert info["attributes"] == []
+    topo = info["topology"]
+    assert topo["n_faces"] == 4 and topo["n_edges"] == 6
+    assert topo["genus"] == 0 and topo["is_closed"] is True and topo["is_manifold"] is True
+
+
+def test_info_reports_attributes_and_boundary(surface_ply, capsys):
+    assert main(["info", "--json", str(surface_ply)]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["attributes"] == ["colors", "normals"]
+    assert info["topology"]["n_boundary_loops"] == 1
+    assert info["topology"]["genus"] == 0
+
+
+def test_info_on_shared_mesh_with_uv_seams(capsys):
+    from conftest import shared_mesh
+
+    path = shared_mesh("spot_triangulated.obj")
+    assert main(["info", "--json", str(path)]) == 0
+    info = json.loads(capsys.readouterr().out)
+    # 3225 (position, uv) vertices, but the shape is the closed genus-0 cow of 2930 positions
+    assert info["n_vertices"] == 3225 and info["uv_seam_split_vertices"] == 3225 - 2930
+    assert info["topology"]["is_closed"] and info["topology"]["genus"] == 0
+    assert "uvs" in info["attributes"]
+
+
+# ---------------------------------------------------------------------- errors
+def test_missing_file(tmp_path, capsys):
+    missing = tmp_path / "nope.ply"
+    assert main(["info", str(missing)]) == 2
+    line = one_error_line(capsys)
+    assert str(missing) in line
+
+
+def test_missing_input_for_simplify(tmp_path, capsys):
+    assert main(["simplify", str(tmp_path / "nope.ply"), str(tmp_path / "out.ply"), "--ratio", "0.5"]) == 2
+    assert "nope.ply" in one_error_line(capsys)
+    assert not (tmp_path / "out.ply").exists()
+
+
+def test_unreadable_file(tmp_path, capsys):
+    junk = tmp_path / "junk.ply"
+    junk.write_bytes(b"this is not a mesh\n" * 10)
+    assert main(["info", str(junk)]) == 2
+    assert "junk.ply" in one_error_line(capsys)
+
+
+def test_directory_as_input(tmp_path, capsys):
+    folder = tmp_path / "folder.ply"
+    folder.mkdir()
+    assert main(["info", str(folder)]) == 2
+    one_error_line(capsys)
+
+
+@pytest.mark.parametrize("ratio", ["1.5", "0", "-0.2", "abc", "nan"])
+def test_invalid_ratio(tetra_ply, tmp_path, capsys, ratio):
+    out = tmp_path / "out.ply"
+    assert main(["simplify", str(tetra_ply), str(out), f"--ratio={ratio}"]) == 2
+    assert "--ratio" in one_error_line(capsys)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("args", [
+    ["--faces", "0"], ["--faces", "1.5"], ["--max-error", "-1"], ["--placement", "middle"],
+    ["--boundary", "glue"], [],
+], ids=["faces 0", "faces float", "negative error", "placement", "boundary", "no target"])
+def test_invalid_options(tetra_ply, tmp_path, capsys, args):
+    assert main(["simplify", str(tetra_ply), str(tmp_path / "out.ply"), *args]) == 2
+    one_error_line(capsys)
+
+
+def test_bad_output_path_fails_before_any_work(tetra_ply, tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(lodkit, "load", lambda *a, **k: pytest.fail("loaded before checking the output"))
+    assert main(["simplify", str(tetra_ply), str(tmp_path / "out.xyz"), "--ratio", "0.5"]) == 2
+    assert "out.xyz" in one_error_line(capsys)
+    assert main(["simplify", str(tetra_ply), str(tmp_path / "no" / "dir.ply"), "--ratio", "0.5"]) == 2
+    assert "does not exist" in one_error_line(capsys)
+
+
+def test_usage_errors(capsys):
+    assert main(["bogus"]) == 2
+    one_error_line(capsys)
+    assert main(["info"]) == 2
+    one_error_line(capsys)
+    assert main([]) == 2                       # no command: the help, on stderr
+    assert "usage" in capsys.readouterr().err
+
+
+def test_help_exits_0(capsys):
+    assert main(["--help"]) == 0
+    assert "simplify" in capsys.readouterr().out
+    assert main(["simplify", "--help"]) == 0
+    assert "--max-error" in capsys.readouterr().out
+
+
+def test_os_error_and_interrupt(tetra_ply, capsys, monkeypatch):
+    def denied(path):
+        raise PermissionError(13, "Permission denied", str(path))
+
+    monkeypatch.setattr(lodkit, "load", denied)
+    assert main(["info", str(tetra_ply)]) == 2
+    assert "Permission denied" in one_error_line(capsys)
+
+    def interrupted(path):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(lodkit, "load", interrupted)
+    assert main(["info", str(tetra_ply)]) == 130
+    assert "Traceback" not in capsys.readouterr().err
+
+
+def test_lodkit_error_from_the_library_is_one_line(tetra_ply, capsys, monkeypatch):
+    def broken(path):
+        raise lodkit.MeshError("faces must have shape (m, 3),\n  got (4, 4)")
+
+    monkeypatch.setattr(lodkit, "load", broken)
+    assert main(["info", str(tetra_ply)]) == 2
+    assert "got (4, 4)" in one_error_line(capsys)
+
+
+def test_python_dash_m():
+    proc = subprocess.run([sys.executable, "-m", "lodkit", "--help"], capture_output=True, text=True,
+                          cwd=REPO, env={"PYTHONPATH": str(REPO), "PATH": ""}, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.startswith("usage: lodkit")
+
+
+# ---------------------------------------------------------------------- simplify / demo
+@needs_simplify
+def test_simplify_end_to_end(surface_ply, tmp_path, capsys):
+    out = tmp_path / "half.ply"
+    assert main(["simplify", str(surface_ply), str(out), "--ratio", "0.5"]) == 0
+    captured = capsys.readouterr()
+    assert captured.err == ""                       # stderr is not a terminal: no progress bar
+    lines = captured.out.strip().splitlines()
+    assert len(lines) == 1
+    assert "2048 -> " in lines[0] and "target_faces" in lines[0] and str(out) in lines[0]
+    result = lodkit.load(out)
+    assert result.n_faces == pytest.approx(1024, abs=2)
+    assert result.colors is not None and result.normals is not None
+
+
+@needs_simplify
+def test_simplify_options_reach_the_library(surface_ply, tmp_path, capsys, monkeypatch):
+    seen = {}
+    real = lodkit.simplify
+
+    def spy(mesh, **kwargs):
+        seen.update(kwargs)
+        return real(mesh, **kwargs)
+
+    monkeypatch.setattr(lodkit, "simplify", spy)
+    out = tmp_path / "out.obj"
+    argv = ["simplify", str(surface_ply), str(out), "--faces", "300", "--max-error", "0.01", "--absolute",
+            "--metric", "qem", "--placement", "endpoint", "--boundary", "lock", "--max-normal-angle", "60",
+            "--min-quality", "0.1", "--quiet"]
+    assert main(argv) == 0
+    assert capsys.readouterr().out == ""            # --quiet: no summary
+    assert seen == dict(target_faces=300, max_error=0.01, absolute=True, metric="qem", placement="endpoint",
+                        boundary="lock", max_normal_angle=60.0, min_quality=0.1, progress=False)
+    assert lodkit.load(out).n_faces >= 300
+
+
+@needs_simplify
+def test_simplify_library_option_error(surface_ply, tmp_path, capsys):
+    assert main(["simplify", str(surface_ply), str(tmp_path / "o.ply"), "--ratio", "0.5",
+                 "--metric", "no-such-metric"]) == 2
+    assert "no-such-metric" in one_error_line(capsys)
+    assert not (tmp_path / "o.ply").exists()
+
+
+@needs_simplify
+def test_progress_bar_when_stderr_is_a_terminal(surface_ply, tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("lodkit.cli._is_tty", lambda stream: True)
+    assert main(["simplify", str(surface_ply), str(tmp_path / "o.ply"), "--ratio", "0.5"]) == 0
+    err = capsys.readouterr().err
+    assert "\r[" in err and "%" in err
+
+
+@needs_simplify
+def test_demo_command(tmp_path, capsys):
+    out = tmp_path / "demo"
+    assert main(["demo", "--out", str(out), "--faces", "4000"]) == 0
+    text = capsys.readouterr().out
+    assert "stop reason" in text
+    files = sorted(p.name for p in out.iterdir())
+    assert files == [f"demo_lod{i}.ply" for i in range(5)]
