@@ -32,7 +32,7 @@ class _UsageError(Exception):
 class _Parser(argparse.ArgumentParser):
     """An ArgumentParser that raises instead of printing usage and exiting."""
 
-    def error(self, message):  # noqa: D401 - argparse's signature
+    def error(self, message):
         hint = f"see '{self.prog} --help'"
         raise _UsageError(f"{message} ({hint})")
 

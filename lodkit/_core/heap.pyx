@@ -1,6 +1,11 @@
 # cython: language_level=3
-"""Indexed binary min-heap: push, pop, update (raise or lower) and remove by id in O(log n)."""
+"""Indexed 4-ary min-heap: push, pop, update (raise or lower) and remove by id in O(log n)."""
 import numpy as np
+
+
+cdef inline bint before(double ka, int a, double kb, int b) noexcept nogil:
+    return ka < kb or (ka == kb and a < b)
+
 
 cdef class IndexedHeap:
     """Min-heap of candidate ids ``0..capacity-1`` keyed by a float.
@@ -14,131 +19,130 @@ cdef class IndexedHeap:
             raise ValueError(f"capacity must be >= 0, got {capacity}")
         self.capacity = capacity
         self.size = 0
-        self.keys = np.zeros(max(capacity, 1), dtype=np.float64)
-        self.heap = np.zeros(max(capacity, 1), dtype=np.intc)
-        self.pos = np.full(max(capacity, 1), -1, dtype=np.intc)
+        self._keys = np.zeros(max(capacity, 1), dtype=np.float64)
+        self._ids = np.zeros(max(capacity, 1), dtype=np.intc)
+        self._pos = np.full(max(capacity, 1), -1, dtype=np.intc)
+        self.hkey = &self._keys[0]
+        self.hid = &self._ids[0]
+        self.hpos = &self._pos[0]
 
-    cdef inline bint _less(self, int a, int b) noexcept nogil:
-        cdef double ka = self.keys[a]
-        cdef double kb = self.keys[b]
-        return ka < kb or (ka == kb and a < b)
-
-    cdef void _sift_up(self, int slot) noexcept nogil:
-        cdef int cid = self.heap[slot]
+    cdef void _sift_up(self, int slot, double key, int cid) noexcept nogil:
+        """Place (key, cid) at ``slot`` or above it."""
         cdef int parent
         while slot > 0:
-            parent = (slot - 1) >> 1
-            if not self._less(cid, self.heap[parent]):
+            parent = (slot - 1) >> 2
+            if not before(key, cid, self.hkey[parent], self.hid[parent]):
                 break
-            self.heap[slot] = self.heap[parent]
-            self.pos[self.heap[slot]] = slot
+            self.hkey[slot] = self.hkey[parent]
+            self.hid[slot] = self.hid[parent]
+            self.hpos[self.hid[slot]] = slot
             slot = parent
-        self.heap[slot] = cid
-        self.pos[cid] = slot
+        self.hkey[slot] = key
+        self.hid[slot] = cid
+        self.hpos[cid] = slot
 
-    cdef void _sift_down(self, int slot) noexcept nogil:
-        cdef int cid = self.heap[slot]
-        cdef int child
+    cdef void _sift_down(self, int slot, double key, int cid) noexcept nogil:
+        """Place (key, cid) at ``slot`` or below it."""
+        cdef int first, best, c, last
         cdef int n = self.size
         while True:
-            child = 2 * slot + 1
-            if child >= n:
+            first = 4 * slot + 1
+            if first >= n:
                 break
-            if child + 1 < n and self._less(self.heap[child + 1], self.heap[child]):
-                child += 1
-            if not self._less(self.heap[child], cid):
+            best = first
+            last = first + 4 if first + 4 < n else n
+            for c in range(first + 1, last):
+                if before(self.hkey[c], self.hid[c], self.hkey[best], self.hid[best]):
+                    best = c
+            if not before(self.hkey[best], self.hid[best], key, cid):
                 break
-            self.heap[slot] = self.heap[child]
-            self.pos[self.heap[slot]] = slot
-            slot = child
-        self.heap[slot] = cid
-        self.pos[cid] = slot
+            self.hkey[slot] = self.hkey[best]
+            self.hid[slot] = self.hid[best]
+            self.hpos[self.hid[slot]] = slot
+            slot = best
+        self.hkey[slot] = key
+        self.hid[slot] = cid
+        self.hpos[cid] = slot
 
     cdef int push_fast(self, int cid, double key) except -1 nogil:
         """Insert ``cid`` or move it to ``key``. -1 (with ValueError) if cid is out of range."""
         cdef int slot
-        cdef double old
         if cid < 0 or cid >= self.capacity:
             with gil:
                 raise ValueError(f"candidate id {cid} outside 0..{self.capacity - 1}")
         if key != key:
             with gil:
                 raise ValueError(f"key of candidate {cid} is NaN")
-        slot = self.pos[cid]
+        slot = self.hpos[cid]
         if slot < 0:
-            self.keys[cid] = key
-            slot = self.size
             self.size += 1
-            self.heap[slot] = cid
-            self.pos[cid] = slot
-            self._sift_up(slot)
+            self._sift_up(self.size - 1, key, cid)
+        elif before(key, cid, self.hkey[slot], cid):
+            self._sift_up(slot, key, cid)
         else:
-            old = self.keys[cid]
-            self.keys[cid] = key
-            if key < old:
-                self._sift_up(slot)
-            elif key > old:
-                self._sift_down(slot)
+            self._sift_down(slot, key, cid)
         return 0
 
     cdef int pop_fast(self, int* cid, double* key) noexcept nogil:
         """Take the smallest entry; returns 0, or -1 when the heap is empty."""
         if self.size == 0:
             return -1
-        cid[0] = self.heap[0]
-        key[0] = self.keys[cid[0]]
-        self.pos[cid[0]] = -1
+        cid[0] = self.hid[0]
+        key[0] = self.hkey[0]
+        self.hpos[cid[0]] = -1
         self.size -= 1
         if self.size > 0:
-            self.heap[0] = self.heap[self.size]
-            self.pos[self.heap[0]] = 0
-            self._sift_down(0)
+            self._sift_down(0, self.hkey[self.size], self.hid[self.size])
         return 0
 
     cdef int remove_fast(self, int cid) except -1 nogil:
         """Remove ``cid`` if present (absent ids are ignored). -1 if out of range."""
-        cdef int slot, last
+        cdef int slot, last_id
+        cdef double last_key
         if cid < 0 or cid >= self.capacity:
             with gil:
                 raise ValueError(f"candidate id {cid} outside 0..{self.capacity - 1}")
-        slot = self.pos[cid]
+        slot = self.hpos[cid]
         if slot < 0:
             return 0
-        self.pos[cid] = -1
+        self.hpos[cid] = -1
         self.size -= 1
         if slot == self.size:
             return 0
-        last = self.heap[self.size]
-        self.heap[slot] = last
-        self.pos[last] = slot
-        if slot > 0 and self._less(last, self.heap[(slot - 1) >> 1]):
-            self._sift_up(slot)
+        last_key = self.hkey[self.size]
+        last_id = self.hid[self.size]
+        if slot > 0 and before(last_key, last_id, self.hkey[(slot - 1) >> 2], self.hid[(slot - 1) >> 2]):
+            self._sift_up(slot, last_key, last_id)
         else:
-            self._sift_down(slot)
+            self._sift_down(slot, last_key, last_id)
         return 0
 
     cdef inline bint contains_fast(self, int cid) noexcept nogil:
-        return 0 <= cid < self.capacity and self.pos[cid] >= 0
+        return 0 <= cid < self.capacity and self.hpos[cid] >= 0
+
+    cdef double key_fast(self, int cid) noexcept nogil:
+        """The key of ``cid``; only meaningful when ``contains_fast(cid)``."""
+        return self.hkey[self.hpos[cid]]
 
     cdef void clear_fast(self) noexcept nogil:
         cdef int i
         for i in range(self.size):
-            self.pos[self.heap[i]] = -1
+            self.hpos[self.hid[i]] = -1
         self.size = 0
 
     cdef void append_unordered(self, int cid, double key) noexcept nogil:
         """Bulk loading: add ``cid`` (in range, not present) without ordering; call
         ``heapify_fast`` before any other operation."""
-        self.keys[cid] = key
-        self.heap[self.size] = cid
-        self.pos[cid] = self.size
+        self.hkey[self.size] = key
+        self.hid[self.size] = cid
+        self.hpos[cid] = self.size
         self.size += 1
 
     cdef void heapify_fast(self) noexcept nogil:
         """Restore the heap order after bulk loading, in O(n)."""
         cdef int slot
-        for slot in range(self.size // 2 - 1, -1, -1):
-            self._sift_down(slot)
+        for slot in range((self.size - 2) // 4, -1, -1):
+            self._sift_down(slot, self.hkey[slot], self.hid[slot])
 
     # ------------------------------------------------------------- Python API
     def push(self, int cid, double key):
@@ -163,7 +167,7 @@ cdef class IndexedHeap:
         """``(id, key)`` of the smallest entry without removing it; IndexError when empty."""
         if self.size == 0:
             raise IndexError("peek at an empty heap")
-        return self.heap[0], self.keys[self.heap[0]]
+        return self.hid[0], self.hkey[0]
 
     def remove(self, int cid):
         """Remove ``cid``; KeyError if it is not in the heap."""
@@ -180,7 +184,7 @@ cdef class IndexedHeap:
         """The key of ``cid``; KeyError if it is not in the heap."""
         if not self.contains_fast(cid):
             raise KeyError(cid)
-        return self.keys[cid]
+        return self.key_fast(cid)
 
     def heapify(self, ids, keys):
         """Replace the content with ``ids`` (distinct, in range) and their ``keys``, in O(n)."""
@@ -201,6 +205,7 @@ cdef class IndexedHeap:
         self.heapify_fast()
 
     def clear(self):
+        """Remove every entry."""
         self.clear_fast()
 
     def __len__(self):
@@ -210,11 +215,13 @@ cdef class IndexedHeap:
         return self.contains_fast(<int>cid)
 
     def check(self):
-        """Verify the heap invariant and the position index (for tests); raises AssertionError."""
-        cdef int i
+        """Verify the heap order and the position index (for tests); raises AssertionError."""
+        cdef int i, parent
         for i in range(self.size):
-            if self.pos[self.heap[i]] != i:
-                raise AssertionError(f"pos[{self.heap[i]}] != {i}")
-            if i > 0 and self._less(self.heap[i], self.heap[(i - 1) >> 1]):
-                raise AssertionError(f"heap order broken at slot {i}")
+            if self.hpos[self.hid[i]] != i:
+                raise AssertionError(f"pos[{self.hid[i]}] != {i}")
+            if i > 0:
+                parent = (i - 1) >> 2
+                if before(self.hkey[i], self.hid[i], self.hkey[parent], self.hid[parent]):
+                    raise AssertionError(f"heap order broken at slot {i}")
         return True
