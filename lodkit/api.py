@@ -209,7 +209,7 @@ def simplify(
         hm, prep.positions, quadrics, attr_in, fixed.astype(np.uint8),
         placement=PLACEMENTS[placement], boundary=BOUNDARY_POLICIES[boundary],
         max_normal_angle=float(max_normal_angle), min_quality=float(min_quality),
-        max_error=err_limit,
+        max_error=err_limit, record=bool(record),
     )
 
     bar = None

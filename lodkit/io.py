@@ -72,6 +72,11 @@ def _io_error(action: str, path: Path, problem: str, err: int | None = None) -> 
     return exc
 
 
+def _o3d_message(exc: BaseException) -> str:
+    """Open3D's exception text without its terminal colour codes."""
+    return re.sub(r"\x1b\[[0-9;]*m", "", str(exc)).strip()
+
+
 def _format_of(path: Path, action: str) -> str:
     ext = path.suffix.lower().lstrip(".")
     if ext not in SUPPORTED_FORMATS:
@@ -247,7 +252,7 @@ def load(path: PathLike) -> Mesh:
         with o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error):
             om = o3d.io.read_triangle_mesh(str(p), enable_post_processing=False, print_progress=False)
     except RuntimeError as exc:  # Open3D raises RuntimeError for hard read errors
-        raise _io_error("load", p, f"Open3D could not read it ({str(exc).strip()})") from exc
+        raise _io_error("load", p, f"Open3D could not read it ({_o3d_message(exc)})") from exc
 
     # Open3D returns an empty mesh instead of failing on unreadable files.
     if len(om.triangles) == 0:
@@ -255,7 +260,7 @@ def load(path: PathLike) -> Mesh:
             raise _io_error(
                 "load", p,
                 f"Open3D read no vertices and no triangles: the file is corrupt, truncated "
-                f"or not a {fmt.upper()} file",
+                f"or not a valid {fmt.upper()} file",
             )
         raise _io_error(
             "load", p,
@@ -386,15 +391,15 @@ def save(mesh, path: PathLike, *, ascii: bool = False) -> None:
     # it, so the file is written under its final name and everything is moved in place.
     tmp_dir = directory / f".{p.name}.tmp-{os.getpid()}-{secrets.token_hex(4)}"
     try:
-        try:
-            os.mkdir(tmp_dir, 0o700)
-        except OSError as exc:
-            raise _io_error(
-                "save", p, f"cannot create a temporary in {directory} ({exc.strerror or exc})", exc.errno
-            ) from exc
+        os.mkdir(tmp_dir, 0o700)
+    except OSError as exc:
+        raise _io_error(
+            "save", p, f"cannot create a temporary in {directory} ({exc.strerror or exc})", exc.errno
+        ) from exc
+    try:
         tmp = tmp_dir / p.name
         kwargs = dict(
-            write_ascii=bool(ascii),
+            write_ascii=bool(ascii) and fmt == "ply",  # STL would raise; the rest are text
             compressed=False,
             write_vertex_normals=out.normals is not None,
             write_vertex_colors=out.colors is not None,
@@ -410,7 +415,7 @@ def save(mesh, path: PathLike, *, ascii: bool = False) -> None:
                 else:
                     ok = o3d.io.write_triangle_mesh(str(tmp), om, **kwargs)
         except (RuntimeError, OSError) as exc:
-            raise _io_error("save", p, f"Open3D's writer failed ({str(exc).strip()})") from exc
+            raise _io_error("save", p, f"Open3D's writer failed ({_o3d_message(exc)})") from exc
         if not ok:
             raise _io_error("save", p, "Open3D's writer reported failure")
         if not tmp.is_file() or tmp.stat().st_size == 0:

@@ -356,6 +356,12 @@ def test_failing_writer_leaves_no_target_and_no_temporary(tmp_path, monkeypatch,
     assert listing(tmp_path) == []
 
 
+def test_writer_exception_message_is_clean(tmp_path, monkeypatch):
+    monkeypatch.setattr(o3d.io, "write_triangle_mesh", half_writing_writer(RuntimeError("\x1b[1;31m[Open3D Error] no space\x1b[0;m\n")))
+    with pytest.raises(MeshIOError, match=r"writer failed \(\[Open3D Error\] no space\)$"):
+        save(octahedron(), tmp_path / "o.ply")
+
+
 def test_failing_save_keeps_the_previous_file(tmp_path, monkeypatch):
     save(octahedron(), tmp_path / "o.ply")
     before = (tmp_path / "o.ply").read_bytes()

@@ -36,6 +36,11 @@ cdef class EdgeCollapser:
     cdef int placement
     cdef int boundary
     cdef double cos_max_angle
+    cdef double cos_orig_angle      # limit on the turn from the input face's normal
+    cdef bint check_orig
+    cdef float[::1] face_n0         # (3 * n_faces,) unit normals of the input faces
+    cdef float* N0
+    cdef bint record
     cdef double min_quality
     cdef double max_error
     cdef int[::1] rec_removed

@@ -23,7 +23,11 @@ cnp.import_array()
 
 # An ill-conditioned quadric (flat or crease region) has det(A) ~ 0; below this fraction of
 # (trace/3)^3 the 3x3 solve is not trusted and the placement falls back to the edge itself.
-cdef double DET_EPS = 1e-9
+cdef double DET_EPS = 1e-7
+# In the truncated solve, directions whose eigenvalue is below this fraction of the largest
+# are left alone (the quadric barely constrains them; moving along them is guesswork).
+cdef double EIG_EPS = 1e-3
+cdef int RANK_MODE = 0
 cdef double SQRT3 = 1.7320508075688772
 
 
@@ -39,7 +43,9 @@ cdef inline double quadric_eval(const double* q, const double* p) noexcept nogil
 
 
 cdef inline bint quadric_solve(const double* q, double* p) noexcept nogil:
-    """Minimise the quadric: solve A p = -b.  False when A is too ill-conditioned."""
+    """Minimise the quadric: solve A p = -b by cofactors.  False when A is not clearly
+    well-conditioned (det(A) below DET_EPS * (trace/3)^3, i.e. roughly an eigenvalue ratio
+    under ~1e-3): then ``quadric_solve_truncated`` takes over."""
     cdef double a11 = q[0], a12 = q[1], a13 = q[2], a22 = q[3], a23 = q[4], a33 = q[5]
     cdef double c11 = a22 * a33 - a23 * a23
     cdef double c12 = a13 * a23 - a12 * a33
@@ -56,6 +62,84 @@ cdef inline bint quadric_solve(const double* q, double* p) noexcept nogil:
     p[1] = (c12 * q[6] + c22 * q[7] + c23 * q[8]) * inv
     p[2] = (c13 * q[6] + c23 * q[7] + c33 * q[8]) * inv
     return True
+
+
+cdef void sym3_eigen(const double* q, double* w, double* V) noexcept nogil:
+    """Eigen-decomposition of the symmetric 3x3 block of a quadric by cyclic Jacobi
+    rotations: eigenvalues ``w[0..2]``, eigenvectors in the columns of ``V`` (row-major)."""
+    cdef double a[3][3]
+    cdef int i, j, k, sweep, pp, qq
+    cdef double off, theta, t, c, s, tau, apq, app, aqq, akp, akq, vkp, vkq
+    a[0][0] = q[0]; a[0][1] = q[1]; a[0][2] = q[2]
+    a[1][0] = q[1]; a[1][1] = q[3]; a[1][2] = q[4]
+    a[2][0] = q[2]; a[2][1] = q[4]; a[2][2] = q[5]
+    for i in range(3):
+        for j in range(3):
+            V[3 * i + j] = 1.0 if i == j else 0.0
+    for sweep in range(12):
+        off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2]
+        if off <= 1e-30 * (a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2]) or off == 0.0:
+            break
+        for pp in range(2):
+            for qq in range(pp + 1, 3):
+                apq = a[pp][qq]
+                if apq == 0.0:
+                    continue
+                app = a[pp][pp]
+                aqq = a[qq][qq]
+                theta = (aqq - app) / (2.0 * apq)
+                t = 1.0 / (fabs(theta) + sqrt(theta * theta + 1.0))
+                if theta < 0.0:
+                    t = -t
+                c = 1.0 / sqrt(t * t + 1.0)
+                s = t * c
+                for k in range(3):
+                    akp = a[k][pp]
+                    akq = a[k][qq]
+                    a[k][pp] = c * akp - s * akq
+                    a[k][qq] = s * akp + c * akq
+                for k in range(3):
+                    akp = a[pp][k]
+                    akq = a[qq][k]
+                    a[pp][k] = c * akp - s * akq
+                    a[qq][k] = s * akp + c * akq
+                for k in range(3):
+                    vkp = V[3 * k + pp]
+                    vkq = V[3 * k + qq]
+                    V[3 * k + pp] = c * vkp - s * vkq
+                    V[3 * k + qq] = s * vkp + c * vkq
+    for i in range(3):
+        w[i] = a[i][i]
+
+
+cdef void quadric_solve_truncated(const double* q, const double* x0, double* p) noexcept nogil:
+    """Minimise the quadric in the well-determined directions only, staying at ``x0`` along
+    the others (pseudo-inverse about x0, after Lindstrom): on a crease the point slides along
+    the crease line to the spot nearest x0; in a flat region it stays at x0."""
+    cdef double w[3]
+    cdef double V[9]
+    cdef double r[3]
+    cdef double wmax, coef
+    cdef int i, j
+    sym3_eigen(q, w, V)
+    wmax = w[0]
+    if w[1] > wmax:
+        wmax = w[1]
+    if w[2] > wmax:
+        wmax = w[2]
+    # residual -(A x0 + b)
+    r[0] = -(q[0] * x0[0] + q[1] * x0[1] + q[2] * x0[2] + q[6])
+    r[1] = -(q[1] * x0[0] + q[3] * x0[1] + q[4] * x0[2] + q[7])
+    r[2] = -(q[2] * x0[0] + q[4] * x0[1] + q[5] * x0[2] + q[8])
+    for i in range(3):
+        p[i] = x0[i]
+    if wmax <= 0.0:
+        return
+    for j in range(3):
+        if w[j] > EIG_EPS * wmax:
+            coef = (V[j] * r[0] + V[3 + j] * r[1] + V[6 + j] * r[2]) / w[j]
+            for i in range(3):
+                p[i] += coef * V[3 * i + j]
 
 
 cdef inline void add_plane(double* q, double nx, double ny, double nz, double d, double w) noexcept nogil:
@@ -79,6 +163,35 @@ cdef inline void cross3(const double* a, const double* b, double* out) noexcept 
 
 cdef inline double dot3(const double* a, const double* b) noexcept nogil:
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def face_unit_normals(HalfEdgeMesh hm, positions):
+    """(n_faces * 3,) float32 unit normals of the face slots (zeros for degenerate faces).
+
+    Taken before any collapse: each face slot keeps its identity through the collapses, so
+    these are the normals of the input faces the live faces stand for."""
+    cdef double[:, ::1] P = np.ascontiguousarray(positions, dtype=np.float64)
+    out = np.zeros(3 * hm.n_faces, dtype=np.float32)
+    cdef float[::1] N = out
+    cdef int f, i, a, b, c
+    cdef double e1[3]
+    cdef double e2[3]
+    cdef double nrm[3]
+    cdef double length
+    with nogil:
+        for f in range(hm.n_faces):
+            a = hm.corner[3 * f]
+            b = hm.corner[3 * f + 1]
+            c = hm.corner[3 * f + 2]
+            for i in range(3):
+                e1[i] = P[b, i] - P[a, i]
+                e2[i] = P[c, i] - P[a, i]
+            cross3(e1, e2, nrm)
+            length = sqrt(dot3(nrm, nrm))
+            if length > 0.0:
+                for i in range(3):
+                    N[3 * f + i] = <float>(nrm[i] / length)
+    return out
 
 
 def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0):
@@ -160,7 +273,7 @@ cdef class EdgeCollapser:
     def __init__(self, HalfEdgeMesh hm, positions, quadrics, attributes, fixed,
                  int placement=PLACE_OPTIMAL, int boundary=BOUNDARY_PRESERVE,
                  double max_normal_angle=90.0, double min_quality=0.0,
-                 double max_error=INFINITY):
+                 double max_error=INFINITY, bint record=False):
         cdef int n = hm.n_vertices
         self.hm = hm
         # no copies: the collapser updates positions and quadrics in place (memory budget)
@@ -191,13 +304,20 @@ cdef class EdgeCollapser:
         self.cos_max_angle = cos(max_normal_angle * M_PI / 180.0)
         self.min_quality = min_quality
         self.max_error = max_error
-        self.rec_removed = np.empty(n, dtype=np.intc)
-        self.rec_kept = np.empty(n, dtype=np.intc)
-        self.rec_pos = np.empty((n, 3), dtype=np.float64)
-        self.rec_cost = np.empty(n, dtype=np.float64)
-        self.rec_error = np.empty(n, dtype=np.float64)
+        # the collapse sequence (a progressive mesh) is only kept on request: 48 bytes/vertex
+        self.record = record
+        cdef int nrec = n if record else 1
+        self.rec_removed = np.empty(nrec, dtype=np.intc)
+        self.rec_kept = np.empty(nrec, dtype=np.intc)
+        self.rec_pos = np.empty((nrec, 3), dtype=np.float64)
+        self.rec_cost = np.empty(nrec, dtype=np.float64)
+        self.rec_error = np.empty(nrec, dtype=np.float64)
         self.n_collapses = 0
         self.max_error_done = 0.0
+        self.cos_orig_angle = cos(min(max_normal_angle, 90.0) * M_PI / 180.0)
+        self.check_orig = max_normal_angle < 180.0
+        self.face_n0 = face_unit_normals(hm, self.pos)
+        self.N0 = &self.face_n0[0] if hm.n_faces else NULL
         self.heap = IndexedHeap(hm.n_edges)
         self.m = &hm.c
         self.P = &self.pos[0, 0] if n else NULL
@@ -252,18 +372,23 @@ cdef class EdgeCollapser:
             if quadric_solve(q, p):
                 c = quadric_eval(q, p)
             else:
-                # fallback: the best of both ends, the midpoint and the minimum along the edge
+                # fallback: the best of the truncated solve about the midpoint, both ends,
+                # the midpoint and the minimum along the edge
                 for i in range(3):
-                    p[i] = self.P[3 * u + i]
                     du[i] = self.P[3 * v + i] - self.P[3 * u + i]
-                best = quadric_eval(q, &self.P[3 * u])
+                    cand[i] = self.P[3 * u + i] + 0.5 * du[i]
+                quadric_solve_truncated(q, cand, p)
+                best = quadric_eval(q, p)
+                c = quadric_eval(q, &self.P[3 * u])
+                if c < best:
+                    best = c
+                    for i in range(3):
+                        p[i] = self.P[3 * u + i]
                 c = quadric_eval(q, &self.P[3 * v])
                 if c < best:
                     best = c
                     for i in range(3):
                         p[i] = self.P[3 * v + i]
-                for i in range(3):
-                    cand[i] = self.P[3 * u + i] + 0.5 * du[i]
                 c = quadric_eval(q, cand)
                 if c < best:
                     best = c
@@ -294,8 +419,8 @@ cdef class EdgeCollapser:
             r_out[0] = v if (d0 < d1 or (d0 == d1 and u < v)) else u
         if c < 0.0:
             c = 0.0
-        cost[0] = c
         err[0] = sqrt(c / q[10]) if q[10] > 0.0 else 0.0
+        cost[0] = c if RANK_MODE == 0 else (err[0] if RANK_MODE == 1 else c * err[0])
         return 0
 
     # ------------------------------------------------------------- checks
@@ -331,6 +456,9 @@ cdef class EdgeCollapser:
                         return False                 # the face would degenerate
                     if dot3(n0, n1) < self.cos_max_angle * len0 * len1:
                         return False                 # the face would turn too far (or flip)
+                    if self.check_orig and (n1[0] * self.N0[3 * f] + n1[1] * self.N0[3 * f + 1]
+                                            + n1[2] * self.N0[3 * f + 2]) < self.cos_orig_angle * len1:
+                        return False                 # turned away from the input face it stands for
                     if self.min_quality > 0.0:
                         l2 = 0.0
                         for i in range(3):
@@ -422,14 +550,15 @@ cdef class EdgeCollapser:
             for i in range(3):
                 self.P[3 * k + i] = p[i]
             self.moved[k] = 1
-        i = self.n_collapses
-        self.rec_removed[i] = r
-        self.rec_kept[i] = k
-        self.rec_pos[i, 0] = p[0]
-        self.rec_pos[i, 1] = p[1]
-        self.rec_pos[i, 2] = p[2]
-        self.rec_cost[i] = cost
-        self.rec_error[i] = err
+        if self.record:
+            i = self.n_collapses
+            self.rec_removed[i] = r
+            self.rec_kept[i] = k
+            self.rec_pos[i, 0] = p[0]
+            self.rec_pos[i, 1] = p[1]
+            self.rec_pos[i, 2] = p[2]
+            self.rec_cost[i] = cost
+            self.rec_error[i] = err
         self.n_collapses += 1
         if err > self.max_error_done:
             self.max_error_done = err
@@ -509,7 +638,10 @@ cdef class EdgeCollapser:
 
     def records(self):
         """The collapse sequence: dict of removed, kept (vertex slots), position (n, 3),
-        cost and error, one row per collapse in the order they were done."""
+        cost and error, one row per collapse in the order they were done.  Needs
+        ``record=True`` at construction."""
+        if not self.record:
+            raise RuntimeError("this EdgeCollapser was made with record=False")
         n = self.n_collapses
         return {
             "removed": np.asarray(self.rec_removed)[:n].copy(),
@@ -518,3 +650,11 @@ cdef class EdgeCollapser:
             "cost": np.asarray(self.rec_cost)[:n].copy(),
             "error": np.asarray(self.rec_error)[:n].copy(),
         }
+
+
+def _set_tolerances(double det_eps, double eig_eps, int rank_mode=0):
+    """Change the conditioning thresholds of the placement solve (for experiments)."""
+    global DET_EPS, EIG_EPS, RANK_MODE
+    DET_EPS = det_eps
+    EIG_EPS = eig_eps
+    RANK_MODE = rank_mode

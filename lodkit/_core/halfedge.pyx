@@ -498,7 +498,6 @@ def build(faces, int n_vertices):
     hm.n_faces = <int>m
     hm.n_edges = n_edges
     hm.n_alive_faces = <int>m
-    hm.n_alive_vertices = n_new
     hm.n_split_vertices = n_new - n
     hm.n_nonmanifold_edges = n_nm
     hm.corner = corner
@@ -514,7 +513,10 @@ def build(faces, int n_vertices):
     bad = np.asarray(nm_vertex).astype(bool) | np.asarray(multi).astype(bool)
     hm.locked = bad[src].astype(np.uint8)
     hm.face_alive = np.ones(m, dtype=np.uint8)
-    hm.vertex_alive = np.ones(n_new, dtype=np.uint8)
+    # a vertex no face uses has no half-edge: it is not part of the surface
+    vertex_alive = (np.asarray(vhe)[:n_new] >= 0).astype(np.uint8)
+    hm.vertex_alive = vertex_alive
+    hm.n_alive_vertices = int(vertex_alive.sum())
     hm.edge_alive = np.ones(n_edges, dtype=np.uint8)
     hm.stamp = np.zeros(n_new, dtype=np.intc)
     hm.stamp_counter = 0

@@ -1,0 +1,48 @@
+"""Type stubs for lodkit._core.halfedge (Cython)."""
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+class HalfEdgeMesh:
+    """Half-edge connectivity; half-edge h is in face h // 3 and leaves corners[h // 3, h % 3]."""
+
+    n_vertices: int
+    n_faces: int
+    n_edges: int
+    n_alive_faces: int
+    n_alive_vertices: int
+    n_split_vertices: int
+    n_nonmanifold_edges: int
+    @property
+    def corners(self) -> NDArray[np.intc]: ...
+    @property
+    def twins(self) -> NDArray[np.intc]: ...
+    @property
+    def edges(self) -> NDArray[np.intc]: ...
+    @property
+    def edge_halfedges(self) -> NDArray[np.intc]: ...
+    @property
+    def vertex_halfedges(self) -> NDArray[np.intc]: ...
+    @property
+    def vertex_sources(self) -> NDArray[np.intc]: ...
+    @property
+    def locked_vertices(self) -> NDArray[np.bool_]: ...
+    @property
+    def alive_faces(self) -> NDArray[np.bool_]: ...
+    @property
+    def alive_vertices(self) -> NDArray[np.bool_]: ...
+    @property
+    def alive_edges(self) -> NDArray[np.bool_]: ...
+    def faces(self) -> NDArray[np.intc]:
+        """(k, 3) live faces in face-slot order."""
+    def neighbors(self, v: int) -> list[int]:
+        """1-ring of ``v`` in fan order."""
+    def vertex_is_boundary(self, v: int) -> bool: ...
+    def can_collapse(self, u: int, v: int) -> bool:
+        """Whether edge (u, v) exists and passes the link condition."""
+    def collapse_edge(self, u: int, v: int) -> int:
+        """Collapse (u, v) removing u; returns v.  ValueError if not allowed."""
+    def check(self) -> bool:
+        """Verify all invariants; AssertionError naming the first broken one."""
+
+def build(faces: ArrayLike, n_vertices: int) -> HalfEdgeMesh:
+    """Half-edge arrays for (m, 3) faces in O(m + n); non-manifold parts are cut and locked."""
