@@ -149,11 +149,25 @@ def load_arrays(name: str) -> tuple[np.ndarray, np.ndarray, str]:
     return V, F, str(path)
 
 
+def _cache_key(name: str) -> str:
+    """Changes whenever the input would: the file's size and mtime, or the generator's code."""
+    import hashlib
+    import inspect
+
+    n = parse_generated(name)
+    if n is not None:
+        text = f"{n}:{inspect.getsource(generated_mesh)}:{inspect.getsource(_grid_size)}"
+    else:
+        st = _find_file(name).stat()
+        text = f"{_find_file(name).resolve()}:{st.st_size}:{st.st_mtime_ns}"
+    return hashlib.sha256(text.encode()).hexdigest()[:10]
+
+
 def prepare(name: str, cache_dir: Path) -> Path:
-    """Write (once) ``<cache_dir>/<name>.npz`` with vertices, faces and the source; return its path."""
+    """Write (once) ``<cache_dir>/<name>-<key>.npz`` with vertices, faces and the source; return its path."""
     cache_dir = Path(cache_dir)
     cache_dir.mkdir(parents=True, exist_ok=True)
-    out = cache_dir / f"{name}.npz"
+    out = cache_dir / f"{name}-{_cache_key(name)}.npz"
     if out.exists():
         return out
     V, F, src = load_arrays(name)

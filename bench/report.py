@@ -21,6 +21,9 @@ METHOD_ORDER = ["lodkit", "lodkit-endpoint", "open3d", "fast_simplification", "p
                 "meshoptimizer"]
 
 
+FLIP_AREA_FLAG = 0.001  # flag flipped faces only when they cover >= 0.1% of the output's area
+
+
 def _order(m: str) -> int:
     return METHOD_ORDER.index(m) if m in METHOD_ORDER else len(METHOD_ORDER)
 
@@ -62,7 +65,7 @@ def flags(r: dict) -> list[str]:
         out.append(f"{r['nonmanifold_edges']} non-manifold edges")
     if r.get("degenerate_faces"):
         out.append(f"{r['degenerate_faces']} degenerate faces")
-    if r.get("flipped_faces_near"):
+    if r.get("flipped_faces_near") and r.get("flipped_area_frac", 0) >= FLIP_AREA_FLAG:
         out.append(f"{r['flipped_faces_near']} flipped faces on the surface ({r['flipped_faces']} flipped in all, "
                    f"{100 * r.get('flipped_area_frac', 0):.2f}% of the area)")
     if r.get("error"):
@@ -144,13 +147,14 @@ def render(doc: dict) -> str:
       " process. For lodkit rows the second number, **traced**, is the `tracemalloc` peak of a separate, untimed"
       " call: the numpy arrays lodkit allocates (its core allocates all its arrays through numpy), not C-level"
       " scratch memory.")
-    w("- **B/vert**: peak mem / input vertex count (bytes per input vertex).")
+    w("- **B/vert**: peak mem / input vertex count (bytes per input vertex), for the call and incl. conversion.")
     w(f"- **Hausdorff, mean, RMS**: Metro-style, from {S.get('samples')} area-weighted samples on each surface"
       f" (seeded RNG, seed {S.get('seed')}), unsigned point-to-surface distance to the other surface"
       " (`open3d.t.geometry.RaycastingScene.compute_distance`). Hausdorff = max over both directions; mean and"
       " RMS are over the union of both directions' samples. All as a fraction of the original's bounding-box"
       " diagonal. Code: `bench/metro.py`.")
-    w("- **NM edges**: edges of the output with 3 or more faces.")
+    w("- **NM edges**: edges of the output with 3 or more faces. **border edges**: edges with exactly one face"
+      " (compare with the input's count above the table).")
     w("- **flipped**: output faces whose normal has a negative dot product with the normal of the original"
       " face closest to the output face's centroid (`RaycastingScene.compute_closest_points`). In brackets,"
       " those whose centroid is also within 0.1 × the face's longest edge of the original (so the face lies on"
@@ -159,6 +163,12 @@ def render(doc: dict) -> str:
     w("")
 
     recs = doc.get("records", [])
+    for m in methods:
+        vers = sorted({r.get("version") for r in recs if r["method"] == m and r.get("version")})
+        if len(vers) > 1:
+            w(f"**Warning:** {m} changed during the run (the rows come from {len(vers)} different builds:"
+              f" {'; '.join(vers)}). Rerun for consistent numbers.")
+            w("")
     for mesh, minfo in doc.get("meshes", {}).items():
         w(f"## {mesh}")
         w("")
@@ -172,9 +182,9 @@ def render(doc: dict) -> str:
           f" bounding-box diagonal {minfo.get('bbox_diag', 0):.4g}. Source: `{_esc(minfo.get('source'))}`."
           f" Repeats: up to {minfo.get('repeats')}.")
         w("")
-        w("| method | ratio | faces out (target) | time (s) | ×lodkit | incl. conv. (s) | peak mem (MiB): call / incl. conv. | B/vert"
-          " | Hausdorff | mean | RMS | NM edges | flipped (near) |")
-        w("|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|")
+        w("| method | ratio | faces out (target) | time (s) | ×lodkit | incl. conv. (s) | peak mem (MiB): call / incl. conv. | B/vert: call / incl."
+          " | Hausdorff | mean | RMS | NM edges | border edges | flipped (near) |")
+        w("|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|")
         mine = [r for r in recs if r["mesh"] == mesh]
         mine.sort(key=lambda r: (-r["ratio"], _order(r["method"])))
         notes, unavailable = [], {}
@@ -184,20 +194,21 @@ def render(doc: dict) -> str:
                 continue
             if r.get("status") != "ok":
                 w(f"| {r['method']} | {r['ratio']:g} | {_esc(r.get('status'))}: {_esc(r.get('error', ''))[:120]} |"
-                  " | | | | | | | | | |")
+                  " | | | | | | | | | | |")
                 continue
             mem = f"{_mib(r.get('peak_mem_bytes'))} / {_mib(r.get('peak_mem_total_bytes'))}"
             if r["method"].startswith("lodkit") and r.get("tracemalloc_peak_bytes") is not None:
                 mem += f" (traced {_mib(r['tracemalloc_peak_bytes'])})"
-            bpv = r.get("bytes_per_input_vertex")
+            nv = r.get("vertices_in") or minfo.get("vertices")
+            bpv = f"{_g(r.get('bytes_per_input_vertex'), '.0f')} / {_g(r['peak_mem_total_bytes'] / nv if nv and r.get('peak_mem_total_bytes') is not None else None, '.0f')}"
             fl = r.get("flipped_faces")
             flipped = "–" if fl is None else f"{fl} ({r.get('flipped_faces_near')})"
             reps = r.get("repeats")
             w(f"| {r['method']} | {r['ratio']:g} | {r.get('faces', '–')} ({r.get('target')}) |"
               f" {_time(r.get('time_s'))}{'' if reps == minfo.get('repeats') else f' ×{reps}'} |"
               f" {_g(r.get('time_ratio_vs_lodkit'), '.2f')} | {_time(r.get('time_total_s'))} | {mem} |"
-              f" {_g(bpv, '.0f')} | {_e(r.get('hausdorff'))} | {_e(r.get('mean'))} | {_e(r.get('rms'))} |"
-              f" {r.get('nonmanifold_edges', '–')} | {flipped} |")
+              f" {bpv} | {_e(r.get('hausdorff'))} | {_e(r.get('mean'))} | {_e(r.get('rms'))} |"
+              f" {r.get('nonmanifold_edges', '–')} | {r.get('boundary_edges', '–')} | {flipped} |")
             for f in flags(r):
                 if not f.startswith("repeats cut"):
                     notes.append(f"{r['method']} at {r['ratio']:g}: {f}")
@@ -209,7 +220,8 @@ def render(doc: dict) -> str:
             w(f"- **{m}**: unavailable: `{_esc(err)}`")
         if notes:
             w("")
-            w("Flags:")
+            w(f"Flags (target missed by more than 2%, non-manifold edges, degenerate faces, flipped faces covering"
+              f" at least {100 * FLIP_AREA_FLAG:g}% of the area, failures):")
             w("")
             for n in notes:
                 w(f"- {_esc(n)}")

@@ -140,7 +140,7 @@ def simplify(
     boundary_weight: float = 10.0,
     locked=None,
     max_normal_angle: float = 90.0,
-    min_quality: float = 0.0,
+    min_quality: float = 0.1,
     progress: bool = False,
     record: bool = False,
 ) -> SimplifyResult:

@@ -56,7 +56,8 @@ cdef class HalfEdgeMesh:
     cdef unsigned char[::1] face_alive
     cdef unsigned char[::1] vertex_alive
     cdef unsigned char[::1] edge_alive
-    cdef int[::1] stamp                   # scratch marks for the link condition
+    cdef int[::1] next_copy               # next slot with the same input vertex, -1 if none
+    cdef int[::1] stamp                   # scratch marks (by input vertex) for the link condition
     cdef int stamp_counter
 
     cdef void _bind(self) noexcept
@@ -65,5 +66,7 @@ cdef class HalfEdgeMesh:
     cdef inline bint is_boundary(self, int v) noexcept nogil
     cdef int valence(self, int v) noexcept nogil
     cdef int find_fan_start(self, int h) noexcept nogil
+    cdef void _mark_ring(self, int v) noexcept nogil
+    cdef int _count_marked(self, int v, int su, int sv) noexcept nogil
     cdef bint link_ok(self, int h) noexcept nogil
     cdef int collapse(self, int h, int removed, int* dead_edges) noexcept nogil

@@ -61,17 +61,59 @@ cdef class HalfEdgeMesh:
             if h == start:
                 return h
 
+    cdef void _mark_ring(self, int v) noexcept nogil:
+        """Stamp the input vertex (source) of every neighbour of slot ``v``."""
+        cdef int start = self.c.v_he[v]
+        cdef int x = start
+        cdef int nx
+        while True:
+            self.stamp[self.vertex_source[self.dest(x)]] = self.stamp_counter
+            nx = self.ring_next(x)
+            if nx < 0:
+                self.stamp[self.vertex_source[self.c.corner[he_prev(x)]]] = self.stamp_counter
+                return
+            x = nx
+            if x == start:
+                return
+
+    cdef int _count_marked(self, int v, int su, int sv) noexcept nogil:
+        """Count the marked sources around slot ``v`` (other than su, sv), each once."""
+        cdef int start = self.c.v_he[v]
+        cdef int x = start
+        cdef int nx, w, n = 0
+        while True:
+            w = self.vertex_source[self.dest(x)]
+            if w != su and w != sv and self.stamp[w] == self.stamp_counter:
+                n += 1
+                self.stamp[w] = 0       # count a neighbour once, even across parallel edges
+            nx = self.ring_next(x)
+            if nx < 0:
+                w = self.vertex_source[self.c.corner[he_prev(x)]]
+                if w != su and w != sv and self.stamp[w] == self.stamp_counter:
+                    n += 1
+                    self.stamp[w] = 0
+                return n
+            x = nx
+            if x == start:
+                return n
+
     cdef bint link_ok(self, int h) noexcept nogil:
         """Can the edge of ``h`` collapse without changing the topology?
 
         The link condition (Dey et al.): the vertices adjacent to both ends are exactly the
         opposite vertices of the edge's faces; plus: no interior edge between two boundary
         vertices (that would pinch the surface), no isolated triangle, no tetrahedron.
+
+        Neighbours are compared by input vertex, over every copy of a split vertex, so the
+        condition holds for the mesh as it is welded on output: a collapse next to a split
+        vertex cannot create an edge that the copies would then share.
         """
         cdef int u = self.c.corner[h]
         cdef int v = self.dest(h)
         cdef int hb = self.c.twin[h]
-        cdef int x, nx, w, start, common, expected
+        cdef int su = self.vertex_source[u]
+        cdef int sv = self.vertex_source[v]
+        cdef int common, expected, x
         if hb < 0:
             if self.c.twin[he_next(h)] < 0 and self.c.twin[he_prev(h)] < 0:
                 return False
@@ -79,42 +121,24 @@ cdef class HalfEdgeMesh:
         else:
             if self.is_boundary(u) and self.is_boundary(v):
                 return False
+            if (self.vertex_source[self.c.corner[he_prev(h)]]
+                    == self.vertex_source[self.c.corner[he_prev(hb)]]):
+                return False    # both faces share their third vertex: a two-face pillow
             expected = 2
-        # mark the neighbours of u
         self.stamp_counter += 1
         if self.stamp_counter == 0x7fffffff:
             self.stamp[:] = 0
             self.stamp_counter = 1
-        start = self.c.v_he[u]
-        x = start
-        while True:
-            self.stamp[self.dest(x)] = self.stamp_counter
-            nx = self.ring_next(x)
-            if nx < 0:
-                self.stamp[self.c.corner[he_prev(x)]] = self.stamp_counter
-                break
-            x = nx
-            if x == start:
-                break
-        # count the marked neighbours of v (other than u)
-        common = 0
-        start = self.c.v_he[v]
-        x = start
-        while True:
-            w = self.dest(x)
-            if w != u and self.stamp[w] == self.stamp_counter:
-                common += 1
-                self.stamp[w] = 0       # count a neighbour once, even across parallel edges
-            nx = self.ring_next(x)
-            if nx < 0:
-                w = self.c.corner[he_prev(x)]
-                if w != u and self.stamp[w] == self.stamp_counter:
-                    common += 1
-                    self.stamp[w] = 0
-                break
-            x = nx
-            if x == start:
-                break
+        self._mark_ring(u)
+        x = self.next_copy[u]
+        while x >= 0 and x != u:
+            self._mark_ring(x)
+            x = self.next_copy[x]
+        common = self._count_marked(v, su, sv)
+        x = self.next_copy[v]
+        while x >= 0 and x != v:
+            common += self._count_marked(x, su, sv)
+            x = self.next_copy[x]
         if common != expected:
             return False
         if hb >= 0 and self.valence(u) == 3 and self.valence(v) == 3 and not self.is_boundary(u) and not self.is_boundary(v):
@@ -519,6 +543,17 @@ def build(faces, int n_vertices):
     hm.n_alive_vertices = int(vertex_alive.sum())
     hm.edge_alive = np.ones(n_edges, dtype=np.uint8)
     hm.stamp = np.zeros(n_new, dtype=np.intc)
+    # copies of one input vertex form a cycle through next_copy (-1: no copies)
+    next_copy = np.full(n_new, -1, dtype=np.intc)
+    if n_new > n:
+        order = np.argsort(src, kind="stable")
+        ss = src[order]
+        starts = np.flatnonzero(np.r_[True, ss[1:] != ss[:-1]])
+        sizes = np.diff(np.r_[starts, n_new])
+        for g in np.flatnonzero(sizes > 1):
+            members = order[starts[g]:starts[g] + sizes[g]]
+            next_copy[members] = np.roll(members, -1)
+    hm.next_copy = next_copy
     hm.stamp_counter = 0
     hm._bind()
     return hm

@@ -141,6 +141,8 @@ cdef class IndexedHeap:
     cdef void heapify_fast(self) noexcept nogil:
         """Restore the heap order after bulk loading, in O(n)."""
         cdef int slot
+        if self.size < 2:
+            return          # (and C division would round (size - 2) / 4 towards zero)
         for slot in range((self.size - 2) // 4, -1, -1):
             self._sift_down(slot, self.hkey[slot], self.hid[slot])
 
