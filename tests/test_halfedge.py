@@ -420,6 +420,21 @@ def test_link_condition_hole_of_three_edges():
         assert not hm.can_collapse(int(u), int(v)) and not hm.can_collapse(int(v), int(u))
 
 
+def test_link_condition_parallel_edges():
+    """Faces 0 and 2 are glued along 1-2 and 2-0 into a two-sided disc; edge 0-1 has three
+    faces, so it is cut, leaving two *parallel* border edges 0-1 (one per face).  Collapsing
+    either would fold the other into a loop edge 1-1 (face [1, 2, 1]): the link condition
+    must refuse it."""
+    faces = [[0, 1, 2], [0, 1, 3], [0, 2, 1]]
+    hm = assert_matches_reference(faces, 4)
+    assert hm.faces().tolist() == [[0, 1, 2], [4, 5, 3], [0, 2, 1]]
+    assert not hm.can_collapse(0, 1)
+    assert not hm.can_collapse(1, 0)
+    with pytest.raises(ValueError, match="topology"):
+        hm.collapse_edge(0, 1)
+    assert hm.check()
+
+
 # ---------------------------------------------------------------------- collapse
 def test_collapse_border_vertex_into_centre():
     hm = build(np.array(HEXAGON), 7)
