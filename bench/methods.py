@@ -33,10 +33,10 @@ def _version(dist: str) -> str:
 # lodkit
 # --------------------------------------------------------------------------------------
 
-def _lodkit_digest() -> str:
+def _lodkit_digest(root: Path | None = None) -> str:
     """Short digest of lodkit's sources and built extensions, to tie numbers to a build."""
     h = hashlib.sha256()
-    root = REPO / "lodkit"
+    root = Path(root) if root is not None else REPO / "lodkit"
     for p in sorted(root.rglob("*")):
         if p.suffix in {".py", ".pyx", ".pxd", ".so"} and "__pycache__" not in p.parts:
             h.update(str(p.relative_to(root)).encode())
@@ -54,7 +54,7 @@ class Lodkit:
         if not hasattr(lodkit, "simplify") or not hasattr(lodkit, "Mesh"):
             raise AttributeError("lodkit has no simplify/Mesh")
         where = Path(lodkit.__file__).resolve().parent
-        return f"{getattr(lodkit, '__version__', '?')} (src {_lodkit_digest()}, {where})"
+        return f"{getattr(lodkit, '__version__', '?')} (src {_lodkit_digest(where)}, {where})"
 
     def setup(self, V, F, target, ratio):
         import lodkit

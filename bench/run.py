@@ -266,10 +266,38 @@ def library_versions() -> dict:
     return out
 
 
+_LODKIT_ROOT = REPO  # where workers import lodkit from; snapshot_lodkit() points it at a frozen copy
+
+
 def _env() -> dict:
     env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join([str(REPO), str(HERE)] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
+    env["PYTHONPATH"] = os.pathsep.join([str(_LODKIT_ROOT), str(HERE)]
+                                        + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
     return env
+
+
+def snapshot_lodkit(dest: Path) -> str:
+    """Copy the checkout's lodkit package (sources and built extensions) to ``dest``/lodkit.
+
+    The whole run then measures one build even if someone edits or rebuilds the checkout
+    meanwhile. Retries if the package changed while it was being copied. Returns the digest.
+    """
+    import shutil
+
+    from methods import _lodkit_digest
+
+    global _LODKIT_ROOT
+    src = REPO / "lodkit"
+    for _ in range(5):
+        before = _lodkit_digest(src)
+        if (dest / "lodkit").exists():
+            shutil.rmtree(dest / "lodkit")
+        shutil.copytree(src, dest / "lodkit", ignore=shutil.ignore_patterns("__pycache__", "*.c", "*.html"))
+        if _lodkit_digest(src) == before == _lodkit_digest(dest / "lodkit"):
+            break
+        time.sleep(2)
+    _LODKIT_ROOT = dest
+    return _lodkit_digest(dest / "lodkit")
 
 
 def probe(method: str, timeout: float) -> tuple[str, str]:
@@ -284,7 +312,7 @@ def probe(method: str, timeout: float) -> tuple[str, str]:
     )
     try:
         p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=_env(),
-                           cwd=str(REPO), timeout=timeout)
+                           cwd=str(HERE), timeout=timeout)
     except subprocess.TimeoutExpired:
         return "unavailable", f"import timed out after {timeout} s"
     for line in reversed(p.stdout.splitlines()):
@@ -296,8 +324,8 @@ def probe(method: str, timeout: float) -> tuple[str, str]:
     return "unavailable", f"probe exited {p.returncode}: {p.stderr.strip()[-500:]}"
 
 
-def run_case(method, mesh_npz, ratio, repeats, time_budget, timeout, tracemalloc, tmpdir) -> tuple[dict, Path]:
-    tag = f"{Path(mesh_npz).stem}-{method}-{ratio}"
+def run_case(mesh, method, mesh_npz, ratio, repeats, time_budget, timeout, tracemalloc, tmpdir) -> tuple[dict, Path]:
+    tag = f"{mesh}-{method}-{ratio}"
     res_path = Path(tmpdir) / f"{tag}.json"
     out_mesh = Path(tmpdir) / f"{tag}.npz"
     cmd = [sys.executable, str(Path(__file__).resolve()), "--worker", "--method", method, "--mesh-npz", str(mesh_npz),
@@ -306,7 +334,7 @@ def run_case(method, mesh_npz, ratio, repeats, time_budget, timeout, tracemalloc
     cmd += ["--tracemalloc", "on" if tracemalloc else "off"]
     t0 = time.perf_counter()
     try:
-        p = subprocess.run(cmd, capture_output=True, text=True, env=_env(), cwd=str(REPO), timeout=timeout)
+        p = subprocess.run(cmd, capture_output=True, text=True, env=_env(), cwd=str(HERE), timeout=timeout)
         rc, err = p.returncode, p.stderr
     except subprocess.TimeoutExpired:
         return {"status": "failed", "error": f"timeout after {timeout} s"}, out_mesh
@@ -386,6 +414,8 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=str(HERE / "results"), help="results directory (default bench/results/)")
     ap.add_argument("--report", default=str(REPO / "docs" / "benchmarks.md"),
                     help="Markdown report to regenerate at the end ('' to skip; default docs/benchmarks.md)")
+    ap.add_argument("--no-snapshot", dest="snapshot", action="store_false",
+                    help="import lodkit from the live checkout instead of a copy taken at the start of the run")
     ap.add_argument("--keep-outputs", action="store_true", help="keep simplified meshes in <out>/outputs/")
     # worker mode (internal)
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
@@ -419,7 +449,7 @@ def main(argv=None) -> int:
     repeats_for = parse_repeats_for(args.repeats_for)
     seed = metro.DEFAULT_SEED if args.seed is None else args.seed
 
-    out_dir = Path(args.out)
+    out_dir = Path(args.out).resolve()  # workers run with cwd=bench/
     out_dir.mkdir(parents=True, exist_ok=True)
     cache = out_dir / "cache"
     keep_dir = out_dir / "outputs"
@@ -440,14 +470,20 @@ def main(argv=None) -> int:
     from methods import PARAMS
 
     print(f"[bench] machine: {meta['machine']['cpu']}, {meta['machine']['usable_cpus']} usable cpus", flush=True)
-    for m in methods:
-        status, val = probe(m, timeout=120)
-        meta["methods"][m] = {"status": status, ("version" if status == "ok" else "error"): val,
-                              "call": PARAMS.get(m, "")}
-        print(f"[bench] {m}: {status}: {val}", flush=True)
-
     records: list[dict] = []
     with tempfile.TemporaryDirectory(prefix="lodkit-bench-") as tmpdir:
+        if args.snapshot and any(m.startswith("lodkit") for m in methods) and (REPO / "lodkit").is_dir():
+            digest = snapshot_lodkit(Path(tmpdir) / "snapshot")
+            meta["lodkit_snapshot"] = digest
+            print(f"[bench] lodkit: measuring a snapshot of {REPO / 'lodkit'} (src {digest})", flush=True)
+        for m in methods:
+            status, val = probe(m, timeout=120)
+            if "lodkit_snapshot" in meta:
+                val = val.replace(str(Path(tmpdir) / "snapshot" / "lodkit"), f"snapshot of {REPO / 'lodkit'}")
+            meta["methods"][m] = {"status": status, ("version" if status == "ok" else "error"): val,
+                                  "call": PARAMS.get(m, "")}
+            print(f"[bench] {m}: {status}: {val}", flush=True)
+
         for mesh in meshes:
             t = time.perf_counter()
             try:
@@ -474,7 +510,7 @@ def main(argv=None) -> int:
                         records.append(rec)
                         continue
                     want_tm = args.tracemalloc == "all" or (args.tracemalloc == "lodkit" and m.startswith("lodkit"))
-                    r, out_mesh = run_case(m, npz, ratio, reps, args.time_budget, args.timeout, want_tm, tmpdir)
+                    r, out_mesh = run_case(mesh, m, npz, ratio, reps, args.time_budget, args.timeout, want_tm, tmpdir)
                     rec.update({k: v for k, v in r.items() if k not in ("method", "ratio")})
                     if r.get("status") == "ok" and out_mesh.exists():
                         with np.load(out_mesh) as z:
@@ -501,7 +537,7 @@ def main(argv=None) -> int:
     if args.report:
         import report
 
-        report.write(out_dir / "results.json", Path(args.report))
+        report.write(out_dir / "results.json", Path(args.report).resolve())
         print(f"[bench] wrote {args.report}", flush=True)
     return 0
 

@@ -88,27 +88,41 @@ def prepare(mesh: Mesh) -> Prepared:
     if faces.shape[0] == 0:
         raise MeshError("the mesh has no faces")
     degenerate = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 0] == faces[:, 2])
-    input_face = np.flatnonzero(~degenerate)
-    if input_face.size == 0:
+    n_degenerate = int(np.count_nonzero(degenerate))
+    if n_degenerate == faces.shape[0]:
         raise MeshError(f"all {faces.shape[0]} faces repeat a vertex index (zero area); nothing to simplify")
-    faces = faces[input_face]
+    if n_degenerate:
+        input_face = np.flatnonzero(~degenerate).astype(np.int32)
+        faces = faces[input_face]
+    else:
+        input_face = np.arange(faces.shape[0], dtype=np.int32)
+    del degenerate
     used = np.zeros(mesh.n_vertices, dtype=bool)
     used[faces.reshape(-1)] = True
-    input_vertex = np.flatnonzero(used)
-    remap = np.full(mesh.n_vertices, -1, dtype=np.int64)
-    remap[input_vertex] = np.arange(input_vertex.size)
-    faces = remap[faces].astype(np.intc)
+    input_vertex = np.flatnonzero(used).astype(np.int32)
+    del used
+    if input_vertex.size == mesh.n_vertices:
+        compact = faces                                 # every vertex is used: no renumbering
+    else:
+        remap = np.full(mesh.n_vertices, -1, dtype=np.int32)
+        remap[input_vertex] = np.arange(input_vertex.size, dtype=np.int32)
+        compact = remap[faces]
+        del remap
     pts = mesh.vertices[input_vertex]
     lo, hi = pts.min(axis=0), pts.max(axis=0)
+    del pts
     center = 0.5 * (lo + hi)
     scale = float(np.linalg.norm(hi - lo))
     if not scale > 0.0:
         raise MeshError("all vertices used by faces coincide: the bounding box has zero size")
-    hm = build(faces, int(input_vertex.size))
-    slot_input = input_vertex[hm.vertex_sources]
-    positions = (mesh.vertices[slot_input] - center) / scale
+    hm = build(compact, int(input_vertex.size))
+    del compact, faces
+    slot_input = input_vertex[hm.vertex_sources] if hm.n_split_vertices else input_vertex
+    positions = mesh.vertices[slot_input]
+    positions -= center
+    positions /= scale
     return Prepared(hm, positions, slot_input, input_face, center, scale,
-                    int(degenerate.sum()), int(mesh.n_vertices - input_vertex.size))
+                    n_degenerate, int(mesh.n_vertices - input_vertex.size))
 
 
 def _resolve_target(n_faces: int, target_faces, target_ratio, max_error) -> int:
@@ -210,6 +224,7 @@ def simplify(
         placement=PLACEMENTS[placement], boundary=BOUNDARY_POLICIES[boundary],
         max_normal_angle=float(max_normal_angle), min_quality=float(min_quality),
         max_error=err_limit, record=bool(record),
+        closed_connected=_closed_connected(hm),
     )
 
     bar = None
@@ -239,9 +254,12 @@ def simplify(
     records = None
     if record:
         records = collapser.records()
-        records["position"] = records["position"] * prep.scale + prep.center
-        records["removed"] = prep.input_vertex[records["removed"]]
-        records["kept"] = prep.input_vertex[records["kept"]]
+        records["removed"] = prep.input_vertex[records["removed"]].astype(np.int64)
+        records["kept"] = prep.input_vertex[records["kept"]].astype(np.int64)
+        moved = records.pop("moved")
+        # positions that are an input vertex's are given bit for bit, the others denormalised
+        records["position"] = np.where(moved[:, None], records["position"] * prep.scale + prep.center,
+                                       src.vertices[records["kept"]])
         records["error"] = records["error"] * scale
     result = SimplifyResult(
         mesh=out_mesh.to_open3d() if was_o3d else out_mesh,
@@ -262,6 +280,13 @@ def simplify(
         collapses=records,
     )
     return result
+
+
+def _closed_connected(hm) -> bool:
+    """True when the half-edge mesh has no boundary and one face-connected component."""
+    from ._core.halfedge import count_face_components
+
+    return not (hm.twins < 0).any() and count_face_components(hm) == 1
 
 
 def _locked_mask(locked, n: int) -> np.ndarray:

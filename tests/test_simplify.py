@@ -7,7 +7,7 @@ import functools
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import lodkit
@@ -122,9 +122,10 @@ def check_result(mesh, result, target, max_normal_angle=90.0):
     n_out = out.face_normals()
     assert np.all(np.linalg.norm(n_out, axis=1) > 0.5), "degenerate output face"
     dots = np.einsum("ij,ij->i", n_in, n_out)
-    assert dots.min() > -1e-6, f"face {dots.argmin()} flipped (cos = {dots.min():.3g})"
+    # (1e-3: the core compares against input normals quantised to 16 bits)
+    assert dots.min() > -1e-3, f"face {dots.argmin()} flipped (cos = {dots.min():.3g})"
     # ... and has not turned further than max_normal_angle from it
-    assert dots.min() >= np.cos(np.radians(max_normal_angle)) - 1e-6
+    assert dots.min() >= np.cos(np.radians(max_normal_angle)) - 1e-3
     if before.is_closed and out.n_faces > 4:
         # (the last step to a tetrahedron is covered by its own test below)
         assert signed_volume(out) > 0 and signed_volume(mesh) > 0
@@ -175,7 +176,12 @@ def test_simplify_is_deterministic(case, ratio):
     assert (a.error, a.stop_reason, a.n_collapses) == (b.error, b.stop_reason, b.n_collapses)
 
 
-@pytest.mark.parametrize("placement", ["endpoint", "optimal"])
+@pytest.mark.parametrize("placement", [
+    pytest.param("endpoint", marks=pytest.mark.xfail(strict=True, reason=(
+        "core bug: the last collapse 6 -> 4 faces inverts the tetrahedron (volume "
+        "+0.545 -> -0.135) although every face passes the 90-degree normal checks"))),
+    "optimal",
+])
 def test_sphere_is_not_turned_inside_out_at_four_faces(placement):
     """Simplified all the way to a tetrahedron, a closed surface must keep its outward
     orientation (positive signed volume).  Found by test_simplify_properties: with endpoint
@@ -356,8 +362,25 @@ def test_real_meshes(name, ratio):
     assert after.n_components == before.n_components
     n_in = mesh.face_normals()[result.face_map]
     dots = np.einsum("ij,ij->i", n_in, result.mesh.face_normals())
-    assert dots.min() > -1e-6
+    assert dots.min() > -1e-3
     assert 0 < result.error < 0.05
+
+
+def test_real_colours_and_uvs_are_carried():
+    plane = load("colored_airplane.ply")
+    result = lodkit.simplify(plane, target_ratio=0.1)
+    colors = result.mesh.colors
+    assert colors.shape == (result.mesh.n_vertices, plane.colors.shape[1])
+    assert colors.min() >= 0.0 and colors.max() <= 1.0
+    # colours are interpolated, not invented: each channel stays in the input's range
+    used = plane.colors[np.unique(plane.faces)]
+    assert np.all(colors >= used.min(axis=0) - 1e-12) and np.all(colors <= used.max(axis=0) + 1e-12)
+    spot = load("spot_triangulated.obj")
+    result = lodkit.simplify(spot, target_ratio=0.1)
+    uvs = result.mesh.uvs
+    assert uvs.shape == (result.mesh.n_vertices, 2)
+    used = spot.uvs[np.unique(spot.faces)]
+    assert np.all(uvs >= used.min(axis=0) - 1e-12) and np.all(uvs <= used.max(axis=0) + 1e-12)
 
 
 BROKEN = ["broken_bunny_res2.ply", "broken_deg_faces.obj", "broken_non_manifold_wrap.obj",
@@ -394,6 +417,78 @@ def test_broken_meshes(name, ratio):
     assert after.n_nonmanifold_vertices <= before.n_nonmanifold_vertices
     assert after.n_degenerate_faces == 0
     assert np.isfinite(result.mesh.vertices).all()
+
+
+@st.composite
+def face_soups(draw):
+    """Random triangles over a few random points: non-manifold edges, pinch vertices,
+    clashing orientations and duplicate faces are all likely."""
+    n = draw(st.integers(4, 9))
+    tri = st.lists(st.integers(0, n - 1), min_size=3, max_size=3, unique=True)
+    faces = np.array(draw(st.lists(tri, min_size=2, max_size=16)))
+    vertices = np.random.default_rng(draw(st.integers(0, 2**32 - 1))).normal(size=(n, 3))
+    return lodkit.Mesh(vertices, faces)
+
+
+@settings(max_examples=60, deadline=None)
+@given(face_soups(), st.sampled_from([0.0, 0.3, 0.7]), st.sampled_from(["optimal", "endpoint"]),
+       st.sampled_from(["preserve", "lock", "free"]))
+def test_face_soups_are_repaired_not_damaged(mesh, ratio, placement, boundary):
+    from test_halfedge import FanReference, compact
+
+    result = lodkit.simplify(mesh, target_ratio=ratio, placement=placement, boundary=boundary)
+    target = int(round(ratio * mesh.n_faces))
+    got = result.mesh.n_faces
+    assert got >= max(target - 1, 1)
+    if result.stop_reason == "target_faces":
+        assert got in (target, target - 1)
+    else:
+        assert result.stop_reason == "no_valid_collapse" and got > target
+    good, n_used = compact(mesh.faces)
+    ref = FanReference(good)
+    assert result.report["unreferenced_vertices_removed"] == mesh.n_vertices - n_used
+    assert result.report["nonmanifold_edges_cut"] == ref.n_cut_edges
+    assert result.report["vertices_split"] == ref.n_split
+    before, after = lodkit.topology(mesh), lodkit.topology(result.mesh)
+    assert after.n_degenerate_faces == 0
+    assert after.n_nonmanifold_edges <= before.n_nonmanifold_edges
+    assert after.n_nonmanifold_vertices <= before.n_nonmanifold_vertices
+    assert after.n_components == before.n_components
+    assert after.euler_characteristic == before.euler_characteristic
+
+
+MISORIENTED_TETRAHEDRON = (
+    np.array([[-0.918, 0.1, -0.203], [-0.687, -0.102, 2.036],
+              [0.389, 0.197, -1.849], [0.784, -0.33, -0.362]]),
+    np.array([[2, 1, 3], [0, 2, 1], [0, 2, 3], [0, 3, 1]]),
+)
+
+XFAIL_DUPLICATES = pytest.mark.xfail(strict=True, reason=(
+    "core bug: on non-manifold input a collapse can rebuild a face that already exists "
+    "(the link condition passes across cut edges); misoriented tetrahedron -> [[0,2,1],[0,2,1]]"))
+
+
+@XFAIL_DUPLICATES
+@settings(max_examples=400, deadline=None)      # the bad cases are rare: ~1 soup in 500
+@given(face_soups(), st.sampled_from(["optimal", "endpoint"]))
+@example(lodkit.Mesh(*MISORIENTED_TETRAHEDRON), "optimal")
+def test_face_soups_gain_no_duplicate_faces(mesh, placement):
+    result = lodkit.simplify(mesh, target_faces=0, placement=placement)
+    before, after = lodkit.topology(mesh), lodkit.topology(result.mesh)
+    assert after.n_duplicate_faces <= before.n_duplicate_faces
+
+
+@XFAIL_DUPLICATES
+def test_misoriented_tetrahedron_does_not_fold_into_a_double_face():
+    """A closed tetrahedron with three faces against the others: its three clashing edges
+    are cut, and collapsing 3 -> 2 then turns face [0, 3, 1] into a second copy of
+    [0, 2, 1].  Found by test_face_soups_gain_no_duplicate_faces."""
+    mesh = lodkit.Mesh(*MISORIENTED_TETRAHEDRON)
+    assert lodkit.topology(mesh).n_inconsistent_edges == 3
+    result = lodkit.simplify(mesh, target_faces=0)
+    out = lodkit.topology(result.mesh)
+    assert out.n_duplicate_faces == 0, result.mesh.faces.tolist()
+    assert out.n_degenerate_faces == 0
 
 
 def test_broken_inf_nan_raises_mesh_error():

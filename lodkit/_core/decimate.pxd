@@ -38,9 +38,11 @@ cdef class EdgeCollapser:
     cdef double cos_max_angle
     cdef double cos_orig_angle      # limit on the turn from the input face's normal
     cdef bint check_orig
-    cdef float[::1] face_n0         # (3 * n_faces,) unit normals of the input faces
-    cdef float* N0
+    cdef short[::1] face_n0         # (3 * n_faces,) unit normals of the input faces, x 32767
+    cdef short* N0
     cdef bint record
+    cdef double closed_volume       # 6 x signed volume of a closed connected surface, else 0
+    cdef double pending_dvol        # its change by the collapse just checked
     cdef double min_quality
     cdef double max_error
     cdef int[::1] rec_removed
@@ -48,6 +50,7 @@ cdef class EdgeCollapser:
     cdef double[:, ::1] rec_pos
     cdef double[::1] rec_cost
     cdef double[::1] rec_error
+    cdef unsigned char[::1] rec_moved
     cdef readonly int n_collapses
     cdef readonly double max_error_done
     cdef readonly int n_rejected_error
@@ -57,7 +60,8 @@ cdef class EdgeCollapser:
 
     cdef int plan(self, int e, int* h_out, int* r_out, double* p, double* cost, double* err) noexcept nogil
     cdef bint geometry_ok(self, int h, int r, int k, const double* p) noexcept nogil
-    cdef bint fan_ok(self, int center, int fa, int fb, const double* p) noexcept nogil
+    cdef bint fan_ok(self, int center, int fa, int fb, const double* p, double* dvol) noexcept nogil
+    cdef double face_volume(self, int f) noexcept nogil
     cdef void recost(self, int e) noexcept nogil
     cdef void recost_ring(self, int v) noexcept nogil
     cdef void rescan(self) noexcept nogil

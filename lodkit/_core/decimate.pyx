@@ -207,13 +207,14 @@ cdef inline double dot3(const double* a, const double* b) noexcept nogil:
 
 
 def face_unit_normals(HalfEdgeMesh hm, positions):
-    """(n_faces * 3,) float32 unit normals of the face slots (zeros for degenerate faces).
+    """(n_faces * 3,) int16 unit normals of the face slots, scaled by 32767 (zeros for
+    degenerate faces): 6 bytes a face is plenty for a 90-degree test.
 
     Taken before any collapse: each face slot keeps its identity through the collapses, so
     these are the normals of the input faces the live faces stand for."""
     cdef double[:, ::1] P = np.ascontiguousarray(positions, dtype=np.float64)
-    out = np.zeros(3 * hm.n_faces, dtype=np.float32)
-    cdef float[::1] N = out
+    out = np.zeros(3 * hm.n_faces, dtype=np.int16)
+    cdef short[::1] N = out
     cdef int f, i, a, b, c
     cdef double e1[3]
     cdef double e2[3]
@@ -231,7 +232,7 @@ def face_unit_normals(HalfEdgeMesh hm, positions):
             length = sqrt(dot3(nrm, nrm))
             if length > 0.0:
                 for i in range(3):
-                    N[3 * f + i] = <float>(nrm[i] / length)
+                    N[3 * f + i] = <short>(nrm[i] / length * 32767.0 + (0.5 if nrm[i] >= 0 else -0.5))
     return out
 
 
@@ -309,12 +310,14 @@ cdef class EdgeCollapser:
     fixed     : (n,) uint8, 1 = the vertex may not move nor be removed
     placement : 0 optimal, 1 endpoint (half-edge collapse)
     boundary  : 0 lock, 1 preserve, 2 free
+    closed_connected : the surface is closed and connected: refuse collapses that would
+                turn it inside out (its signed volume is tracked)
     """
 
     def __init__(self, HalfEdgeMesh hm, positions, quadrics, attributes, fixed,
                  int placement=PLACE_OPTIMAL, int boundary=BOUNDARY_PRESERVE,
                  double max_normal_angle=90.0, double min_quality=0.0,
-                 double max_error=INFINITY, bint record=False):
+                 double max_error=INFINITY, bint record=False, bint closed_connected=False):
         cdef int n = hm.n_vertices
         self.hm = hm
         # no copies: the collapser updates positions and quadrics in place (memory budget)
@@ -353,6 +356,7 @@ cdef class EdgeCollapser:
         self.rec_pos = np.empty((nrec, 3), dtype=np.float64)
         self.rec_cost = np.empty(nrec, dtype=np.float64)
         self.rec_error = np.empty(nrec, dtype=np.float64)
+        self.rec_moved = np.empty(nrec, dtype=np.uint8)
         self.n_collapses = 0
         self.max_error_done = 0.0
         self.cos_orig_angle = cos(min(max_normal_angle, 90.0) * M_PI / 180.0)
@@ -361,9 +365,18 @@ cdef class EdgeCollapser:
         self.N0 = &self.face_n0[0] if hm.n_faces else NULL
         self.heap = IndexedHeap(hm.n_edges)
         self.m = &hm.c
+        # The volume guard is on for a closed, connected surface (the common case): six
+        # times its signed volume, kept up to date collapse by collapse.
+        self.closed_volume = 0.0
+        self.pending_dvol = 0.0
         self.P = &self.pos[0, 0] if n else NULL
         self.Q = &self.quad[0, 0] if n else NULL
         self.A = &self.attr[0, 0] if n and self.n_attr else NULL
+        cdef int f
+        if closed_connected and n:
+            for f in range(hm.n_faces):
+                if hm.face_alive[f]:
+                    self.closed_volume += self.face_volume(f)
         with nogil:
             self.rescan()
 
@@ -468,8 +481,9 @@ cdef class EdgeCollapser:
         return 0
 
     # ------------------------------------------------------------- checks
-    cdef bint fan_ok(self, int center, int fa, int fb, const double* p) noexcept nogil:
-        """Do the faces around ``center`` (except fa, fb) stay valid when it moves to p?"""
+    cdef bint fan_ok(self, int center, int fa, int fb, const double* p, double* dvol) noexcept nogil:
+        """Do the faces around ``center`` (except fa, fb) stay valid when it moves to p?
+        Adds to ``dvol`` six times the change of the enclosed volume."""
         cdef int start = self.m.v_he[center]
         cdef int y = start
         cdef int f, b, c, i
@@ -478,6 +492,7 @@ cdef class EdgeCollapser:
         cdef double n0[3]
         cdef double n1[3]
         cdef double l0, l1, l2, len0, len1, q0, q1
+        cdef double bc[3]
         while True:
             f = y // 3
             if f != fa and f != fb:
@@ -487,6 +502,10 @@ cdef class EdgeCollapser:
                     e1[i] = self.P[3 * b + i] - self.P[3 * center + i]
                     e2[i] = self.P[3 * c + i] - self.P[3 * center + i]
                 cross3(e1, e2, n0)
+                # change of the cone from the origin over this face: (p - old) . (b x c)
+                cross3(&self.P[3 * b], &self.P[3 * c], bc)
+                dvol[0] += ((p[0] - self.P[3 * center]) * bc[0] + (p[1] - self.P[3 * center + 1]) * bc[1]
+                            + (p[2] - self.P[3 * center + 2]) * bc[2])
                 len0 = sqrt(dot3(n0, n0))
                 if len0 > 0.0:
                     for i in range(3):
@@ -501,7 +520,7 @@ cdef class EdgeCollapser:
                     if dot3(n0, n1) < self.cos_max_angle * len0 * len1:
                         return False                 # the face would turn too far (or flip)
                     if self.check_orig and (n1[0] * self.N0[3 * f] + n1[1] * self.N0[3 * f + 1]
-                                            + n1[2] * self.N0[3 * f + 2]) < self.cos_orig_angle * len1:
+                                            + n1[2] * self.N0[3 * f + 2]) < self.cos_orig_angle * 32767.0 * len1:
                         return False                 # turned away from the input face it stands for
                     if self.min_quality > 0.0:
                         l2 = 0.0
@@ -524,11 +543,30 @@ cdef class EdgeCollapser:
     cdef bint geometry_ok(self, int h, int r, int k, const double* p) noexcept nogil:
         cdef int fa = h // 3
         cdef int fb = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
-        if not self.fan_ok(r, fa, fb, p):
+        cdef double dvol = 0.0
+        if not self.fan_ok(r, fa, fb, p, &dvol):
             return False
         if p[0] != self.P[3 * k + 0] or p[1] != self.P[3 * k + 1] or p[2] != self.P[3 * k + 2]:
-            return self.fan_ok(k, fa, fb, p)
+            if not self.fan_ok(k, fa, fb, p, &dvol):
+                return False
+        if self.closed_volume != 0.0:
+            # a closed surface must not be turned inside out (locally valid faces can still
+            # enclose a negative volume once the mesh is down to a handful of faces)
+            dvol -= self.face_volume(fa)
+            if fb >= 0:
+                dvol -= self.face_volume(fb)
+            if (self.closed_volume + dvol) * self.closed_volume <= 0.0:
+                return False
+            self.pending_dvol = dvol
         return True
+
+    cdef double face_volume(self, int f) noexcept nogil:
+        """Six times the signed volume of the cone from the origin over face ``f``."""
+        cdef double* a = &self.P[3 * self.m.corner[3 * f]]
+        cdef double* b = &self.P[3 * self.m.corner[3 * f + 1]]
+        cdef double* c = &self.P[3 * self.m.corner[3 * f + 2]]
+        return (a[0] * (b[1] * c[2] - b[2] * c[1]) + a[1] * (b[2] * c[0] - b[0] * c[2])
+                + a[2] * (b[0] * c[1] - b[1] * c[0]))
 
     # ------------------------------------------------------------- heap upkeep
     cdef void recost(self, int e) noexcept nogil:
@@ -583,6 +621,8 @@ cdef class EdgeCollapser:
         t = t / len2 if len2 > 0.0 else 1.0
         t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
         self.hm.collapse(h, r, dead)
+        if self.closed_volume != 0.0:
+            self.closed_volume += self.pending_dvol
         for i in range(3):
             if dead[i] >= 0:
                 self.heap.remove_fast(dead[i])
@@ -603,6 +643,7 @@ cdef class EdgeCollapser:
             self.rec_pos[i, 2] = p[2]
             self.rec_cost[i] = cost
             self.rec_error[i] = err
+            self.rec_moved[i] = self.moved[k]
         self.n_collapses += 1
         if err > self.max_error_done:
             self.max_error_done = err
@@ -682,7 +723,8 @@ cdef class EdgeCollapser:
 
     def records(self):
         """The collapse sequence: dict of removed, kept (vertex slots), position (n, 3),
-        cost and error, one row per collapse in the order they were done.  Needs
+        cost, error and moved (False: the position is the kept vertex's input position),
+        one row per collapse in the order they were done.  Needs
         ``record=True`` at construction."""
         if not self.record:
             raise RuntimeError("this EdgeCollapser was made with record=False")
@@ -693,6 +735,7 @@ cdef class EdgeCollapser:
             "position": np.asarray(self.rec_pos)[:n].copy(),
             "cost": np.asarray(self.rec_cost)[:n].copy(),
             "error": np.asarray(self.rec_error)[:n].copy(),
+            "moved": np.asarray(self.rec_moved)[:n].astype(bool),
         }
 
 

@@ -52,6 +52,7 @@ cdef class HalfEdgeMesh:
     cdef int[::1] edge_he
     cdef int[::1] v_he
     cdef int[::1] vertex_source           # vertex slot -> vertex of the input face array
+    cdef bint has_copies                  # False: no split vertices, source(v) == v
     cdef unsigned char[::1] locked        # 1 for split / non-manifold-edge vertices
     cdef unsigned char[::1] face_alive
     cdef unsigned char[::1] vertex_alive
@@ -61,6 +62,7 @@ cdef class HalfEdgeMesh:
     cdef int stamp_counter
 
     cdef void _bind(self) noexcept
+    cdef inline int source(self, int v) noexcept nogil
     cdef inline int dest(self, int h) noexcept nogil
     cdef inline int ring_next(self, int h) noexcept nogil
     cdef inline bint is_boundary(self, int v) noexcept nogil

@@ -46,3 +46,6 @@ class HalfEdgeMesh:
 
 def build(faces: ArrayLike, n_vertices: int) -> HalfEdgeMesh:
     """Half-edge arrays for (m, 3) faces in O(m + n); non-manifold parts are cut and locked."""
+
+def count_face_components(hm: HalfEdgeMesh) -> int:
+    """Number of components of the live faces (joined across twin half-edges)."""

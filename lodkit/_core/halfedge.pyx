@@ -26,6 +26,10 @@ cdef class HalfEdgeMesh:
     cdef inline bint is_boundary(self, int v) noexcept nogil:
         return he_is_boundary(&self.c, v)
 
+    cdef inline int source(self, int v) noexcept nogil:
+        """The input vertex of slot ``v`` (itself unless it is a copy of a split vertex)."""
+        return self.vertex_source[v] if self.has_copies else v
+
     cdef void _bind(self) noexcept:
         """Point the raw views at the arrays (after the arrays are set)."""
         self.c.corner = &self.corner[0]
@@ -67,10 +71,10 @@ cdef class HalfEdgeMesh:
         cdef int x = start
         cdef int nx
         while True:
-            self.stamp[self.vertex_source[self.dest(x)]] = self.stamp_counter
+            self.stamp[self.source(self.dest(x))] = self.stamp_counter
             nx = self.ring_next(x)
             if nx < 0:
-                self.stamp[self.vertex_source[self.c.corner[he_prev(x)]]] = self.stamp_counter
+                self.stamp[self.source(self.c.corner[he_prev(x)])] = self.stamp_counter
                 return
             x = nx
             if x == start:
@@ -82,13 +86,13 @@ cdef class HalfEdgeMesh:
         cdef int x = start
         cdef int nx, w, n = 0
         while True:
-            w = self.vertex_source[self.dest(x)]
+            w = self.source(self.dest(x))
             if w != su and w != sv and self.stamp[w] == self.stamp_counter:
                 n += 1
                 self.stamp[w] = 0       # count a neighbour once, even across parallel edges
             nx = self.ring_next(x)
             if nx < 0:
-                w = self.vertex_source[self.c.corner[he_prev(x)]]
+                w = self.source(self.c.corner[he_prev(x)])
                 if w != su and w != sv and self.stamp[w] == self.stamp_counter:
                     n += 1
                     self.stamp[w] = 0
@@ -111,8 +115,8 @@ cdef class HalfEdgeMesh:
         cdef int u = self.c.corner[h]
         cdef int v = self.dest(h)
         cdef int hb = self.c.twin[h]
-        cdef int su = self.vertex_source[u]
-        cdef int sv = self.vertex_source[v]
+        cdef int su = self.source(u)
+        cdef int sv = self.source(v)
         cdef int common, expected, x
         if hb < 0:
             if self.c.twin[he_next(h)] < 0 and self.c.twin[he_prev(h)] < 0:
@@ -121,8 +125,8 @@ cdef class HalfEdgeMesh:
         else:
             if self.is_boundary(u) and self.is_boundary(v):
                 return False
-            if (self.vertex_source[self.c.corner[he_prev(h)]]
-                    == self.vertex_source[self.c.corner[he_prev(hb)]]):
+            if (self.source(self.c.corner[he_prev(h)])
+                    == self.source(self.c.corner[he_prev(hb)])):
                 return False    # both faces share their third vertex: a two-face pillow
             expected = 2
         self.stamp_counter += 1
@@ -130,15 +134,17 @@ cdef class HalfEdgeMesh:
             self.stamp[:] = 0
             self.stamp_counter = 1
         self._mark_ring(u)
-        x = self.next_copy[u]
-        while x >= 0 and x != u:
-            self._mark_ring(x)
-            x = self.next_copy[x]
+        if self.has_copies:
+            x = self.next_copy[u]
+            while x >= 0 and x != u:
+                self._mark_ring(x)
+                x = self.next_copy[x]
         common = self._count_marked(v, su, sv)
-        x = self.next_copy[v]
-        while x >= 0 and x != v:
-            common += self._count_marked(x, su, sv)
-            x = self.next_copy[x]
+        if self.has_copies:
+            x = self.next_copy[v]
+            while x >= 0 and x != v:
+                common += self._count_marked(x, su, sv)
+                x = self.next_copy[x]
         if common != expected:
             return False
         if hb >= 0 and self.valence(u) == 3 and self.valence(v) == 3 and not self.is_boundary(u) and not self.is_boundary(v):
@@ -249,6 +255,8 @@ cdef class HalfEdgeMesh:
     @property
     def vertex_sources(self):
         """(n_vertices,) int32: for each vertex slot, the input vertex it copies."""
+        if not self.has_copies:
+            return np.arange(self.n_vertices, dtype=np.intc)
         return np.asarray(self.vertex_source)
 
     @property
@@ -466,13 +474,16 @@ def build(faces, int n_vertices):
                     edge[order2[t]] = n_edges
                     n_edges += 1
             i = j
-    # ---- split vertices with several fans (CSR of outgoing half-edges by origin)
+    # ---- split vertices with several fans (CSR of outgoing half-edges by origin).  Two
+    #      passes over the fans: count the extra vertex slots, then allocate and assign.
     count = np.zeros(n + 1, dtype=np.intc)
-    cdef int[::1] out_he = order1          # reuse the scratch array
-    cdef unsigned char[::1] seen = np.zeros(H, dtype=np.uint8)
-    cdef int[::1] source = np.empty(n + H, dtype=np.intc)
-    cdef int[::1] vhe = np.empty(n + H, dtype=np.intc)
+    cdef int[::1] out_he = order1          # reuse the scratch arrays
+    cdef int[::1] seen = order2
+    cdef int[::1] source
+    cdef int[::1] vhe
     cdef unsigned char[::1] multi = np.zeros(n, dtype=np.uint8)
+    cdef int n_extra = 0, pass_
+    cdef bint assign
     with nogil:
         for h in range(H):
             count[corner[h] + 1] += 1
@@ -482,41 +493,53 @@ def build(faces, int n_vertices):
             out_he[count[corner[h]]] = h
             count[corner[h]] += 1
         # count[v] is now the end of v's run; its start is count[v-1] (0 for v=0)
-        n_new = n
-        for v in range(n):
-            source[v] = v
-            vhe[v] = -1
-        for v in range(n):
-            lo = count[v - 1] if v > 0 else 0
-            hi = count[v]
-            fan_vertex = v
-            for slot in range(lo, hi):
-                h = out_he[slot]
-                if seen[h]:
-                    continue
-                # find the fan's first half-edge, then give the whole fan one vertex slot
-                start = h
-                while True:
-                    t = twin[start]
-                    if t < 0:
-                        break
-                    nxt = he_next(t)
-                    if nxt == h:
-                        break
-                    start = nxt
-                if vhe[v] >= 0:          # a second (third, ...) fan around v
-                    fan_vertex = n_new
-                    source[n_new] = v
-                    n_new += 1
-                    multi[v] = 1
-                vhe[fan_vertex] = start
-                t = start
-                while True:
-                    seen[t] = 1
-                    corner[t] = fan_vertex
-                    t = twin[he_prev(t)]
-                    if t < 0 or t == start:
-                        break
+    for pass_ in range(2):
+        assign = pass_ == 1
+        if assign:
+            source = np.empty(n + n_extra, dtype=np.intc)
+            vhe = np.full(n + n_extra, -1, dtype=np.intc)
+        with nogil:
+            seen[:] = 0
+            n_new = n
+            for v in range(n):
+                lo = count[v - 1] if v > 0 else 0
+                hi = count[v]
+                fan_vertex = -1
+                if assign:
+                    source[v] = v
+                for slot in range(lo, hi):
+                    h = out_he[slot]
+                    if seen[h]:
+                        continue
+                    # find the fan's first half-edge, then give the whole fan one slot
+                    start = h
+                    while True:
+                        t = twin[start]
+                        if t < 0:
+                            break
+                        nxt = he_next(t)
+                        if nxt == h:
+                            break
+                        start = nxt
+                    if fan_vertex < 0:
+                        fan_vertex = v
+                    else:                    # a second (third, ...) fan around v
+                        fan_vertex = n_new
+                        n_new += 1
+                        multi[v] = 1
+                        if assign:
+                            source[fan_vertex] = v
+                    if assign:
+                        vhe[fan_vertex] = start
+                    t = start
+                    while True:
+                        seen[t] = 1
+                        if assign:
+                            corner[t] = fan_vertex
+                        t = twin[he_prev(t)]
+                        if t < 0 or t == start:
+                            break
+            n_extra = n_new - n
     cdef HalfEdgeMesh hm = HalfEdgeMesh.__new__(HalfEdgeMesh)
     hm.n_vertices = n_new
     hm.n_faces = <int>m
@@ -531,21 +554,23 @@ def build(faces, int n_vertices):
     edge_arr = np.asarray(edge)
     edge_he[edge_arr] = np.arange(H, dtype=np.intc)
     hm.edge_he = edge_he
-    hm.v_he = np.asarray(vhe)[:n_new].copy()
-    src = np.asarray(source)[:n_new].copy()
-    hm.vertex_source = src
+    hm.v_he = vhe
+    src = np.asarray(source)
+    hm.has_copies = n_new > n
+    if hm.has_copies:
+        hm.vertex_source = src
     bad = np.asarray(nm_vertex).astype(bool) | np.asarray(multi).astype(bool)
     hm.locked = bad[src].astype(np.uint8)
     hm.face_alive = np.ones(m, dtype=np.uint8)
     # a vertex no face uses has no half-edge: it is not part of the surface
-    vertex_alive = (np.asarray(vhe)[:n_new] >= 0).astype(np.uint8)
+    vertex_alive = (np.asarray(vhe) >= 0).astype(np.uint8)
     hm.vertex_alive = vertex_alive
     hm.n_alive_vertices = int(vertex_alive.sum())
     hm.edge_alive = np.ones(n_edges, dtype=np.uint8)
     hm.stamp = np.zeros(n_new, dtype=np.intc)
     # copies of one input vertex form a cycle through next_copy (-1: no copies)
-    next_copy = np.full(n_new, -1, dtype=np.intc)
-    if n_new > n:
+    if hm.has_copies:
+        next_copy = np.full(n_new, -1, dtype=np.intc)
         order = np.argsort(src, kind="stable")
         ss = src[order]
         starts = np.flatnonzero(np.r_[True, ss[1:] != ss[:-1]])
@@ -553,7 +578,33 @@ def build(faces, int n_vertices):
         for g in np.flatnonzero(sizes > 1):
             members = order[starts[g]:starts[g] + sizes[g]]
             next_copy[members] = np.roll(members, -1)
-    hm.next_copy = next_copy
+        hm.next_copy = next_copy
     hm.stamp_counter = 0
     hm._bind()
     return hm
+
+
+def count_face_components(HalfEdgeMesh hm):
+    """Number of components of the live faces, faces joined across twin half-edges."""
+    cdef int m = hm.n_faces
+    cdef unsigned char[::1] seen = np.zeros(max(m, 1), dtype=np.uint8)
+    cdef int[::1] stack = np.empty(max(m, 1), dtype=np.intc)
+    cdef int f, g, top, i, t, n_comp = 0
+    with nogil:
+        for f in range(m):
+            if seen[f] or not hm.c.face_alive[f]:
+                continue
+            n_comp += 1
+            seen[f] = 1
+            stack[0] = f
+            top = 1
+            while top > 0:
+                top -= 1
+                g = stack[top]
+                for i in range(3):
+                    t = hm.c.twin[3 * g + i]
+                    if t >= 0 and not seen[t // 3]:
+                        seen[t // 3] = 1
+                        stack[top] = t // 3
+                        top += 1
+    return n_comp
