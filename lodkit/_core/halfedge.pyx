@@ -149,7 +149,45 @@ cdef class HalfEdgeMesh:
             return False
         if hb >= 0 and self.valence(u) == 3 and self.valence(v) == 3 and not self.is_boundary(u) and not self.is_boundary(v):
             return False    # the two ends and their common neighbours form a tetrahedron
+        if self.has_copies and self._faces_would_coincide(u, v):
+            return False    # the welded mesh would get two faces on the same three vertices
         return True
+
+    cdef bint _faces_would_coincide(self, int u, int v) noexcept nogil:
+        """Is there a face (u, b, c) and a face (v, b, c), by input vertex, over all copies of
+        u and v?  Collapsing u-v would make them one face twice.  O(valence^2); only asked
+        for meshes that have split vertices."""
+        cdef int su = self.source(u), sv = self.source(v)
+        cdef int x, y, hx, hy, sx, ex, bx, cx, by, cy
+        x = u
+        while True:
+            hx = self.c.v_he[x]
+            sx = hx
+            while True:
+                bx = self.source(self.dest(hx))
+                cx = self.source(self.c.corner[he_prev(hx)])
+                if bx != sv and cx != sv:
+                    y = v
+                    while True:
+                        hy = self.c.v_he[y]
+                        ex = hy
+                        while True:
+                            by = self.source(self.dest(hy))
+                            cy = self.source(self.c.corner[he_prev(hy)])
+                            if (by == bx and cy == cx) or (by == cx and cy == bx):
+                                return True
+                            hy = self.ring_next(hy)
+                            if hy < 0 or hy == ex:
+                                break
+                        y = self.next_copy[y]
+                        if y < 0 or y == v:
+                            break
+                hx = self.ring_next(hx)
+                if hx < 0 or hx == sx:
+                    break
+            x = self.next_copy[x]
+            if x < 0 or x == u:
+                return False
 
     cdef int collapse(self, int h, int removed, int* dead_edges) noexcept nogil:
         """Collapse the edge of ``h``; ``removed`` (one of its ends) goes, the other stays.
