@@ -249,6 +249,7 @@ def simplify(
     else:
         stop = STOP_NO_COLLAPSE
 
+    collapser.release()          # the heap and quadrics are not needed to build the output
     out_mesh, vertex_map, face_map = _extract(src, prep, collapser, names)
     scale = prep.scale if absolute else 1.0
     records = None
@@ -330,7 +331,7 @@ def _extract(src: Mesh, prep: Prepared, collapser, names):
     # weld: one output vertex per input vertex (split copies are locked, so they coincide)
     inputs = prep.input_vertex[slots]
     vertex_map, first, inverse = np.unique(inputs, return_index=True, return_inverse=True)
-    slot_to_out = np.full(hm.n_vertices, -1, dtype=np.int64)
+    slot_to_out = np.full(hm.n_vertices, -1, dtype=np.int32)
     slot_to_out[slots] = inverse.reshape(-1)
     out_faces = slot_to_out[faces_slots].astype(np.int32)
     rep = slots[first]

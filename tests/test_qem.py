@@ -6,7 +6,6 @@ Q(p) = p^T A p + 2 b^T p + c, w = summed area of the faces it stands for.
 """
 from __future__ import annotations
 
-import itertools
 
 import numpy as np
 import pytest
@@ -441,7 +440,8 @@ def test_first_cube_collapse_is_the_cheapest_reference_plan(placement):
     assert rec["cost"][0] == pytest.approx(min(costs.values()), rel=1e-9)
     done = tuple(sorted((int(rec["removed"][0]), int(rec["kept"][0]))))
     assert costs[done] == pytest.approx(min(costs.values()), rel=1e-9)
-    np.testing.assert_allclose(rec["position"][0], result.mesh.vertices[result.vertex_map == rec["kept"][0]][0])
+    kept_row = result.vertex_map == rec["kept"][0]
+    np.testing.assert_allclose(rec["position"][0], result.mesh.vertices[kept_row][0])
 
 
 STALE_REJECTION = pytest.mark.xfail(strict=True, reason=(

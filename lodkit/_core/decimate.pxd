@@ -41,6 +41,7 @@ cdef class EdgeCollapser:
     cdef short[::1] face_n0         # (3 * n_faces,) unit normals of the input faces, x 32767
     cdef short* N0
     cdef bint record
+    cdef bint released              # heap and quadrics freed after the run
     cdef double closed_volume       # 6 x signed volume of a closed connected surface, else 0
     cdef double pending_dvol        # its change by the collapse just checked
     cdef double min_quality

@@ -32,6 +32,8 @@ class EdgeCollapser:
     ) -> None: ...
     def run(self, target_faces: int, max_steps: int = ...) -> int:
         """0: target reached, 1: step budget used, 2: no legal collapse left."""
+    def release(self) -> None:
+        """Free the heap, quadrics and input normals after the run."""
     def plan_edge(self, u: int, v: int) -> Optional[tuple[int, int, NDArray[np.float64], float, float]]:
         """(removed, kept, position, cost, error) for edge (u, v), or None."""
     @property

@@ -337,6 +337,7 @@ cdef class EdgeCollapser:
         if self.fixed.shape[0] != n:
             raise ValueError(f"fixed must have {n} entries")
         self.moved = np.zeros(n, dtype=np.uint8)
+        self.released = False
         if placement not in (PLACE_OPTIMAL, PLACE_ENDPOINT):
             raise ValueError(f"unknown placement {placement}")
         if boundary not in (BOUNDARY_LOCK, BOUNDARY_PRESERVE, BOUNDARY_FREE):
@@ -683,13 +684,27 @@ cdef class EdgeCollapser:
         """Collapse until ``target_faces`` live faces remain, ``max_steps`` collapses are done,
         or nothing legal is left.  Returns 0 (target), 1 (step budget) or 2 (exhausted)."""
         cdef int status
+        if self.released:
+            raise RuntimeError("this EdgeCollapser was released")
         with nogil:
             status = self.run_c(target_faces, max_steps)
         return status
 
+    def release(self):
+        """Free the heap, the quadrics and the input normals once the run is over (the
+        positions, attributes and records stay readable); ``run`` may not be called again."""
+        self.released = True
+        self.heap = IndexedHeap(0)
+        self.quad = np.zeros((1, QSIZE))
+        self.Q = &self.quad[0, 0]
+        self.face_n0 = np.zeros(3, dtype=np.int16)
+        self.N0 = &self.face_n0[0]
+
     def plan_edge(self, int u, int v):
         """``(removed, kept, position, cost, error)`` for edge (u, v), or None if it may not
         collapse.  Checks nothing but the fixed/boundary rules; for tests."""
+        if self.released:
+            raise RuntimeError("this EdgeCollapser was released")
         h = self.hm._find_halfedge(u, v)
         if h < 0:
             raise ValueError(f"({u}, {v}) is not an edge")
