@@ -444,14 +444,7 @@ def test_first_cube_collapse_is_the_cheapest_reference_plan(placement):
     np.testing.assert_allclose(rec["position"][0], result.mesh.vertices[kept_row][0])
 
 
-STALE_REJECTION = pytest.mark.xfail(strict=True, reason=(
-    "core bug: a candidate rejected by a check leaves the heap and is only re-costed when one "
-    "of its ends is the kept vertex of a later collapse; a collapse at a neighbour that makes "
-    "it legal again does not bring it back, so at 14 faces a cost-0.0104 collapse is done "
-    "while two cost-0 collapses are legal"))
-
-
-@pytest.mark.parametrize("n", [2, 3, pytest.param(4, marks=STALE_REJECTION), 5])
+@pytest.mark.parametrize("n", [2, 3, 4, 5, 6])
 @pytest.mark.parametrize("placement", ["optimal", "endpoint"])
 def test_subdivided_cube_simplifies_to_its_corners(n, placement):
     """Every collapse down to 12 faces can be free (an interior vertex of a side slides into

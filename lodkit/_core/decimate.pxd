@@ -33,6 +33,7 @@ cdef class EdgeCollapser:
     cdef int n_attr
     cdef unsigned char[::1] fixed
     cdef unsigned char[::1] moved
+    cdef unsigned char[::1] refused  # 1: an edge of this vertex was refused by a check
     cdef int placement
     cdef int boundary
     cdef double cos_max_angle
@@ -65,6 +66,7 @@ cdef class EdgeCollapser:
     cdef double face_volume(self, int f) noexcept nogil
     cdef void recost(self, int e) noexcept nogil
     cdef void recost_ring(self, int v) noexcept nogil
+    cdef void retry_refused(self, int w) noexcept nogil
     cdef void rescan(self) noexcept nogil
     cdef void perform(self, int h, int r, const double* p, double cost, double err) noexcept nogil
     cdef int run_c(self, int target_faces, int max_steps) noexcept nogil

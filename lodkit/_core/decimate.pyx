@@ -337,6 +337,7 @@ cdef class EdgeCollapser:
         if self.fixed.shape[0] != n:
             raise ValueError(f"fixed must have {n} entries")
         self.moved = np.zeros(n, dtype=np.uint8)
+        self.refused = np.zeros(n, dtype=np.uint8)
         self.released = False
         if placement not in (PLACE_OPTIMAL, PLACE_ENDPOINT):
             raise ValueError(f"unknown placement {placement}")
@@ -581,14 +582,41 @@ cdef class EdgeCollapser:
             self.heap.remove_fast(e)
 
     cdef void recost_ring(self, int v) noexcept nogil:
+        """Re-cost the edges around ``v``; around each neighbour that had a candidate
+        refused by a check, give its refused edges (those out of the heap) another chance:
+        the collapse at ``v`` may have made them legal."""
         cdef int start = self.m.v_he[v]
         cdef int y = start
         cdef int ny
+        self.refused[v] = 0
         while True:
             self.recost(self.m.edge[y])
+            self.retry_refused(he_dest(self.m, y))
             ny = he_ring_next(self.m, y)
             if ny < 0:
                 self.recost(self.m.edge[he_prev(y)])
+                self.retry_refused(self.m.corner[he_prev(y)])
+                return
+            if ny == start:
+                return
+            y = ny
+
+    cdef void retry_refused(self, int w) noexcept nogil:
+        cdef int start, y, ny, e
+        if not self.refused[w]:
+            return
+        self.refused[w] = 0
+        start = self.m.v_he[w]
+        y = start
+        while True:
+            e = self.m.edge[y]
+            if not self.heap.contains_fast(e):
+                self.recost(e)
+            ny = he_ring_next(self.m, y)
+            if ny < 0:
+                e = self.m.edge[he_prev(y)]
+                if not self.heap.contains_fast(e):
+                    self.recost(e)
                 return
             if ny == start:
                 return
@@ -668,12 +696,16 @@ cdef class EdgeCollapser:
             if err > self.max_error:
                 self.n_rejected_error += 1
                 continue
+            k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
             if not self.hm.link_ok(h):
                 self.n_rejected_topology += 1
+                self.refused[r] = 1
+                self.refused[k] = 1
                 continue
-            k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
             if not self.geometry_ok(h, r, k, p):
                 self.n_rejected_geometry += 1
+                self.refused[r] = 1
+                self.refused[k] = 1
                 continue
             self.perform(h, r, p, cost, err)
             steps += 1
