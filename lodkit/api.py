@@ -60,7 +60,7 @@ class Prepared:
     """A mesh cleaned and turned into half-edge arrays, ready for a driver."""
 
     hm: Any                      # lodkit._core.halfedge.HalfEdgeMesh
-    positions: np.ndarray        # (n_slots, 3) normalised positions
+    positions: Optional[np.ndarray]  # (n_slots, 3) normalised positions (dropped once copied)
     input_vertex: np.ndarray     # (n_slots,) input vertex index of each slot
     input_face: np.ndarray       # (m_kept,) input face index of each face slot
     center: np.ndarray
@@ -215,12 +215,16 @@ def simplify(
         blocks.append(arr[prep.input_vertex])
     attr_in = np.concatenate(blocks, axis=1) if blocks else None
 
-    quadrics = vertex_quadrics(hm, prep.positions, float(boundary_weight) if boundary == "preserve" else 0.0)
+    # one row per vertex: quadric (11) then position (3); the collapser works on it in place
+    vdata = np.empty((hm.n_vertices, 14), dtype=np.float64)
+    vdata[:, 11:] = prep.positions
+    vertex_quadrics(hm, prep.positions, float(boundary_weight) if boundary == "preserve" else 0.0, out=vdata)
+    prep.positions = None
     err_limit = math.inf
     if max_error is not None:
         err_limit = float(max_error) / (prep.scale if absolute else 1.0)
     collapser = EdgeCollapser(
-        hm, prep.positions, quadrics, attr_in, fixed.astype(np.uint8),
+        hm, None, vdata, attr_in, fixed,
         placement=PLACEMENTS[placement], boundary=BOUNDARY_POLICIES[boundary],
         max_normal_angle=float(max_normal_angle), min_quality=float(min_quality),
         max_error=err_limit, record=bool(record),

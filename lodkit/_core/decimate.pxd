@@ -19,19 +19,20 @@ cdef enum RunStatus:
 # quadric layout: a11 a12 a13 a22 a23 a33 b1 b2 b3 c w   (w = summed face area)
 cdef enum:
     QSIZE = 11
+    VSTRIDE = 14         # per-vertex row: quadric (QSIZE) then position (3)
 
 cdef class EdgeCollapser:
     cdef HalfEdgeMesh hm
     cdef HEArrays* m            # raw views of hm's arrays
-    cdef double* P              # pos, (n, 3)
-    cdef double* Q              # quad, (n, QSIZE)
+    cdef double* P              # &vdata[0, QSIZE]: position of v at P[VSTRIDE * v]
+    cdef double* Q              # &vdata[0, 0]: quadric of v at Q[VSTRIDE * v]
     cdef double* A              # attr, (n, n_attr)
     cdef IndexedHeap heap
-    cdef double[:, ::1] pos
-    cdef double[:, ::1] quad
+    cdef double[:, ::1] vdata       # (n, VSTRIDE): quadric then position
+    cdef object pos_out             # positions kept after release()
     cdef double[:, ::1] attr
     cdef int n_attr
-    cdef unsigned char[::1] fixed
+    cdef unsigned char[::1] vflags  # bit 0 fixed, bit 1 boundary
     cdef unsigned char[::1] moved
     cdef unsigned char[::1] refused  # 1: an edge of this vertex was refused by a check
     cdef int placement

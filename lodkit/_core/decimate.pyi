@@ -6,7 +6,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from .halfedge import HalfEdgeMesh
 
-def vertex_quadrics(hm: HalfEdgeMesh, positions: ArrayLike, boundary_weight: float = ...) -> NDArray[np.float64]:
+def vertex_quadrics(
+    hm: HalfEdgeMesh, positions: ArrayLike, boundary_weight: float = ..., out: Optional[NDArray[np.float64]] = ...
+) -> NDArray[np.float64]:
     """(n, 11) area-weighted plane quadrics (a11 a12 a13 a22 a23 a33 b1 b2 b3 c w)."""
 
 class EdgeCollapser:

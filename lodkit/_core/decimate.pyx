@@ -236,8 +236,9 @@ def face_unit_normals(HalfEdgeMesh hm, positions):
     return out
 
 
-def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0):
-    """(n, 11) per-vertex quadrics: a11 a12 a13 a22 a23 a33 b1 b2 b3 c w.
+def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=None):
+    """(n, 11) per-vertex quadrics: a11 a12 a13 a22 a23 a33 b1 b2 b3 c w (written into the
+    first 11 columns of ``out`` when given, e.g. an (n, 14) EdgeCollapser row array).
 
     Each face adds its plane weighted by its area (Garland-Heckbert); ``w`` sums the areas.
     With ``boundary_weight > 0`` every boundary edge adds, to both ends, the plane through
@@ -247,7 +248,13 @@ def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0):
     cdef double[:, ::1] P = np.ascontiguousarray(positions, dtype=np.float64)
     if P.shape[0] != hm.n_vertices or P.shape[1] != 3:
         raise ValueError(f"positions must have shape ({hm.n_vertices}, 3)")
-    out = np.zeros((hm.n_vertices, QSIZE), dtype=np.float64)
+    if out is None:
+        out = np.zeros((hm.n_vertices, QSIZE), dtype=np.float64)
+    elif (not isinstance(out, np.ndarray) or out.dtype != np.float64 or out.ndim != 2
+          or out.shape[0] != hm.n_vertices or out.shape[1] < QSIZE or not out.flags.c_contiguous):
+        raise ValueError(f"out must be a C-contiguous float64 array of shape ({hm.n_vertices}, >= {QSIZE})")
+    else:
+        out[:, :QSIZE] = 0.0
     cdef double[:, ::1] Q = out
     cdef int f, h, i, a, b, c
     cdef double e1[3]
@@ -320,22 +327,36 @@ cdef class EdgeCollapser:
                  double max_error=INFINITY, bint record=False, bint closed_connected=False):
         cdef int n = hm.n_vertices
         self.hm = hm
-        # no copies: the collapser updates positions and quadrics in place (memory budget)
-        self.pos = np.ascontiguousarray(positions, dtype=np.float64)
-        self.quad = np.ascontiguousarray(quadrics, dtype=np.float64)
-        if self.pos.shape[0] != n or self.pos.shape[1] != 3:
-            raise ValueError(f"positions must have shape ({n}, 3)")
-        if self.quad.shape[0] != n or self.quad.shape[1] != QSIZE:
-            raise ValueError(f"quadrics must have shape ({n}, {QSIZE})")
+        # One row per vertex: the quadric (11 doubles) then the position (3), so that a
+        # plan touches two cache-line pairs, not four scattered lines.  A (n, 14) array is
+        # used in place (no copy); an (n, 11) one is joined with ``positions``.
+        q_arr = np.asarray(quadrics)
+        if q_arr.ndim == 2 and q_arr.shape[1] == VSTRIDE and q_arr.dtype == np.float64 and q_arr.flags.c_contiguous:
+            self.vdata = q_arr
+        else:
+            if q_arr.ndim != 2 or q_arr.shape[1] != QSIZE:
+                raise ValueError(f"quadrics must have shape ({n}, {QSIZE}) or ({n}, {VSTRIDE})")
+            pos_arr = np.asarray(positions, dtype=np.float64)
+            if pos_arr.shape != (n, 3):
+                raise ValueError(f"positions must have shape ({n}, 3)")
+            joined = np.empty((q_arr.shape[0], VSTRIDE), dtype=np.float64)
+            joined[:, :QSIZE] = q_arr
+            joined[:, QSIZE:] = pos_arr
+            self.vdata = joined
+        if self.vdata.shape[0] != n:
+            raise ValueError(f"quadrics must have {n} rows")
         if attributes is None:
             attributes = np.zeros((n, 0))
         self.attr = np.ascontiguousarray(attributes, dtype=np.float64)
         if self.attr.shape[0] != n:
             raise ValueError(f"attributes must have {n} rows")
         self.n_attr = self.attr.shape[1]
-        self.fixed = np.array(fixed, dtype=np.uint8, copy=True).reshape(-1)
-        if self.fixed.shape[0] != n:
+        fixed_arr = np.asarray(fixed).reshape(-1)
+        if fixed_arr.shape[0] != n:
             raise ValueError(f"fixed must have {n} entries")
+        # bit 0: fixed (may not move nor go); bit 1: on the boundary (kept up to date: after
+        # a collapse the kept vertex is on the boundary iff either end was)
+        self.vflags = (fixed_arr != 0).astype(np.uint8)
         self.moved = np.zeros(n, dtype=np.uint8)
         self.refused = np.zeros(n, dtype=np.uint8)
         self.released = False
@@ -363,7 +384,7 @@ cdef class EdgeCollapser:
         self.max_error_done = 0.0
         self.cos_orig_angle = cos(min(max_normal_angle, 90.0) * M_PI / 180.0)
         self.check_orig = max_normal_angle < 180.0
-        self.face_n0 = face_unit_normals(hm, self.pos)
+        self.face_n0 = face_unit_normals(hm, np.asarray(self.vdata)[:, QSIZE:])
         self.N0 = &self.face_n0[0] if hm.n_faces else NULL
         self.heap = IndexedHeap(hm.n_edges)
         self.m = &hm.c
@@ -371,8 +392,12 @@ cdef class EdgeCollapser:
         # times its signed volume, kept up to date collapse by collapse.
         self.closed_volume = 0.0
         self.pending_dvol = 0.0
-        self.P = &self.pos[0, 0] if n else NULL
-        self.Q = &self.quad[0, 0] if n else NULL
+        self.Q = &self.vdata[0, 0] if n else NULL
+        self.P = &self.vdata[0, QSIZE] if n else NULL
+        cdef int v
+        for v in range(n):
+            if self.m.v_he[v] >= 0 and he_is_boundary(self.m, v):
+                self.vflags[v] |= 2
         self.A = &self.attr[0, 0] if n and self.n_attr else NULL
         cdef int f
         if closed_connected and n:
@@ -388,10 +413,12 @@ cdef class EdgeCollapser:
         cdef int h = self.m.edge_he[e]
         cdef int u = self.m.corner[h]
         cdef int v = he_dest(self.m, h)
-        cdef bint bu = he_is_boundary(self.m, u)
-        cdef bint bv = he_is_boundary(self.m, v)
-        cdef bint fu = self.fixed[u]
-        cdef bint fv = self.fixed[v]
+        cdef unsigned char gu = self.vflags[u]
+        cdef unsigned char gv = self.vflags[v]
+        cdef bint bu = (gu & 2) != 0
+        cdef bint bv = (gv & 2) != 0
+        cdef bint fu = (gu & 1) != 0
+        cdef bint fv = (gv & 1) != 0
         cdef double q[QSIZE]
         cdef double cand[3]
         cdef double best, c, t, denom, d0, d1
@@ -408,20 +435,20 @@ cdef class EdgeCollapser:
         if fu and fv:
             return -1
         for i in range(QSIZE):
-            q[i] = self.Q[QSIZE * u + i] + self.Q[QSIZE * v + i]
+            q[i] = self.Q[VSTRIDE * u + i] + self.Q[VSTRIDE * v + i]
         h_out[0] = h
         if fu or fv:
             keep = u if fu else v
             for i in range(3):
-                p[i] = self.P[3 * keep + i]
+                p[i] = self.P[VSTRIDE * keep + i]
             r_out[0] = v if fu else u
             c = quadric_eval(q, p)
         elif self.placement == PLACE_ENDPOINT:
-            d0 = quadric_eval(q, &self.P[3 * u])
-            d1 = quadric_eval(q, &self.P[3 * v])
+            d0 = quadric_eval(q, &self.P[VSTRIDE * u])
+            d1 = quadric_eval(q, &self.P[VSTRIDE * v])
             keep = u if (d0 < d1 or (d0 == d1 and u < v)) else v
             for i in range(3):
-                p[i] = self.P[3 * keep + i]
+                p[i] = self.P[VSTRIDE * keep + i]
             r_out[0] = v if keep == u else u
             c = d0 if keep == u else d1
         else:
@@ -431,23 +458,23 @@ cdef class EdgeCollapser:
                 # fallback: the best of the truncated solve about the midpoint, both ends,
                 # the midpoint and the minimum along the edge
                 for i in range(3):
-                    du[i] = self.P[3 * v + i] - self.P[3 * u + i]
-                    cand[i] = self.P[3 * u + i] + 0.5 * du[i]
+                    du[i] = self.P[VSTRIDE * v + i] - self.P[VSTRIDE * u + i]
+                    cand[i] = self.P[VSTRIDE * u + i] + 0.5 * du[i]
                 if REG_MODE == 0:
                     quadric_solve_truncated(q, cand, p)
                 else:
                     quadric_solve_regularized(q, cand, p)
                 best = quadric_eval(q, p)
-                c = quadric_eval(q, &self.P[3 * u])
+                c = quadric_eval(q, &self.P[VSTRIDE * u])
                 if c < best:
                     best = c
                     for i in range(3):
-                        p[i] = self.P[3 * u + i]
-                c = quadric_eval(q, &self.P[3 * v])
+                        p[i] = self.P[VSTRIDE * u + i]
+                c = quadric_eval(q, &self.P[VSTRIDE * v])
                 if c < best:
                     best = c
                     for i in range(3):
-                        p[i] = self.P[3 * v + i]
+                        p[i] = self.P[VSTRIDE * v + i]
                 c = quadric_eval(q, cand)
                 if c < best:
                     best = c
@@ -457,12 +484,12 @@ cdef class EdgeCollapser:
                 denom = (q[0] * du[0] * du[0] + 2 * q[1] * du[0] * du[1] + 2 * q[2] * du[0] * du[2]
                          + q[3] * du[1] * du[1] + 2 * q[4] * du[1] * du[2] + q[5] * du[2] * du[2])
                 if denom > 0.0:
-                    t = -((q[0] * self.P[3 * u + 0] + q[1] * self.P[3 * u + 1] + q[2] * self.P[3 * u + 2] + q[6]) * du[0]
-                          + (q[1] * self.P[3 * u + 0] + q[3] * self.P[3 * u + 1] + q[4] * self.P[3 * u + 2] + q[7]) * du[1]
-                          + (q[2] * self.P[3 * u + 0] + q[4] * self.P[3 * u + 1] + q[5] * self.P[3 * u + 2] + q[8]) * du[2]) / denom
+                    t = -((q[0] * self.P[VSTRIDE * u + 0] + q[1] * self.P[VSTRIDE * u + 1] + q[2] * self.P[VSTRIDE * u + 2] + q[6]) * du[0]
+                          + (q[1] * self.P[VSTRIDE * u + 0] + q[3] * self.P[VSTRIDE * u + 1] + q[4] * self.P[VSTRIDE * u + 2] + q[7]) * du[1]
+                          + (q[2] * self.P[VSTRIDE * u + 0] + q[4] * self.P[VSTRIDE * u + 1] + q[5] * self.P[VSTRIDE * u + 2] + q[8]) * du[2]) / denom
                     if 0.0 < t < 1.0:
                         for i in range(3):
-                            cand[i] = self.P[3 * u + i] + t * du[i]
+                            cand[i] = self.P[VSTRIDE * u + i] + t * du[i]
                         c = quadric_eval(q, cand)
                         if c < best:
                             best = c
@@ -473,8 +500,8 @@ cdef class EdgeCollapser:
             d0 = 0.0
             d1 = 0.0
             for i in range(3):
-                d0 += (p[i] - self.P[3 * u + i]) * (p[i] - self.P[3 * u + i])
-                d1 += (p[i] - self.P[3 * v + i]) * (p[i] - self.P[3 * v + i])
+                d0 += (p[i] - self.P[VSTRIDE * u + i]) * (p[i] - self.P[VSTRIDE * u + i])
+                d1 += (p[i] - self.P[VSTRIDE * v + i]) * (p[i] - self.P[VSTRIDE * v + i])
             r_out[0] = v if (d0 < d1 or (d0 == d1 and u < v)) else u
         if c < 0.0:
             c = 0.0
@@ -501,18 +528,18 @@ cdef class EdgeCollapser:
                 b = he_dest(self.m, y)
                 c = self.m.corner[he_prev(y)]
                 for i in range(3):
-                    e1[i] = self.P[3 * b + i] - self.P[3 * center + i]
-                    e2[i] = self.P[3 * c + i] - self.P[3 * center + i]
+                    e1[i] = self.P[VSTRIDE * b + i] - self.P[VSTRIDE * center + i]
+                    e2[i] = self.P[VSTRIDE * c + i] - self.P[VSTRIDE * center + i]
                 cross3(e1, e2, n0)
                 # change of the cone from the origin over this face: (p - old) . (b x c)
-                cross3(&self.P[3 * b], &self.P[3 * c], bc)
-                dvol[0] += ((p[0] - self.P[3 * center]) * bc[0] + (p[1] - self.P[3 * center + 1]) * bc[1]
-                            + (p[2] - self.P[3 * center + 2]) * bc[2])
+                cross3(&self.P[VSTRIDE * b], &self.P[VSTRIDE * c], bc)
+                dvol[0] += ((p[0] - self.P[VSTRIDE * center]) * bc[0] + (p[1] - self.P[VSTRIDE * center + 1]) * bc[1]
+                            + (p[2] - self.P[VSTRIDE * center + 2]) * bc[2])
                 len0 = sqrt(dot3(n0, n0))
                 if len0 > 0.0:
                     for i in range(3):
-                        e1[i] = self.P[3 * b + i] - p[i]
-                        e2[i] = self.P[3 * c + i] - p[i]
+                        e1[i] = self.P[VSTRIDE * b + i] - p[i]
+                        e2[i] = self.P[VSTRIDE * c + i] - p[i]
                     cross3(e1, e2, n1)
                     len1 = sqrt(dot3(n1, n1))
                     l0 = dot3(e1, e1)
@@ -527,14 +554,14 @@ cdef class EdgeCollapser:
                     if self.min_quality > 0.0:
                         l2 = 0.0
                         for i in range(3):
-                            l2 += sq(self.P[3 * b + i] - self.P[3 * c + i])
+                            l2 += sq(self.P[VSTRIDE * b + i] - self.P[VSTRIDE * c + i])
                         q1 = 2.0 * SQRT3 * len1 / (l0 + l1 + l2)
                         if q1 < self.min_quality:
                             l0 = 0.0
                             l1 = 0.0
                             for i in range(3):
-                                l0 += sq(self.P[3 * b + i] - self.P[3 * center + i])
-                                l1 += sq(self.P[3 * c + i] - self.P[3 * center + i])
+                                l0 += sq(self.P[VSTRIDE * b + i] - self.P[VSTRIDE * center + i])
+                                l1 += sq(self.P[VSTRIDE * c + i] - self.P[VSTRIDE * center + i])
                             q0 = 2.0 * SQRT3 * len0 / (l0 + l1 + l2)
                             if q1 < q0:
                                 return False         # a sliver, worse than before
@@ -548,7 +575,7 @@ cdef class EdgeCollapser:
         cdef double dvol = 0.0
         if not self.fan_ok(r, fa, fb, p, &dvol):
             return False
-        if p[0] != self.P[3 * k + 0] or p[1] != self.P[3 * k + 1] or p[2] != self.P[3 * k + 2]:
+        if p[0] != self.P[VSTRIDE * k + 0] or p[1] != self.P[VSTRIDE * k + 1] or p[2] != self.P[VSTRIDE * k + 2]:
             if not self.fan_ok(k, fa, fb, p, &dvol):
                 return False
         if self.closed_volume != 0.0:
@@ -564,9 +591,9 @@ cdef class EdgeCollapser:
 
     cdef double face_volume(self, int f) noexcept nogil:
         """Six times the signed volume of the cone from the origin over face ``f``."""
-        cdef double* a = &self.P[3 * self.m.corner[3 * f]]
-        cdef double* b = &self.P[3 * self.m.corner[3 * f + 1]]
-        cdef double* c = &self.P[3 * self.m.corner[3 * f + 2]]
+        cdef double* a = &self.P[VSTRIDE * self.m.corner[3 * f]]
+        cdef double* b = &self.P[VSTRIDE * self.m.corner[3 * f + 1]]
+        cdef double* c = &self.P[VSTRIDE * self.m.corner[3 * f + 2]]
         return (a[0] * (b[1] * c[2] - b[2] * c[1]) + a[1] * (b[2] * c[0] - b[0] * c[2])
                 + a[2] * (b[0] * c[1] - b[1] * c[0]))
 
@@ -645,23 +672,24 @@ cdef class EdgeCollapser:
         k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
         # where p falls along r -> k decides how the attributes mix
         for i in range(3):
-            len2 += sq(self.P[3 * k + i] - self.P[3 * r + i])
-            t += (p[i] - self.P[3 * r + i]) * (self.P[3 * k + i] - self.P[3 * r + i])
+            len2 += sq(self.P[VSTRIDE * k + i] - self.P[VSTRIDE * r + i])
+            t += (p[i] - self.P[VSTRIDE * r + i]) * (self.P[VSTRIDE * k + i] - self.P[VSTRIDE * r + i])
         t = t / len2 if len2 > 0.0 else 1.0
         t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
         self.hm.collapse(h, r, dead)
+        self.vflags[k] |= self.vflags[r] & 2
         if self.closed_volume != 0.0:
             self.closed_volume += self.pending_dvol
         for i in range(3):
             if dead[i] >= 0:
                 self.heap.remove_fast(dead[i])
         for i in range(QSIZE):
-            self.Q[QSIZE * k + i] += self.Q[QSIZE * r + i]
+            self.Q[VSTRIDE * k + i] += self.Q[VSTRIDE * r + i]
         for i in range(self.n_attr):
-            self.A[self.n_attr * k + i] = self.A[self.n_attr * r + i] + t * (self.A[self.n_attr * k + i] - self.A[self.n_attr * r + i])
-        if p[0] != self.P[3 * k + 0] or p[1] != self.P[3 * k + 1] or p[2] != self.P[3 * k + 2]:
+            self.A[self.n_attr * k + i] = (1.0 - t) * self.A[self.n_attr * r + i] + t * self.A[self.n_attr * k + i]
+        if p[0] != self.P[VSTRIDE * k + 0] or p[1] != self.P[VSTRIDE * k + 1] or p[2] != self.P[VSTRIDE * k + 2]:
             for i in range(3):
-                self.P[3 * k + i] = p[i]
+                self.P[VSTRIDE * k + i] = p[i]
             self.moved[k] = 1
         if self.record:
             i = self.n_collapses
@@ -725,12 +753,16 @@ cdef class EdgeCollapser:
     def release(self):
         """Free the heap, the quadrics and the input normals once the run is over (the
         positions, attributes and records stay readable); ``run`` may not be called again."""
+        if self.released:
+            return
         self.released = True
         self.heap = IndexedHeap(0)
-        self.quad = np.zeros((1, QSIZE))
-        self.Q = &self.quad[0, 0]
         self.face_n0 = np.zeros(3, dtype=np.int16)
         self.N0 = &self.face_n0[0]
+        self.pos_out = np.ascontiguousarray(np.asarray(self.vdata)[:, QSIZE:])
+        self.vdata = np.zeros((1, VSTRIDE))
+        self.Q = &self.vdata[0, 0]
+        self.P = &self.vdata[0, QSIZE]
 
     def plan_edge(self, int u, int v):
         """``(removed, kept, position, cost, error)`` for edge (u, v), or None if it may not
@@ -754,7 +786,10 @@ cdef class EdgeCollapser:
 
     @property
     def positions(self):
-        return np.asarray(self.pos)
+        """(n, 3) current positions (a view while running, a copy after ``release``)."""
+        if self.released:
+            return self.pos_out
+        return np.asarray(self.vdata)[:, QSIZE:]
 
     @property
     def attributes(self):
@@ -766,7 +801,10 @@ cdef class EdgeCollapser:
 
     @property
     def quadrics(self):
-        return np.asarray(self.quad)
+        """(n, 11) current quadrics (a view)."""
+        if self.released:
+            raise RuntimeError("this EdgeCollapser was released")
+        return np.asarray(self.vdata)[:, :QSIZE]
 
     def records(self):
         """The collapse sequence: dict of removed, kept (vertex slots), position (n, 3),
