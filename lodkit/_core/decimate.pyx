@@ -119,7 +119,7 @@ cdef void sym3_eigen(const double* q, double* w, double* V) noexcept nogil:
             V[3 * i + j] = 1.0 if i == j else 0.0
     for sweep in range(12):
         off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2]
-        if off <= 1e-30 * (a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2]) or off == 0.0:
+        if off <= 1e-20 * (a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2]) or off == 0.0:
             break
         for pp in range(2):
             for qq in range(pp + 1, 3):
