@@ -27,9 +27,6 @@ cdef double DET_EPS = 1e-7
 # In the truncated solve, directions whose eigenvalue is below this fraction of the largest
 # are left alone (the quadric barely constrains them; moving along them is guesswork).
 cdef double EIG_EPS = 1e-3
-cdef int RANK_MODE = 0
-cdef int REG_MODE = 0
-cdef double REG_EPS = 1e-3
 cdef double SQRT3 = 1.7320508075688772
 
 
@@ -44,65 +41,33 @@ cdef inline double quadric_eval(const double* q, const double* p) noexcept nogil
             + 2.0 * (q[6] * x + q[7] * y + q[8] * z) + q[9])
 
 
+cdef inline bint cofactor_solve(const double* q, double* p, double min_det) noexcept nogil:
+    """Solve A p = -b (A the quadric's 3x3 block) by cofactors; False if |det A| <= min_det."""
+    cdef double a11 = q[0], a12 = q[1], a13 = q[2], a22 = q[3], a23 = q[4], a33 = q[5]
+    cdef double c11 = a22 * a33 - a23 * a23
+    cdef double c12 = a13 * a23 - a12 * a33
+    cdef double c13 = a12 * a23 - a13 * a22
+    cdef double det = a11 * c11 + a12 * c12 + a13 * c13
+    if not (fabs(det) > min_det):
+        return False
+    cdef double c22 = a11 * a33 - a13 * a13
+    cdef double c23 = a12 * a13 - a11 * a23
+    cdef double c33 = a11 * a22 - a12 * a12
+    cdef double inv = -1.0 / det
+    p[0] = (c11 * q[6] + c12 * q[7] + c13 * q[8]) * inv
+    p[1] = (c12 * q[6] + c22 * q[7] + c23 * q[8]) * inv
+    p[2] = (c13 * q[6] + c23 * q[7] + c33 * q[8]) * inv
+    return True
+
+
 cdef inline bint quadric_solve(const double* q, double* p) noexcept nogil:
-    """Minimise the quadric: solve A p = -b by cofactors.  False when A is not clearly
-    well-conditioned (det(A) below DET_EPS * (trace/3)^3, i.e. roughly an eigenvalue ratio
-    under ~1e-3): then ``quadric_solve_truncated`` takes over."""
-    cdef double a11 = q[0], a12 = q[1], a13 = q[2], a22 = q[3], a23 = q[4], a33 = q[5]
-    cdef double c11 = a22 * a33 - a23 * a23
-    cdef double c12 = a13 * a23 - a12 * a33
-    cdef double c13 = a12 * a23 - a13 * a22
-    cdef double det = a11 * c11 + a12 * c12 + a13 * c13
-    cdef double tr = (a11 + a22 + a33) / 3.0
-    if not (fabs(det) > DET_EPS * tr * tr * tr) or tr <= 0.0:
+    """Minimise the quadric when A is clearly well-conditioned: det(A) above
+    DET_EPS * (trace/3)^3, i.e. roughly an eigenvalue ratio over ~1e-3.  Otherwise False,
+    and ``quadric_solve_truncated`` takes over."""
+    cdef double tr = (q[0] + q[3] + q[5]) / 3.0
+    if not (tr > 0.0):
         return False
-    cdef double c22 = a11 * a33 - a13 * a13
-    cdef double c23 = a12 * a13 - a11 * a23
-    cdef double c33 = a11 * a22 - a12 * a12
-    cdef double inv = -1.0 / det
-    p[0] = (c11 * q[6] + c12 * q[7] + c13 * q[8]) * inv
-    p[1] = (c12 * q[6] + c22 * q[7] + c23 * q[8]) * inv
-    p[2] = (c13 * q[6] + c23 * q[7] + c33 * q[8]) * inv
-    return True
-
-
-cdef void quadric_solve_regularized(const double* q, const double* x0, double* p) noexcept nogil:
-    """Minimise Q(p) + eps * tr(A) * |p - x0|^2 (Tikhonov): along directions the quadric
-    does not constrain, the point stays at ``x0``; elsewhere it moves by a relative 1e-3
-    less than the exact minimum.  A cheap stand-in for the truncated pseudo-inverse."""
-    cdef double r[QSIZE]
-    cdef double lam = REG_EPS * (q[0] + q[3] + q[5])
-    cdef int i
-    for i in range(QSIZE):
-        r[i] = q[i]
-    r[0] += lam
-    r[3] += lam
-    r[5] += lam
-    r[6] -= lam * x0[0]
-    r[7] -= lam * x0[1]
-    r[8] -= lam * x0[2]
-    if not quadric_solve_any(r, p):
-        for i in range(3):
-            p[i] = x0[i]
-
-
-cdef inline bint quadric_solve_any(const double* q, double* p) noexcept nogil:
-    """Solve A p = -b by cofactors when det(A) != 0."""
-    cdef double a11 = q[0], a12 = q[1], a13 = q[2], a22 = q[3], a23 = q[4], a33 = q[5]
-    cdef double c11 = a22 * a33 - a23 * a23
-    cdef double c12 = a13 * a23 - a12 * a33
-    cdef double c13 = a12 * a23 - a13 * a22
-    cdef double det = a11 * c11 + a12 * c12 + a13 * c13
-    if not (det > 0.0 or det < 0.0):
-        return False
-    cdef double c22 = a11 * a33 - a13 * a13
-    cdef double c23 = a12 * a13 - a11 * a23
-    cdef double c33 = a11 * a22 - a12 * a12
-    cdef double inv = -1.0 / det
-    p[0] = (c11 * q[6] + c12 * q[7] + c13 * q[8]) * inv
-    p[1] = (c12 * q[6] + c22 * q[7] + c23 * q[8]) * inv
-    p[2] = (c13 * q[6] + c23 * q[7] + c33 * q[8]) * inv
-    return True
+    return cofactor_solve(q, p, DET_EPS * tr * tr * tr)
 
 
 cdef void sym3_eigen(const double* q, double* w, double* V) noexcept nogil:
@@ -460,10 +425,7 @@ cdef class EdgeCollapser:
                 for i in range(3):
                     du[i] = self.P[VSTRIDE * v + i] - self.P[VSTRIDE * u + i]
                     cand[i] = self.P[VSTRIDE * u + i] + 0.5 * du[i]
-                if REG_MODE == 0:
-                    quadric_solve_truncated(q, cand, p)
-                else:
-                    quadric_solve_regularized(q, cand, p)
+                quadric_solve_truncated(q, cand, p)
                 best = quadric_eval(q, p)
                 c = quadric_eval(q, &self.P[VSTRIDE * u])
                 if c < best:
@@ -506,7 +468,7 @@ cdef class EdgeCollapser:
         if c < 0.0:
             c = 0.0
         err[0] = sqrt(c / q[10]) if q[10] > 0.0 else 0.0
-        cost[0] = c if RANK_MODE == 0 else (err[0] if RANK_MODE == 1 else c * err[0])
+        cost[0] = c
         return 0
 
     # ------------------------------------------------------------- checks
@@ -822,13 +784,3 @@ cdef class EdgeCollapser:
             "error": np.asarray(self.rec_error)[:n].copy(),
             "moved": np.asarray(self.rec_moved)[:n].astype(bool),
         }
-
-
-def _set_tolerances(double det_eps, double eig_eps, int rank_mode=0, int reg_mode=0, double reg_eps=1e-3):
-    """Change the conditioning thresholds of the placement solve (for experiments)."""
-    global DET_EPS, EIG_EPS, RANK_MODE, REG_MODE, REG_EPS
-    REG_MODE = reg_mode
-    REG_EPS = reg_eps
-    DET_EPS = det_eps
-    EIG_EPS = eig_eps
-    RANK_MODE = rank_mode
