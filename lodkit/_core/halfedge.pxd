@@ -68,7 +68,7 @@ cdef class HalfEdgeMesh:
     cdef inline bint is_boundary(self, int v) noexcept nogil
     cdef int valence(self, int v) noexcept nogil
     cdef int find_fan_start(self, int h) noexcept nogil
-    cdef void _mark_ring(self, int v) noexcept nogil
+    cdef int _mark_ring(self, int v) noexcept nogil
     cdef int _count_marked(self, int v, int su, int sv) noexcept nogil
     cdef bint _faces_would_coincide(self, int u, int v) noexcept nogil
     cdef bint link_ok(self, int h) noexcept nogil

@@ -65,20 +65,22 @@ cdef class HalfEdgeMesh:
             if h == start:
                 return h
 
-    cdef void _mark_ring(self, int v) noexcept nogil:
-        """Stamp the input vertex (source) of every neighbour of slot ``v``."""
+    cdef int _mark_ring(self, int v) noexcept nogil:
+        """Stamp the input vertex (source) of every neighbour of slot ``v``; returns the
+        number of neighbours (the valence)."""
         cdef int start = self.c.v_he[v]
         cdef int x = start
-        cdef int nx
+        cdef int nx, n = 0
         while True:
             self.stamp[self.source(self.dest(x))] = self.stamp_counter
+            n += 1
             nx = self.ring_next(x)
             if nx < 0:
                 self.stamp[self.source(self.c.corner[he_prev(x)])] = self.stamp_counter
-                return
+                return n + 1
             x = nx
             if x == start:
-                return
+                return n
 
     cdef int _count_marked(self, int v, int su, int sv) noexcept nogil:
         """Count the marked sources around slot ``v`` (other than su, sv), each once."""
@@ -133,7 +135,7 @@ cdef class HalfEdgeMesh:
         if self.stamp_counter == 0x7fffffff:
             self.stamp[:] = 0
             self.stamp_counter = 1
-        self._mark_ring(u)
+        cdef int valence_u = self._mark_ring(u)
         if self.has_copies:
             x = self.next_copy[u]
             while x >= 0 and x != u:
@@ -147,7 +149,7 @@ cdef class HalfEdgeMesh:
                 x = self.next_copy[x]
         if common != expected:
             return False
-        if hb >= 0 and self.valence(u) == 3 and self.valence(v) == 3 and not self.is_boundary(u) and not self.is_boundary(v):
+        if hb >= 0 and valence_u == 3 and self.valence(v) == 3 and not self.is_boundary(u) and not self.is_boundary(v):
             return False    # the two ends and their common neighbours form a tetrahedron
         if self.has_copies and self._faces_would_coincide(u, v):
             return False    # the welded mesh would get two faces on the same three vertices
