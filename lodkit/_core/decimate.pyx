@@ -27,6 +27,9 @@ cdef double DET_EPS = 1e-7
 # In the truncated solve, directions whose eigenvalue is below this fraction of the largest
 # are left alone (the quadric barely constrains them; moving along them is guesswork).
 cdef double EIG_EPS = 1e-3
+# A moved face whose normal ends more than ~120 degrees from a neighbour's (and further
+# than before) folds the surface back on itself: refused (cos 120 = -0.5).
+cdef double FOLD_COS = -0.5
 cdef double SQRT3 = 1.7320508075688772
 
 
@@ -482,11 +485,17 @@ cdef class EdgeCollapser:
         cdef double e2[3]
         cdef double n0[3]
         cdef double n1[3]
-        cdef double l0, l1, l2, len0, len1, q0, q1
+        cdef double l0, l1, l2, len0, len1, q0, q1, lg
         cdef double bc[3]
+        cdef double ng[3]
+        cdef double prev_n1[3]
+        cdef double prev_len1 = 0.0
+        cdef int t, g, x
         while True:
             f = y // 3
-            if f != fa and f != fb:
+            if f == fa or f == fb:
+                prev_len1 = 0.0
+            else:
                 b = he_dest(self.m, y)
                 c = self.m.corner[he_prev(y)]
                 for i in range(3):
@@ -513,6 +522,27 @@ cdef class EdgeCollapser:
                     if self.check_orig and (n1[0] * self.N0[3 * f] + n1[1] * self.N0[3 * f + 1]
                                             + n1[2] * self.N0[3 * f + 2]) < self.cos_orig_angle * 32767.0 * len1:
                         return False                 # turned away from the input face it stands for
+                    if self.check_orig:
+                        # no new fold: the face must not bend back onto the neighbour across
+                        # its far edge b-c, nor onto the previous face of the fan
+                        t = self.m.twin[he_next(y)]
+                        if t >= 0:
+                            g = t // 3
+                            if g != fa and g != fb:
+                                x = self.m.corner[he_prev(t)]
+                                for i in range(3):
+                                    e1[i] = self.P[VSTRIDE * b + i] - self.P[VSTRIDE * c + i]
+                                    e2[i] = self.P[VSTRIDE * x + i] - self.P[VSTRIDE * c + i]
+                                cross3(e1, e2, ng)
+                                lg = sqrt(dot3(ng, ng))
+                                if (dot3(n1, ng) < FOLD_COS * len1 * lg
+                                        and dot3(n1, ng) * len0 < dot3(n0, ng) * len1):
+                                    return False
+                        if prev_len1 > 0.0 and dot3(n1, prev_n1) < FOLD_COS * len1 * prev_len1:
+                            return False
+                        for i in range(3):
+                            prev_n1[i] = n1[i]
+                        prev_len1 = len1
                     if self.min_quality > 0.0:
                         l2 = 0.0
                         for i in range(3):
