@@ -66,6 +66,9 @@ cdef class EdgeCollapser:
     cdef bint fan_ok(self, int center, int fa, int fb, const double* p, double* dvol) noexcept nogil
     cdef double face_volume(self, int f) noexcept nogil
     cdef void recost(self, int e) noexcept nogil
+    cdef void recost_he(self, int e, int h, int u, int v) noexcept nogil
+    cdef int plan_he(self, int h, int u, int v, int* h_out, int* r_out, double* p, double* cost,
+                     double* err) noexcept nogil
     cdef void recost_ring(self, int v) noexcept nogil
     cdef void retry_refused(self, int w) noexcept nogil
     cdef void rescan(self) noexcept nogil

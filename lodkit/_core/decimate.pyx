@@ -379,8 +379,12 @@ cdef class EdgeCollapser:
     cdef int plan(self, int e, int* h_out, int* r_out, double* p, double* cost, double* err) noexcept nogil:
         """Cost and placement of collapsing edge ``e``; -1 if it may not collapse at all."""
         cdef int h = self.m.edge_he[e]
-        cdef int u = self.m.corner[h]
-        cdef int v = he_dest(self.m, h)
+        return self.plan_he(h, self.m.corner[h], he_dest(self.m, h), h_out, r_out, p, cost, err)
+
+    cdef int plan_he(self, int h, int u, int v, int* h_out, int* r_out, double* p, double* cost,
+                     double* err) noexcept nogil:
+        """``plan`` for the edge of half-edge ``h`` running u -> v, when the caller already
+        holds them (a ring walk): saves the edge -> half-edge -> vertex chain of loads."""
         cdef unsigned char gu = self.vflags[u]
         cdef unsigned char gv = self.vflags[v]
         cdef bint bu = (gu & 2) != 0
@@ -592,10 +596,14 @@ cdef class EdgeCollapser:
     # ------------------------------------------------------------- heap upkeep
     cdef void recost(self, int e) noexcept nogil:
         """Re-rank edge ``e`` after a change around it (or drop it if it may not collapse)."""
-        cdef int h, r
+        cdef int h = self.m.edge_he[e]
+        self.recost_he(e, h, self.m.corner[h], he_dest(self.m, h))
+
+    cdef void recost_he(self, int e, int h, int u, int v) noexcept nogil:
+        cdef int hh, r
         cdef double p[3]
         cdef double cost, err
-        if self.plan(e, &h, &r, p, &cost, &err) == 0:
+        if self.plan_he(h, u, v, &hh, &r, p, &cost, &err) == 0:
             self.heap.push_fast(e, cost)
         else:
             self.heap.remove_fast(e)
@@ -606,15 +614,18 @@ cdef class EdgeCollapser:
         the collapse at ``v`` may have made them legal."""
         cdef int start = self.m.v_he[v]
         cdef int y = start
-        cdef int ny
+        cdef int ny, w, hp
         self.refused[v] = 0
         while True:
-            self.recost(self.m.edge[y])
-            self.retry_refused(he_dest(self.m, y))
+            w = he_dest(self.m, y)
+            self.recost_he(self.m.edge[y], y, v, w)
+            self.retry_refused(w)
             ny = he_ring_next(self.m, y)
             if ny < 0:
-                self.recost(self.m.edge[he_prev(y)])
-                self.retry_refused(self.m.corner[he_prev(y)])
+                hp = he_prev(y)
+                w = self.m.corner[hp]
+                self.recost_he(self.m.edge[hp], hp, w, v)
+                self.retry_refused(w)
                 return
             if ny == start:
                 return
