@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """Benchmark lodkit against peer simplifiers: time, memory, error, validity.
 
-    python bench/run.py --meshes bunny,igea,generated1m --ratios 0.5,0.1,0.02,0.005 \\
+    python bench/run.py --meshes bunny,igea,fandisk,generated1m --ratios 0.5,0.1,0.02,0.005 \\
         --repeats 3 --out bench/results/
 
 Every (mesh, ratio, method) runs in a fresh worker subprocess (this same script with
@@ -395,7 +395,7 @@ def main(argv=None) -> int:
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--meshes", default="bunny,igea,generated1m",
+    ap.add_argument("--meshes", default="bunny,igea,fandisk,generated1m",
                     help="comma list: stems of files in the shared mesh dir, or generated<N>[k|m] (default %(default)s)")
     ap.add_argument("--ratios", default="0.5,0.1,0.02,0.005", help="target face ratios (default %(default)s)")
     ap.add_argument("--methods", default=",".join(DEFAULT_METHODS),
