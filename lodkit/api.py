@@ -111,10 +111,14 @@ def prepare(mesh: Mesh) -> Prepared:
     pts = mesh.vertices[input_vertex]
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     del pts
-    center = 0.5 * (lo + hi)
-    scale = float(np.linalg.norm(hi - lo))
+    with np.errstate(over="ignore", invalid="ignore"):
+        center = 0.5 * lo + 0.5 * hi
+        scale = float(np.linalg.norm(hi - lo))
     if not scale > 0.0:
         raise MeshError("all vertices used by faces coincide: the bounding box has zero size")
+    if not np.isfinite(scale):
+        raise MeshError(f"the bounding box is too large to measure (coordinates up to "
+                        f"{np.abs(mesh.vertices[input_vertex]).max():.3g}); rescale the mesh")
     hm = build(compact, int(input_vertex.size))
     del compact, faces
     slot_input = input_vertex[hm.vertex_sources] if hm.n_split_vertices else input_vertex

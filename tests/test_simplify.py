@@ -515,3 +515,9 @@ def test_no_face_folds_flat(name, ratio):
     result = lodkit.simplify(mesh, target_ratio=ratio)
     assert result.stop_reason == "target_faces"
     assert min_dihedral_dot(result.mesh) > -0.9
+
+
+def test_overflowing_bounding_box_raises_mesh_error():
+    mesh = lodkit.Mesh(np.array([[-1e308, 0, 0], [1e308, 0, 0], [0, 1e308, 0]]), np.array([[0, 1, 2]]))
+    with pytest.raises(MeshError, match="too large"):
+        lodkit.simplify(mesh, target_faces=0)
