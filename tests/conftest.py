@@ -68,3 +68,15 @@ def mesh_dir() -> Path:
     if directory is None:
         pytest.skip(_missing_dir_reason())
     return directory
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """Free what the tests left in reference cycles before the interpreter shuts down.
+
+    Open3D counts its tensor allocations and, at exit, turns any still alive into a
+    failing exit status (isl-org/Open3D#3666) even though every test passed; objects
+    caught in cycles (exceptions with tracebacks, mocks) are only freed by a collection.
+    """
+    import gc
+
+    gc.collect()

@@ -174,6 +174,18 @@ cdef inline double dot3(const double* a, const double* b) noexcept nogil:
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
+cdef inline double face_cross(double[:, ::1] P, int a, int b, int c, double* nrm) noexcept nogil:
+    """(b - a) x (c - a) into ``nrm`` (twice the area vector of face a b c); returns its length."""
+    cdef double e1[3]
+    cdef double e2[3]
+    cdef int i
+    for i in range(3):
+        e1[i] = P[b, i] - P[a, i]
+        e2[i] = P[c, i] - P[a, i]
+    cross3(e1, e2, nrm)
+    return sqrt(dot3(nrm, nrm))
+
+
 def face_unit_normals(HalfEdgeMesh hm, positions):
     """(n_faces * 3,) int16 unit normals of the face slots, scaled by 32767 (zeros for
     degenerate faces): 6 bytes a face is plenty for a 90-degree test.
@@ -183,21 +195,12 @@ def face_unit_normals(HalfEdgeMesh hm, positions):
     cdef double[:, ::1] P = np.ascontiguousarray(positions, dtype=np.float64)
     out = np.zeros(3 * hm.n_faces, dtype=np.int16)
     cdef short[::1] N = out
-    cdef int f, i, a, b, c
-    cdef double e1[3]
-    cdef double e2[3]
+    cdef int f, i
     cdef double nrm[3]
     cdef double length
     with nogil:
         for f in range(hm.n_faces):
-            a = hm.corner[3 * f]
-            b = hm.corner[3 * f + 1]
-            c = hm.corner[3 * f + 2]
-            for i in range(3):
-                e1[i] = P[b, i] - P[a, i]
-                e2[i] = P[c, i] - P[a, i]
-            cross3(e1, e2, nrm)
-            length = sqrt(dot3(nrm, nrm))
+            length = face_cross(P, hm.corner[3 * f], hm.corner[3 * f + 1], hm.corner[3 * f + 2], nrm)
             if length > 0.0:
                 for i in range(3):
                     N[3 * f + i] = <short>(nrm[i] / length * 32767.0 + (0.5 if nrm[i] >= 0 else -0.5))
@@ -235,13 +238,7 @@ def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=
             if not hm.face_alive[f]:
                 continue
             a = hm.corner[3 * f]
-            b = hm.corner[3 * f + 1]
-            c = hm.corner[3 * f + 2]
-            for i in range(3):
-                e1[i] = P[b, i] - P[a, i]
-                e2[i] = P[c, i] - P[a, i]
-            cross3(e1, e2, nrm)
-            length = sqrt(dot3(nrm, nrm))
+            length = face_cross(P, a, hm.corner[3 * f + 1], hm.corner[3 * f + 2], nrm)
             if length <= 0.0:
                 continue
             area = 0.5 * length
@@ -489,12 +486,13 @@ cdef class EdgeCollapser:
         cdef double e2[3]
         cdef double n0[3]
         cdef double n1[3]
-        cdef double l0, l1, l2, len0, len1, q0, q1, lg
+        cdef double l0, l1, l2, len0, len1, q0, q1, lg, prev_ok
         cdef double bc[3]
         cdef double ng[3]
         cdef double prev_n1[3]
         cdef double prev_len1 = 0.0
         cdef int t, g, x
+        prev_n1[0] = prev_n1[1] = prev_n1[2] = 0.0
         while True:
             f = y // 3
             if f == fa or f == fb:
@@ -511,6 +509,8 @@ cdef class EdgeCollapser:
                 dvol[0] += ((p[0] - self.P[VSTRIDE * center]) * bc[0] + (p[1] - self.P[VSTRIDE * center + 1]) * bc[1]
                             + (p[2] - self.P[VSTRIDE * center + 2]) * bc[2])
                 len0 = sqrt(dot3(n0, n0))
+                prev_ok = prev_len1
+                prev_len1 = 0.0                      # set again below if this face is checked
                 if len0 > 0.0:
                     for i in range(3):
                         e1[i] = self.P[VSTRIDE * b + i] - p[i]
@@ -542,7 +542,7 @@ cdef class EdgeCollapser:
                                 if (dot3(n1, ng) < FOLD_COS * len1 * lg
                                         and dot3(n1, ng) * len0 < dot3(n0, ng) * len1):
                                     return False
-                        if prev_len1 > 0.0 and dot3(n1, prev_n1) < FOLD_COS * len1 * prev_len1:
+                        if prev_ok > 0.0 and dot3(n1, prev_n1) < FOLD_COS * len1 * prev_ok:
                             return False
                         for i in range(3):
                             prev_n1[i] = n1[i]
