@@ -462,16 +462,19 @@ cdef class EdgeCollapser:
                             for i in range(3):
                                 p[i] = cand[i]
                 c = best
-            # the kept slot is the end nearer to the new position (provenance)
-            d0 = 0.0
-            d1 = 0.0
-            for i in range(3):
-                d0 += (p[i] - self.P[VSTRIDE * u + i]) * (p[i] - self.P[VSTRIDE * u + i])
-                d1 += (p[i] - self.P[VSTRIDE * v + i]) * (p[i] - self.P[VSTRIDE * v + i])
-            r_out[0] = v if (d0 < d1 or (d0 == d1 and u < v)) else u
+            # the kept slot is the end nearer to the new position (provenance); only the
+            # collapse itself needs it, not the ranking (err == NULL)
+            if err != NULL:
+                d0 = 0.0
+                d1 = 0.0
+                for i in range(3):
+                    d0 += (p[i] - self.P[VSTRIDE * u + i]) * (p[i] - self.P[VSTRIDE * u + i])
+                    d1 += (p[i] - self.P[VSTRIDE * v + i]) * (p[i] - self.P[VSTRIDE * v + i])
+                r_out[0] = v if (d0 < d1 or (d0 == d1 and u < v)) else u
         if c < 0.0:
             c = 0.0
-        err[0] = sqrt(c / q[10]) if q[10] > 0.0 else 0.0
+        if err != NULL:
+            err[0] = sqrt(c / q[10]) if q[10] > 0.0 else 0.0
         cost[0] = c
         return 0
 
@@ -602,8 +605,8 @@ cdef class EdgeCollapser:
     cdef void recost_he(self, int e, int h, int u, int v) noexcept nogil:
         cdef int hh, r
         cdef double p[3]
-        cdef double cost, err
-        if self.plan_he(h, u, v, &hh, &r, p, &cost, &err) == 0:
+        cdef double cost
+        if self.plan_he(h, u, v, &hh, &r, p, &cost, NULL) == 0:       # ranking only
             self.heap.push_fast(e, cost)
         else:
             self.heap.remove_fast(e)
@@ -656,10 +659,10 @@ cdef class EdgeCollapser:
         cdef int e
         cdef int h, r
         cdef double p[3]
-        cdef double cost, err
+        cdef double cost
         self.heap.clear_fast()
         for e in range(self.hm.n_edges):
-            if self.m.edge_alive[e] and self.plan(e, &h, &r, p, &cost, &err) == 0:
+            if self.m.edge_alive[e] and self.plan(e, &h, &r, p, &cost, NULL) == 0:
                 self.heap.append_unordered(e, cost)
         self.heap.heapify_fast()
         self.collapses_since_rescan = 0
