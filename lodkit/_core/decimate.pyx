@@ -507,10 +507,11 @@ cdef class EdgeCollapser:
                     e1[i] = self.P[VSTRIDE * b + i] - self.P[VSTRIDE * center + i]
                     e2[i] = self.P[VSTRIDE * c + i] - self.P[VSTRIDE * center + i]
                 cross3(e1, e2, n0)
-                # change of the cone from the origin over this face: (p - old) . (b x c)
-                cross3(&self.P[VSTRIDE * b], &self.P[VSTRIDE * c], bc)
-                dvol[0] += ((p[0] - self.P[VSTRIDE * center]) * bc[0] + (p[1] - self.P[VSTRIDE * center + 1]) * bc[1]
-                            + (p[2] - self.P[VSTRIDE * center + 2]) * bc[2])
+                if self.closed_volume != 0.0:
+                    # change of the cone from the origin over this face: (p - old) . (b x c)
+                    cross3(&self.P[VSTRIDE * b], &self.P[VSTRIDE * c], bc)
+                    dvol[0] += ((p[0] - self.P[VSTRIDE * center]) * bc[0] + (p[1] - self.P[VSTRIDE * center + 1]) * bc[1]
+                                + (p[2] - self.P[VSTRIDE * center + 2]) * bc[2])
                 len0 = sqrt(dot3(n0, n0))
                 prev_ok = prev_len1
                 prev_len1 = 0.0                      # set again below if this face is checked
@@ -529,6 +530,20 @@ cdef class EdgeCollapser:
                     if self.check_orig and (n1[0] * self.N0[3 * f] + n1[1] * self.N0[3 * f + 1]
                                             + n1[2] * self.N0[3 * f + 2]) < self.cos_orig_angle * 32767.0 * len1:
                         return False                 # turned away from the input face it stands for
+                    if self.min_quality > 0.0:
+                        l2 = 0.0
+                        for i in range(3):
+                            l2 += sq(self.P[VSTRIDE * b + i] - self.P[VSTRIDE * c + i])
+                        q1 = 2.0 * SQRT3 * len1 / (l0 + l1 + l2)
+                        if q1 < self.min_quality:
+                            l0 = 0.0
+                            l1 = 0.0
+                            for i in range(3):
+                                l0 += sq(self.P[VSTRIDE * b + i] - self.P[VSTRIDE * center + i])
+                                l1 += sq(self.P[VSTRIDE * c + i] - self.P[VSTRIDE * center + i])
+                            q0 = 2.0 * SQRT3 * len0 / (l0 + l1 + l2)
+                            if q1 < q0:
+                                return False         # a sliver, worse than before
                     if self.check_orig:
                         # no new fold: the face must not bend back onto the neighbour across
                         # its far edge b-c, nor onto the previous face of the fan
@@ -550,20 +565,6 @@ cdef class EdgeCollapser:
                         for i in range(3):
                             prev_n1[i] = n1[i]
                         prev_len1 = len1
-                    if self.min_quality > 0.0:
-                        l2 = 0.0
-                        for i in range(3):
-                            l2 += sq(self.P[VSTRIDE * b + i] - self.P[VSTRIDE * c + i])
-                        q1 = 2.0 * SQRT3 * len1 / (l0 + l1 + l2)
-                        if q1 < self.min_quality:
-                            l0 = 0.0
-                            l1 = 0.0
-                            for i in range(3):
-                                l0 += sq(self.P[VSTRIDE * b + i] - self.P[VSTRIDE * center + i])
-                                l1 += sq(self.P[VSTRIDE * c + i] - self.P[VSTRIDE * center + i])
-                            q0 = 2.0 * SQRT3 * len0 / (l0 + l1 + l2)
-                            if q1 < q0:
-                                return False         # a sliver, worse than before
             y = he_ring_next(self.m, y)
             if y < 0 or y == start:
                 return True
