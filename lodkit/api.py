@@ -210,8 +210,6 @@ def simplify(
     fixed = hm.locked_vertices.copy()
     if locked is not None:
         fixed |= _locked_mask(locked, src.n_vertices)[prep.input_vertex]
-    if boundary == "lock":
-        fixed |= _boundary_mask(hm)
     attrs = src.attributes()
     names, blocks = [], []
     for name, arr in attrs.items():
@@ -312,18 +310,6 @@ def _locked_mask(locked, n: int) -> np.ndarray:
         raise OptionError(f"locked holds a vertex index outside 0..{n - 1}")
     mask = np.zeros(n, dtype=bool)
     mask[arr] = True
-    return mask
-
-
-def _boundary_mask(hm) -> np.ndarray:
-    """(n_slots,) bool: vertices with a boundary edge."""
-    twin = hm.twins
-    corner = hm.corners.reshape(-1)
-    mask = np.zeros(hm.n_vertices, dtype=bool)
-    mask[corner[twin < 0]] = True
-    nxt = np.arange(twin.size)
-    nxt = nxt - nxt % 3 + (nxt + 1) % 3
-    mask[corner[nxt[twin < 0]]] = True
     return mask
 
 

@@ -187,6 +187,8 @@ def reference_plan(u, v, q_all, positions, boundary, fixed, interior, placement,
     if bu and bv and interior:
         return None                                       # would pinch the surface
     fu, fv = bool(fixed[u]), bool(fixed[v])
+    if policy == LOCK:                                    # a border vertex never moves at all
+        fu, fv = fu or bu, fv or bv
     if policy == PRESERVE:                                # a border vertex never moves inwards
         fu = fu or (bu and not bv)
         fv = fv or (bv and not bu)

@@ -281,7 +281,7 @@ cdef class EdgeCollapser:
                 (C-contiguous float64 arrays are used in place, not copied)
     fixed     : (n,) uint8, 1 = the vertex may not move nor be removed
     placement : 0 optimal, 1 endpoint (half-edge collapse)
-    boundary  : 0 lock, 1 preserve, 2 free
+    boundary  : 0 lock (boundary vertices are fixed), 1 preserve, 2 free
     closed_connected : the surface is closed and connected: refuse collapses that would
                 turn it inside out (its signed volume is tracked)
     """
@@ -362,7 +362,8 @@ cdef class EdgeCollapser:
         cdef int v
         for v in range(n):
             if self.m.v_he[v] >= 0 and he_is_boundary(self.m, v):
-                self.vflags[v] |= 2
+                # under the 'lock' policy a boundary vertex is also fixed
+                self.vflags[v] |= 3 if boundary == BOUNDARY_LOCK else 2
         self.A = &self.attr[0, 0] if n and self.n_attr else NULL
         cdef int f
         if closed_connected and n:
