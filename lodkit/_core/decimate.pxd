@@ -1,6 +1,7 @@
 # cython: language_level=3
 from .halfedge cimport HalfEdgeMesh, HEArrays
 from .heap cimport IndexedHeap
+from .kernel cimport Kernel, KernelMesh, Candidate
 
 cdef enum BoundaryPolicy:
     BOUNDARY_LOCK = 0
@@ -15,6 +16,36 @@ cdef enum RunStatus:
     RUN_TARGET = 0       # face target reached
     RUN_CHUNK = 1        # max_steps collapses done, call again
     RUN_EXHAUSTED = 2    # no legal collapse left (or none within max_error)
+    RUN_ERROR = 3        # a native kernel reported an error (see EdgeCollapser.error_message)
+
+# field rules: how a field merges on collapse, how a vertex field gives an edge its value,
+# and how the value enters the cost
+cdef enum FieldMerge:
+    MERGE_MAX = 0
+    MERGE_MIN = 1
+    MERGE_SUM = 2
+    MERGE_KEEP = 3       # the kept vertex's (or surviving edge's) value
+    MERGE_MEAN = 4
+
+cdef enum FieldValue:    # the value of edge (u, v) from a vertex field
+    VALUE_MAX = 0
+    VALUE_MIN = 1
+    VALUE_SUM = 2
+    VALUE_KEPT = 3
+    VALUE_REMOVED = 4
+    VALUE_MEAN = 5
+
+cdef enum FieldMode:
+    MODE_SCALE = 0       # cost *= offset + weight * value
+    MODE_ADD = 1         # cost += weight * value
+
+cdef enum:
+    RULE_MERGE = 0       # columns of the (n_fields, 5) rule arrays
+    RULE_VALUE = 1
+    RULE_MODE = 2
+    RULE_WEIGHT = 3
+    RULE_OFFSET = 4
+    RULE_COLS = 5
 
 # quadric layout: a11 a12 a13 a22 a23 a33 b1 b2 b3 c w   (w = summed face area)
 cdef enum:
@@ -60,6 +91,26 @@ cdef class EdgeCollapser:
     cdef readonly int n_rejected_topology
     cdef readonly int n_rejected_geometry
     cdef int collapses_since_rescan
+    # the metric: quadric cost weight, fields, native kernels
+    cdef double quadric_weight      # 0 when no quadric metric: the quadric only places
+    cdef double error_scale         # error = sqrt(error_scale * Q(p) / area)
+    cdef int n_vfields
+    cdef double* VF                 # (n, n_vfields) vertex fields
+    cdef double[:, ::1] vfield
+    cdef double[:, ::1] vrules      # (n_vfields, RULE_COLS)
+    cdef int n_efields
+    cdef double* EF                 # (n_edges, n_efields) edge fields
+    cdef double[:, ::1] efield
+    cdef double[:, ::1] erules
+    cdef Kernel kernel              # first of the chain, None if no kernels
+    cdef bint kernel_places
+    cdef KernelMesh kmesh
+    cdef bint has_extras            # any field or kernel
+    cdef bint use_heap              # False: the pass driver (batch metrics) runs instead
+    cdef readonly int n_vetoed      # candidates refused by a kernel since the last rescan
+    cdef readonly bint failed       # a kernel returned KERNEL_ERROR
+    cdef int[::1] touched           # pass driver: vertices touched in the current pass
+    cdef int pass_counter
 
     cdef int plan(self, int e, int* h_out, int* r_out, double* p, double* cost, double* err) noexcept nogil
     cdef bint geometry_ok(self, int h, int r, int k, const double* p) noexcept nogil
@@ -69,8 +120,13 @@ cdef class EdgeCollapser:
     cdef void recost_he(self, int e, int h, int u, int v) noexcept nogil
     cdef int plan_he(self, int h, int u, int v, int* h_out, int* r_out, double* p, double* cost,
                      double* err) noexcept nogil
+    cdef int metric_cost(self, int h, int u, int v, int fu, int fv, const double* q, int* r_out,
+                         double* p, double* c, double* err) noexcept nogil
+    cdef int kernel_refused(self, int rc) noexcept nogil
+    cdef void merge_fields(self, int r, int k, const int* dead, const int* merged_into) noexcept nogil
     cdef void recost_ring(self, int v) noexcept nogil
     cdef void retry_refused(self, int w) noexcept nogil
     cdef void rescan(self) noexcept nogil
     cdef void perform(self, int h, int r, const double* p, double cost, double err) noexcept nogil
+    cdef int collapse_pass_c(self, const int* E, int n_cand, const double* PO, int target_faces) noexcept nogil
     cdef int run_c(self, int target_faces, int max_steps) noexcept nogil

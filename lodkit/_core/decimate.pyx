@@ -18,6 +18,8 @@ from libc.math cimport sqrt, fabs, cos, M_PI, INFINITY
 
 from .halfedge cimport HalfEdgeMesh, HEArrays, he_next, he_prev, he_dest, he_ring_next, he_is_boundary
 from .heap cimport IndexedHeap
+from .kernel cimport (Kernel, KernelMesh, Candidate, chain_place, chain_cost, chain_commit,
+                      KERNEL_OK, KERNEL_VETO, KERNEL_ERROR)
 
 cnp.import_array()
 
@@ -272,6 +274,47 @@ def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=
     return out
 
 
+cdef inline double apply_field(double cost, double value, const double* rule) noexcept nogil:
+    if <int>rule[RULE_MODE] == MODE_SCALE:
+        return cost * (rule[RULE_OFFSET] + rule[RULE_WEIGHT] * value)
+    return cost + rule[RULE_WEIGHT] * value
+
+
+cdef bint chain_failed(Kernel k) noexcept nogil:
+    if k.failed:
+        return True
+    return k._next is not None and chain_failed(k._next)
+
+
+cdef inline double merge_value(double kept, double removed, int rule) noexcept nogil:
+    if rule == MERGE_MAX:
+        return kept if kept > removed else removed
+    if rule == MERGE_MIN:
+        return kept if kept < removed else removed
+    if rule == MERGE_SUM:
+        return kept + removed
+    if rule == MERGE_MEAN:
+        return 0.5 * (kept + removed)
+    return kept
+
+
+def _field_arrays(values, rules, int rows, str what):
+    """Check a (rows, k) field block and its (k, 5) rules; an empty block if None."""
+    if values is None:
+        return np.zeros((1, 1)), np.zeros((1, RULE_COLS)), 0
+    vals = np.ascontiguousarray(values, dtype=np.float64)
+    if vals.ndim == 1:
+        vals = vals.reshape(-1, 1)
+    if vals.ndim != 2 or vals.shape[0] != rows:
+        raise ValueError(f"{what} fields must have shape ({rows}, k), got {np.shape(values)}")
+    rl = np.ascontiguousarray(rules, dtype=np.float64)
+    if rl.shape != (vals.shape[1], RULE_COLS):
+        raise ValueError(f"{what} field rules must have shape ({vals.shape[1]}, {RULE_COLS})")
+    if vals.shape[1] == 0:
+        return np.zeros((1, 1)), np.zeros((1, RULE_COLS)), 0
+    return vals, rl, int(vals.shape[1])
+
+
 cdef class EdgeCollapser:
     """Greedy QEM edge collapse over a :class:`HalfEdgeMesh` (modified in place).
 
@@ -289,7 +332,10 @@ cdef class EdgeCollapser:
     def __init__(self, HalfEdgeMesh hm, positions, quadrics, attributes, fixed,
                  int placement=PLACE_OPTIMAL, int boundary=BOUNDARY_PRESERVE,
                  double max_normal_angle=90.0, double min_quality=0.0,
-                 double max_error=INFINITY, bint record=False, bint closed_connected=False):
+                 double max_error=INFINITY, bint record=False, bint closed_connected=False,
+                 double quadric_weight=1.0, double error_scale=1.0,
+                 vertex_fields=None, vertex_rules=None, edge_fields=None, edge_rules=None,
+                 kernels=(), bint use_heap=True):
         cdef int n = hm.n_vertices
         self.hm = hm
         # One row per vertex: the quadric (11 doubles) then the position (3), so that a
@@ -365,13 +411,53 @@ cdef class EdgeCollapser:
                 # under the 'lock' policy a boundary vertex is also fixed
                 self.vflags[v] |= 3 if boundary == BOUNDARY_LOCK else 2
         self.A = &self.attr[0, 0] if n and self.n_attr else NULL
+        self._setup_metric(quadric_weight, error_scale, vertex_fields, vertex_rules,
+                           edge_fields, edge_rules, kernels, use_heap)
         cdef int f
         if closed_connected and n:
             for f in range(hm.n_faces):
                 if hm.face_alive[f]:
                     self.closed_volume += self.face_volume(f)
-        with nogil:
-            self.rescan()
+        if self.use_heap:
+            with nogil:
+                self.rescan()
+
+    def _setup_metric(self, double quadric_weight, double error_scale, vertex_fields, vertex_rules,
+                      edge_fields, edge_rules, kernels, bint use_heap):
+        cdef int n = self.hm.n_vertices
+        if not (quadric_weight >= 0.0) or not (error_scale > 0.0):
+            raise ValueError("quadric_weight must be >= 0 and error_scale > 0")
+        self.quadric_weight = quadric_weight
+        self.error_scale = error_scale
+        self.vfield, self.vrules, self.n_vfields = _field_arrays(vertex_fields, vertex_rules, n, "vertex")
+        self.efield, self.erules, self.n_efields = _field_arrays(edge_fields, edge_rules, self.hm.n_edges, "edge")
+        self.VF = &self.vfield[0, 0] if self.n_vfields and n else NULL
+        self.EF = &self.efield[0, 0] if self.n_efields and self.hm.n_edges else NULL
+        cdef Kernel k
+        kernels = list(kernels)
+        for k in kernels:            # type-checks each one
+            if k is None:
+                raise TypeError("kernels must be lodkit._core.kernel.Kernel instances")
+        self.kernel = kernels[0] if kernels else None
+        self.kernel_places = False
+        if self.kernel is not None:
+            self.kernel._chain(kernels[1:])
+            for k in kernels:
+                self.kernel_places |= k.places
+        self.kmesh.he = self.m
+        self.kmesh.positions = self.P
+        self.kmesh.stride = VSTRIDE
+        self.kmesh.flags = &self.vflags[0] if n else NULL
+        self.kmesh.n_vertices = n
+        self.kmesh.n_faces = self.hm.n_faces
+        self.has_extras = self.n_vfields > 0 or self.n_efields > 0 or self.kernel is not None
+        self.use_heap = use_heap
+        self.n_vetoed = 0
+        self.failed = False
+        self.touched = np.zeros(n if not use_heap else 1, dtype=np.intc)
+        self.pass_counter = 0
+        if not use_heap:
+            self.heap = IndexedHeap(0)
 
     # ------------------------------------------------------------- planning
     cdef int plan(self, int e, int* h_out, int* r_out, double* p, double* cost, double* err) noexcept nogil:
@@ -464,8 +550,8 @@ cdef class EdgeCollapser:
                                 p[i] = cand[i]
                 c = best
             # the kept slot is the end nearer to the new position (provenance); only the
-            # collapse itself needs it, not the ranking (err == NULL)
-            if err != NULL:
+            # collapse itself and the metric's fields / kernels need it, not QEM's ranking
+            if err != NULL or self.has_extras:
                 d0 = 0.0
                 d1 = 0.0
                 for i in range(3):
@@ -474,10 +560,113 @@ cdef class EdgeCollapser:
                 r_out[0] = v if (d0 < d1 or (d0 == d1 and u < v)) else u
         if c < 0.0:
             c = 0.0
+        if self.has_extras:
+            keep = self.metric_cost(h, u, v, fu, fv, q, r_out, p, &c, err)
+            cost[0] = c
+            return keep
         if err != NULL:
-            err[0] = sqrt(c / q[10]) if q[10] > 0.0 else 0.0
-        cost[0] = c
+            err[0] = sqrt(self.error_scale * c / q[10]) if q[10] > 0.0 else 0.0
+        cost[0] = self.quadric_weight * c
         return 0
+
+    cdef int metric_cost(self, int h, int u, int v, int fu, int fv, const double* q, int* r_out,
+                         double* p, double* c, double* err) noexcept nogil:
+        """The rest of the metric after the quadric: a kernel may re-place, then the
+        quadric cost (times its weight), the fields in order, the kernels in order.
+        ``c`` holds the quadric value at ``p`` on entry, the total cost on return.
+        Returns 0, -1 (a kernel vetoed) or -2 (a kernel failed: ``self.failed``)."""
+        cdef Candidate cand
+        cdef double cq = c[0]
+        cdef double total, val, a, b, e_err
+        cdef double* rule
+        cdef int j, rc, e = self.m.edge[h]
+        cdef int kept = v if r_out[0] == u else u
+        if self.kernel is not None:
+            cand.mesh = &self.kmesh
+            cand.edge = e
+            cand.h = h
+            cand.u = u
+            cand.v = v
+            cand.removed = r_out[0]
+            cand.kept = kept
+            cand.p[0] = p[0]
+            cand.p[1] = p[1]
+            cand.p[2] = p[2]
+            cand.cost = 0.0
+            cand.error = 0.0
+            if self.kernel_places:
+                rc = chain_place(self.kernel, &cand)
+                if rc != KERNEL_OK:
+                    return self.kernel_refused(rc)
+                if not ((cand.removed == u and cand.kept == v) or (cand.removed == v and cand.kept == u)):
+                    self.kernel.fail(b"place() set removed/kept to vertices that are not the edge's ends")
+                    self.failed = True
+                    return -2
+                # the fixed rules bind a kernel too: a fixed end stays, where it is
+                if (fu and cand.removed == u) or (fv and cand.removed == v):
+                    self.n_vetoed += 1
+                    return -1
+                if (fu or fv) and (cand.p[0] != self.P[VSTRIDE * cand.kept] or cand.p[1] != self.P[VSTRIDE * cand.kept + 1]
+                                   or cand.p[2] != self.P[VSTRIDE * cand.kept + 2]):
+                    self.n_vetoed += 1
+                    return -1
+                r_out[0] = cand.removed
+                kept = cand.kept
+                if cand.p[0] != p[0] or cand.p[1] != p[1] or cand.p[2] != p[2]:
+                    p[0] = cand.p[0]
+                    p[1] = cand.p[1]
+                    p[2] = cand.p[2]
+                    cq = quadric_eval(q, p)
+                    if cq < 0.0:
+                        cq = 0.0
+        e_err = sqrt(self.error_scale * cq / q[10]) if q[10] > 0.0 else 0.0
+        if err != NULL:
+            err[0] = e_err
+        total = self.quadric_weight * cq
+        for j in range(self.n_vfields):
+            rule = &self.vrules[j, 0]
+            a = self.VF[self.n_vfields * u + j]
+            b = self.VF[self.n_vfields * v + j]
+            if <int>rule[RULE_VALUE] == VALUE_MAX:
+                val = a if a > b else b
+            elif <int>rule[RULE_VALUE] == VALUE_MIN:
+                val = a if a < b else b
+            elif <int>rule[RULE_VALUE] == VALUE_SUM:
+                val = a + b
+            elif <int>rule[RULE_VALUE] == VALUE_KEPT:
+                val = a if kept == u else b
+            elif <int>rule[RULE_VALUE] == VALUE_REMOVED:
+                val = b if kept == u else a
+            else:
+                val = 0.5 * (a + b)
+            total = apply_field(total, val, rule)
+        for j in range(self.n_efields):
+            total = apply_field(total, self.EF[self.n_efields * e + j], &self.erules[j, 0])
+        if self.kernel is not None:
+            cand.removed = r_out[0]
+            cand.kept = kept
+            cand.p[0] = p[0]
+            cand.p[1] = p[1]
+            cand.p[2] = p[2]
+            cand.cost = total
+            cand.error = e_err
+            rc = chain_cost(self.kernel, &cand)
+            if rc != KERNEL_OK:
+                return self.kernel_refused(rc)
+            total = cand.cost
+        if total != total:
+            total = INFINITY          # a NaN cost ranks last rather than breaking the heap order
+        c[0] = total
+        return 0
+
+    cdef int kernel_refused(self, int rc) noexcept nogil:
+        if rc == KERNEL_VETO:
+            self.n_vetoed += 1
+            return -1
+        self.failed = True            # KERNEL_ERROR, or anything else a kernel should not return
+        if not chain_failed(self.kernel):
+            self.kernel.fail(b"a kernel returned an unknown status (not KERNEL_OK, KERNEL_VETO nor KERNEL_ERROR)")
+        return -2
 
     # ------------------------------------------------------------- checks
     cdef bint fan_ok(self, int center, int fa, int fb, const double* p, double* dvol) noexcept nogil:
@@ -663,9 +852,12 @@ cdef class EdgeCollapser:
         cdef double p[3]
         cdef double cost
         self.heap.clear_fast()
+        self.n_vetoed = 0
         for e in range(self.hm.n_edges):
             if self.m.edge_alive[e] and self.plan(e, &h, &r, p, &cost, NULL) == 0:
                 self.heap.append_unordered(e, cost)
+            if self.failed:
+                break
         self.heap.heapify_fast()
         self.collapses_since_rescan = 0
         self.n_rejected_error = 0
@@ -675,8 +867,10 @@ cdef class EdgeCollapser:
     # ------------------------------------------------------------- the collapse
     cdef void perform(self, int h, int r, const double* p, double cost, double err) noexcept nogil:
         cdef int dead[3]
+        cdef int merged_into[2]
         cdef int k, i
         cdef double t = 0.0, len2 = 0.0
+        cdef Candidate cand
         k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
         # where p falls along r -> k decides how the attributes mix
         for i in range(3):
@@ -684,13 +878,16 @@ cdef class EdgeCollapser:
             t += (p[i] - self.P[VSTRIDE * r + i]) * (self.P[VSTRIDE * k + i] - self.P[VSTRIDE * r + i])
         t = t / len2 if len2 > 0.0 else 1.0
         t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
-        self.hm.collapse(h, r, dead)
+        self.hm.collapse(h, r, dead, merged_into)
         self.vflags[k] |= self.vflags[r] & 2
         if self.closed_volume != 0.0:
             self.closed_volume += self.pending_dvol
-        for i in range(3):
-            if dead[i] >= 0:
-                self.heap.remove_fast(dead[i])
+        if self.use_heap:
+            for i in range(3):
+                if dead[i] >= 0:
+                    self.heap.remove_fast(dead[i])
+        if self.n_vfields or self.n_efields:
+            self.merge_fields(r, k, dead, merged_into)
         for i in range(QSIZE):
             self.Q[VSTRIDE * k + i] += self.Q[VSTRIDE * r + i]
         for i in range(self.n_attr):
@@ -713,7 +910,39 @@ cdef class EdgeCollapser:
         if err > self.max_error_done:
             self.max_error_done = err
         self.collapses_since_rescan += 1
-        self.recost_ring(k)
+        if self.kernel is not None:
+            cand.mesh = &self.kmesh
+            cand.edge = dead[0]
+            cand.h = h
+            cand.u = self.m.corner[h]       # both ends are k now: u, v are not meaningful
+            cand.v = k
+            cand.removed = r
+            cand.kept = k
+            cand.p[0] = p[0]
+            cand.p[1] = p[1]
+            cand.p[2] = p[2]
+            cand.cost = cost
+            cand.error = err
+            if chain_commit(self.kernel, &cand) == KERNEL_ERROR:
+                self.failed = True
+                return
+        if self.use_heap:
+            self.recost_ring(k)
+
+    cdef void merge_fields(self, int r, int k, const int* dead, const int* merged_into) noexcept nogil:
+        """The kept vertex takes merge(kept, removed) of each vertex field; the edge that a
+        dead wing edge was glued onto takes merge(surviving, dead) of each edge field."""
+        cdef int j, i, es, ed
+        cdef int nv = self.n_vfields, ne = self.n_efields
+        for j in range(nv):
+            self.VF[nv * k + j] = merge_value(self.VF[nv * k + j], self.VF[nv * r + j], <int>self.vrules[j, RULE_MERGE])
+        for i in range(2):
+            es = merged_into[i]
+            ed = dead[1 + i]
+            if es < 0 or ed < 0:
+                continue
+            for j in range(ne):
+                self.EF[ne * es + j] = merge_value(self.EF[ne * es + j], self.EF[ne * ed + j], <int>self.erules[j, RULE_MERGE])
 
     cdef int run_c(self, int target_faces, int max_steps) noexcept nogil:
         cdef int e, h, r, k, steps = 0
@@ -728,6 +957,8 @@ cdef class EdgeCollapser:
                 self.rescan()
                 continue
             if self.plan(e, &h, &r, p, &cost, &err) < 0:
+                if self.failed:
+                    return RUN_ERROR
                 continue
             if err > self.max_error:
                 self.n_rejected_error += 1
@@ -744,8 +975,77 @@ cdef class EdgeCollapser:
                 self.refused[k] = 1
                 continue
             self.perform(h, r, p, cost, err)
+            if self.failed:
+                return RUN_ERROR
             steps += 1
         return RUN_TARGET
+
+    cdef int collapse_pass_c(self, const int* E, int n_cand, const double* PO, int target_faces) noexcept nogil:
+        """One pass of the batch driver: try the edges in the order given, skipping those
+        with an end that an earlier collapse of this pass touched (the kept vertex and its
+        1-ring), so every collapse sees the costs it was ranked with.  Returns the number of
+        collapses, or -1 if a kernel failed."""
+        cdef int i, e, h, r, k, u, v, y, start, ny, done = 0
+        cdef double cost, err
+        cdef double p[3]
+        cdef double q[QSIZE]
+        cdef int stamp
+        self.pass_counter += 1
+        stamp = self.pass_counter
+        self.n_rejected_error = 0
+        self.n_rejected_topology = 0
+        self.n_rejected_geometry = 0
+        for i in range(n_cand):
+            if self.hm.n_alive_faces <= target_faces:
+                break
+            e = E[i]
+            if not self.m.edge_alive[e]:
+                continue
+            h = self.m.edge_he[e]
+            u = self.m.corner[h]
+            v = he_dest(self.m, h)
+            if self.touched[u] == stamp or self.touched[v] == stamp:
+                continue
+            if self.plan(e, &h, &r, p, &cost, &err) < 0:
+                if self.failed:
+                    return -1
+                continue
+            if PO != NULL and not ((self.vflags[u] | self.vflags[v]) & (1 if self.boundary == BOUNDARY_FREE else 3)):
+                # the batch metric placed it: both ends are free to move
+                p[0] = PO[3 * i]
+                p[1] = PO[3 * i + 1]
+                p[2] = PO[3 * i + 2]
+                for k in range(QSIZE):
+                    q[k] = self.Q[VSTRIDE * u + k] + self.Q[VSTRIDE * v + k]
+                err = quadric_eval(q, p)
+                err = sqrt(self.error_scale * err / q[10]) if err > 0.0 and q[10] > 0.0 else 0.0
+            if err > self.max_error:
+                self.n_rejected_error += 1
+                continue
+            k = v if r == u else u
+            if not self.hm.link_ok(h):
+                self.n_rejected_topology += 1
+                continue
+            if not self.geometry_ok(h, r, k, p):
+                self.n_rejected_geometry += 1
+                continue
+            self.perform(h, r, p, cost, err)
+            if self.failed:
+                return -1
+            done += 1
+            self.touched[k] = stamp
+            start = self.m.v_he[k]
+            y = start
+            while True:
+                self.touched[he_dest(self.m, y)] = stamp
+                ny = he_ring_next(self.m, y)
+                if ny < 0:
+                    self.touched[self.m.corner[he_prev(y)]] = stamp
+                    break
+                if ny == start:
+                    break
+                y = ny
+        return done
 
     # ------------------------------------------------------------- Python API
     def run(self, int target_faces, int max_steps=2**31 - 1):
@@ -757,6 +1057,105 @@ cdef class EdgeCollapser:
         with nogil:
             status = self.run_c(target_faces, max_steps)
         return status
+
+    def plan_all(self):
+        """Plan every live edge (batch driver): a dict of ``edge``, ``u``, ``v``,
+        ``removed``, ``kept`` (int32 vertex slots), ``position`` (k, 3), ``cost`` and
+        ``error``, one row per edge that may collapse (within ``max_error``), or None if a
+        kernel failed."""
+        if self.released:
+            raise RuntimeError("this EdgeCollapser was released")
+        cdef int ne = self.hm.n_edges
+        cdef int e, h, r, rc, k = 0
+        cdef double cost, err
+        cdef double p[3]
+        out_e = np.empty(ne, dtype=np.intc)
+        out_r = np.empty(ne, dtype=np.intc)
+        out_p = np.empty((ne, 3), dtype=np.float64)
+        out_c = np.empty(ne, dtype=np.float64)
+        out_x = np.empty(ne, dtype=np.float64)
+        cdef int[::1] OE = out_e
+        cdef int[::1] OR = out_r
+        cdef double[:, ::1] OP = out_p
+        cdef double[::1] OC = out_c
+        cdef double[::1] OX = out_x
+        self.n_vetoed = 0
+        self.n_rejected_error = 0
+        with nogil:
+            for e in range(ne):
+                if not self.m.edge_alive[e]:
+                    continue
+                rc = self.plan(e, &h, &r, p, &cost, &err)
+                if rc < 0:
+                    if self.failed:
+                        break
+                    continue
+                if err > self.max_error:
+                    self.n_rejected_error += 1
+                    continue
+                OE[k] = e
+                OR[k] = r
+                OP[k, 0] = p[0]
+                OP[k, 1] = p[1]
+                OP[k, 2] = p[2]
+                OC[k] = cost
+                OX[k] = err
+                k += 1
+        if self.failed:
+            return None
+        edges = out_e[:k].copy()
+        he = self.hm.edge_halfedges[edges]
+        u = self.hm.corners.reshape(-1)[he]
+        v = self.hm.corners.reshape(-1)[np.where(he % 3 == 2, he - 2, he + 1)]
+        removed = out_r[:k].copy()
+        return {"edge": edges, "u": u, "v": v, "removed": removed, "kept": np.where(removed == u, v, u).astype(np.intc),
+                "position": out_p[:k].copy(), "cost": out_c[:k].copy(), "error": out_x[:k].copy()}
+
+    def collapse_pass(self, edges, positions=None, int target_faces=0):
+        """Collapse, in the order given, the ``edges`` whose ends no earlier collapse of
+        this pass touched (re-planned and checked like the heap driver's).  ``positions``
+        (k, 3), one per edge, overrides the placement where both ends are free to move.
+        Returns the number of collapses; -1 if a kernel failed."""
+        if self.released:
+            raise RuntimeError("this EdgeCollapser was released")
+        if self.use_heap:
+            raise RuntimeError("collapse_pass needs an EdgeCollapser made with use_heap=False")
+        cdef int[::1] E = np.ascontiguousarray(edges, dtype=np.intc)
+        cdef int n_cand = E.shape[0]
+        if n_cand and (np.min(E) < 0 or np.max(E) >= self.hm.n_edges):
+            raise ValueError(f"edge ids must be in 0..{self.hm.n_edges - 1}")
+        cdef double[:, ::1] PO
+        cdef const double* po = NULL
+        if positions is not None:
+            PO = np.ascontiguousarray(positions, dtype=np.float64)
+            if PO.shape[0] != n_cand or PO.shape[1] != 3:
+                raise ValueError(f"positions must have shape ({n_cand}, 3)")
+            if n_cand:
+                po = &PO[0, 0]
+        cdef int done = 0
+        if n_cand:
+            with nogil:
+                done = self.collapse_pass_c(&E[0], n_cand, po, target_faces)
+        return done
+
+    @property
+    def error_message(self):
+        """The message of the kernel that failed ('' if none did)."""
+        k = self.kernel
+        while k is not None:
+            if k.failed:
+                return k.message
+            k = k._next_kernel()
+        return ""
+
+    @property
+    def vertex_field_values(self):
+        """(n, k) current vertex fields (merged on collapse)."""
+        return np.asarray(self.vfield)[:, :self.n_vfields]
+
+    @property
+    def edge_field_values(self):
+        return np.asarray(self.efield)[:, :self.n_efields]
 
     def release(self):
         """Free the heap, the quadrics and the input normals once the run is over (the

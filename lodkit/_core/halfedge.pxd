@@ -72,4 +72,4 @@ cdef class HalfEdgeMesh:
     cdef int _count_marked(self, int v, int su, int sv) noexcept nogil
     cdef bint _faces_would_coincide(self, int u, int v) noexcept nogil
     cdef bint link_ok(self, int h) noexcept nogil
-    cdef int collapse(self, int h, int removed, int* dead_edges) noexcept nogil
+    cdef int collapse(self, int h, int removed, int* dead_edges, int* merged_into) noexcept nogil

@@ -191,12 +191,14 @@ cdef class HalfEdgeMesh:
             if x < 0 or x == u:
                 return False
 
-    cdef int collapse(self, int h, int removed, int* dead_edges) noexcept nogil:
+    cdef int collapse(self, int h, int removed, int* dead_edges, int* merged_into) noexcept nogil:
         """Collapse the edge of ``h``; ``removed`` (one of its ends) goes, the other stays.
 
         Returns the kept vertex.  ``dead_edges`` receives the ids of the edges that vanish
-        (the collapsed edge, then one per removed face; -1 for unused slots).  The caller has
-        checked ``link_ok(h)``.
+        (the collapsed edge, then one per removed face; -1 for unused slots).  When not NULL,
+        ``merged_into[i]`` receives the edge that ``dead_edges[1 + i]`` was glued onto (the
+        surviving edge kept-c of the removed face), or -1.  The caller has checked
+        ``link_ok(h)``.
         """
         cdef int r = removed
         cdef int k = self.dest(h) if self.c.corner[h] == r else self.c.corner[h]
@@ -212,6 +214,9 @@ cdef class HalfEdgeMesh:
         dead_edges[0] = self.c.edge[h]
         dead_edges[1] = -1
         dead_edges[2] = -1
+        if merged_into != NULL:
+            merged_into[0] = -1
+            merged_into[1] = -1
         for i in range(2):
             x = xs[i]
             if x < 0:
@@ -226,6 +231,8 @@ cdef class HalfEdgeMesh:
             td[i] = self.c.twin[d]
             es[i] = self.c.edge[s]
             dead_edges[1 + i] = self.c.edge[d]
+            if merged_into != NULL:
+                merged_into[i] = es[i]
             opp[i] = self.c.corner[he_prev(x)]
         # 1. every half-edge leaving r now leaves k (walk r's fan before the twins change)
         start = self.c.v_he[r]
@@ -354,7 +361,7 @@ cdef class HalfEdgeMesh:
             raise ValueError(f"({u}, {v}) is not an edge")
         if not self.link_ok(h):
             raise ValueError(f"collapsing ({u}, {v}) would change the topology")
-        self.collapse(h, u, dead)
+        self.collapse(h, u, dead, NULL)
         return v
 
     def _check_vertex(self, int v):

@@ -1,0 +1,114 @@
+# cython: language_level=3
+"""The native metric interface: see kernel.pxd for the contract."""
+from libc.string cimport strncpy
+
+API_VERSION = KERNEL_API_VERSION
+OK = KERNEL_OK
+VETO = KERNEL_VETO
+ERROR = KERNEL_ERROR
+
+
+cdef class Kernel:
+    """Base class of native (Cython) metrics.  The defaults leave the candidate as it is."""
+
+    api_version = KERNEL_API_VERSION
+
+    def __cinit__(self):
+        self._next = None
+        self.places = False
+        self.failed = False
+        self._message[0] = 0
+
+    def prepare(self, ctx, options):
+        """Called once, with the GIL, before the run: allocate and fill what the nogil
+        methods need.  ``options`` is the metric's validated options (a dict)."""
+        pass
+
+    cdef int place(self, Candidate* c) noexcept nogil:
+        return KERNEL_OK
+
+    cdef int cost(self, Candidate* c) noexcept nogil:
+        return KERNEL_OK
+
+    cdef int commit(self, const Candidate* c) noexcept nogil:
+        return KERNEL_OK
+
+    cdef int fail(self, const char* message) noexcept nogil:
+        """Record ``message`` (truncated to 255 bytes) and return KERNEL_ERROR."""
+        if not self.failed:
+            strncpy(self._message, message, KERNEL_MESSAGE_SIZE - 1)
+            self._message[KERNEL_MESSAGE_SIZE - 1] = 0
+            self.failed = True
+        return KERNEL_ERROR
+
+    @property
+    def message(self):
+        """The message given to ``fail`` (empty if it was never called)."""
+        return (<bytes>self._message).decode("utf-8", "replace")
+
+    def _next_kernel(self):
+        return self._next
+
+    def _chain(self, kernels):
+        """Link this kernel to the following ones (driver use)."""
+        cdef Kernel k = self
+        cdef Kernel nxt
+        for nxt in kernels:
+            k._next = nxt
+            k = nxt
+        k._next = None
+
+    # for tests: drive a kernel by hand on a bare candidate
+    def _call(self, str which, int u, int v, int removed, int kept, p, double cost):
+        cdef Candidate c
+        c.mesh = NULL
+        c.edge = -1
+        c.h = -1
+        c.u = u
+        c.v = v
+        c.removed = removed
+        c.kept = kept
+        c.p[0] = p[0]
+        c.p[1] = p[1]
+        c.p[2] = p[2]
+        c.cost = cost
+        c.error = 0.0
+        cdef int rc
+        if which == "place":
+            rc = self.place(&c)
+        elif which == "cost":
+            rc = self.cost(&c)
+        elif which == "commit":
+            rc = self.commit(&c)
+        else:
+            raise ValueError(which)
+        return rc, c.cost, (c.p[0], c.p[1], c.p[2]), c.removed, c.kept
+
+
+cdef int chain_place(Kernel k, Candidate* c) noexcept nogil:
+    cdef int rc
+    if k.places:
+        rc = k.place(c)
+        if rc != KERNEL_OK:
+            return rc
+    if k._next is not None:
+        return chain_place(k._next, c)
+    return KERNEL_OK
+
+
+cdef int chain_cost(Kernel k, Candidate* c) noexcept nogil:
+    cdef int rc = k.cost(c)
+    if rc != KERNEL_OK:
+        return rc
+    if k._next is not None:
+        return chain_cost(k._next, c)
+    return KERNEL_OK
+
+
+cdef int chain_commit(Kernel k, const Candidate* c) noexcept nogil:
+    cdef int rc = k.commit(c)
+    if rc != KERNEL_OK:
+        return rc
+    if k._next is not None:
+        return chain_commit(k._next, c)
+    return KERNEL_OK
