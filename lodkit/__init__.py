@@ -4,11 +4,12 @@
 >>> result = lodkit.simplify(lodkit.load("bunny.ply"), target_ratio=0.1)
 >>> lodkit.save(result.mesh, "bunny_10.ply")
 """
-from .errors import LodkitError, MeshError, MeshIOError, OptionError
+from .errors import LodkitError, MeshError, MeshIOError, MetricError, OptionError, UnknownMetricError
 from .mesh import Mesh
 from .io import load, save
 from .api import SimplifyResult, simplify
 from .topology import TopologyReport, topology
+from . import metrics
 
 __version__ = "0.1.0"
 
@@ -17,10 +18,13 @@ __all__ = [
     "Mesh",
     "MeshError",
     "MeshIOError",
+    "MetricError",
     "OptionError",
     "SimplifyResult",
     "TopologyReport",
+    "UnknownMetricError",
     "load",
+    "metrics",
     "save",
     "simplify",
     "topology",

@@ -8,14 +8,13 @@ from typing import Any, Optional
 
 import numpy as np
 
-from .errors import MeshError, OptionError
+from .errors import MeshError, MetricError, OptionError
 from .mesh import Mesh
 
 __all__ = ["SimplifyResult", "simplify", "prepare"]
 
 PLACEMENTS = {"optimal": 0, "endpoint": 1}
 BOUNDARY_POLICIES = {"lock": 0, "preserve": 1, "free": 2}
-METRICS = ("qem",)
 
 #: Stop reasons, as found in :attr:`SimplifyResult.stop_reason`.
 STOP_TARGET = "target_faces"          # the face target (target_faces / target_ratio) was reached
@@ -152,7 +151,7 @@ def simplify(
     target_ratio: Optional[float] = None,
     max_error: Optional[float] = None,
     absolute: bool = False,
-    metric: str = "qem",
+    metric="qem",
     placement: str = "optimal",
     boundary: str = "preserve",
     boundary_weight: float = 10.0,
@@ -169,6 +168,10 @@ def simplify(
     unless ``absolute=True``).  With no legal collapse left it stops and says so in
     ``stop_reason``.
 
+    metric           : the cost: a registered name ("qem", see ``lodkit.metrics.available()``),
+                       ``(name, {options})``, a Metric instance, or a list of those to combine
+                       (quadrics add up, then fields and kernels apply in the order given,
+                       then batch metrics; docs/writing-a-metric.md says exactly how)
     placement        : "optimal" (minimise the quadric; falls back to the edge when the 3x3
                        system is ill-conditioned) or "endpoint" (half-edge collapse: output
                        vertices are a subset of the input)
@@ -186,11 +189,11 @@ def simplify(
     are carried along (interpolated on the collapsed edge at the new position).
     """
     from ._core.decimate import EdgeCollapser, vertex_quadrics
+    from .metrics import create as create_metrics
 
     t0 = time.perf_counter()
     src, was_o3d = _as_mesh(mesh)
-    if metric not in METRICS:
-        raise OptionError(f"unknown metric {metric!r}; available: {', '.join(METRICS)}")
+    metrics = create_metrics(metric)
     if placement not in PLACEMENTS:
         raise OptionError(f"placement must be one of {', '.join(PLACEMENTS)}, got {placement!r}")
     if boundary not in BOUNDARY_POLICIES:
@@ -217,11 +220,18 @@ def simplify(
         blocks.append(arr[prep.input_vertex])
     attr_in = np.concatenate(blocks, axis=1) if blocks else None
 
-    # one row per vertex: quadric (11) then position (3); the collapser works on it in place
+    # one row per vertex: quadric (11) then position (3); the collapser works on it in place.
+    # The plain face quadrics are always there: they place the vertex and measure the error
+    # when no quadric metric is given.
     vdata = np.empty((hm.n_vertices, 14), dtype=np.float64)
     vdata[:, 11:] = prep.positions
-    vertex_quadrics(hm, prep.positions, float(boundary_weight) if boundary == "preserve" else 0.0, out=vdata)
     prep.positions = None
+    vertex_quadrics(hm, vdata[:, 11:], 0.0, out=vdata)
+    if boundary == "lock":
+        fixed |= _boundary_mask(hm)
+    ctx = _metric_context(src, prep, vdata, fixed, placement=placement, boundary=boundary,
+                          boundary_weight=float(boundary_weight))
+    setup = _metric_setup(metrics, ctx, vdata)
     err_limit = math.inf
     if max_error is not None:
         err_limit = float(max_error) / (prep.scale if absolute else 1.0)
@@ -231,29 +241,37 @@ def simplify(
         max_normal_angle=float(max_normal_angle), min_quality=float(min_quality),
         max_error=err_limit, record=bool(record),
         closed_connected=_closed_connected(hm),
+        use_heap=not setup.batch, **setup.core,
     )
+    _raise_if_failed(collapser, setup)
 
     bar = None
     if progress:
         from ._progress import Progress
         bar = Progress(total=max(hm.n_alive_faces - target, 1), enabled=True)
     start_faces = hm.n_alive_faces
-    chunk = max((start_faces - target) // (2 * _PROGRESS_CHUNKS), 1000) if bar else 2**31 - 1
-    while True:
-        status = collapser.run(target, chunk)
-        if bar:
-            bar.update(start_faces - hm.n_alive_faces)
-        if status != 1:
-            break
+    n_passes = 0
+    if setup.batch:
+        status, rejected_error, n_passes = _run_passes(collapser, setup, ctx, target, bar, start_faces)
+    else:
+        chunk = max((start_faces - target) // (2 * _PROGRESS_CHUNKS), 1000) if bar else 2**31 - 1
+        while True:
+            status = collapser.run(target, chunk)
+            if bar:
+                bar.update(start_faces - hm.n_alive_faces)
+            if status != 1:
+                break
+        rejected_error = collapser.n_rejected_error
     if bar:
         bar.close()
+    _raise_if_failed(collapser, setup)
 
     if status == 0:
-        stop = STOP_TARGET
-    elif collapser.n_rejected_error > 0:
-        stop = STOP_MAX_ERROR
+        stop, detail = STOP_TARGET, ""
+    elif rejected_error > 0:
+        stop, detail = STOP_MAX_ERROR, f"{rejected_error} candidate collapses exceed max_error"
     else:
-        stop = STOP_NO_COLLAPSE
+        stop, detail = STOP_NO_COLLAPSE, _no_collapse_detail(collapser, hm)
 
     collapser.release()          # the heap and quadrics are not needed to build the output
     out_mesh, vertex_map, face_map = _extract(src, prep, collapser, names)
@@ -283,10 +301,189 @@ def simplify(
             "nonmanifold_edges_cut": hm.n_nonmanifold_edges,
             "vertices_split": hm.n_split_vertices,
             "target_faces": target,
+            "metrics": [m.name for m in metrics],
+            "vetoed": int(collapser.n_vetoed),
+            "passes": n_passes,
+            "stop_detail": detail,
         },
         collapses=records,
     )
     return result
+
+
+@dataclass
+class _MetricSetup:
+    core: dict                    # EdgeCollapser keyword arguments
+    kernels: list                 # (metric, kernel) pairs, in chain order
+    batch: list                   # batch metrics, in order
+
+
+def _boundary_mask(hm) -> np.ndarray:
+    vhe = hm.vertex_halfedges
+    return (vhe >= 0) & (hm.twins[np.maximum(vhe, 0)] < 0)
+
+
+def _metric_context(src, prep, vdata, fixed, **settings):
+    from .metrics import MetricContext
+
+    positions = vdata[:, 11:]
+    positions_ro = positions.view()
+    positions_ro.flags.writeable = False
+    face_quadrics = vdata[:, :10].view()
+    face_quadrics.flags.writeable = False
+    return MetricContext(positions=positions_ro, halfedge=prep.hm, input_vertex=prep.input_vertex,
+                         input_face=prep.input_face, fixed=fixed.copy(), scale=prep.scale,
+                         center=prep.center, mesh=src, face_quadrics=face_quadrics, settings=settings)
+
+
+def _metric_setup(metrics, ctx, vdata) -> _MetricSetup:
+    """Turn the metrics into what the core runs: one folded quadric, field blocks with their
+    rules, a chain of prepared kernels, and the batch metrics for the pass driver."""
+    from ._core.decimate import add_boundary_planes
+
+    n = ctx.n_vertices
+    for m in metrics:
+        m.prepare(ctx)
+    # everything that reads ctx.face_quadrics runs before vdata is overwritten below
+    quads = [m for m in metrics if m.kind == "quadric"]
+    total_w = sum(m.weight for m in quads)
+    blocks = []
+    if quads and total_w > 0.0:
+        blocks = [(m, _checked(m, m.quadrics(ctx), (n, 10), "quadrics", columns=10)) for m in quads]
+    core = {}
+    for per, rows in (("vertex", n), ("edge", ctx.n_edges)):
+        fields = [m for m in metrics if m.kind == "field" and m.per == per]
+        if not fields:
+            continue
+        values, rules = [], []
+        for m in fields:
+            v = _checked(m, m.values(ctx), (rows,), f"{per} field values")
+            v = v.reshape(rows, -1)
+            values.append(v)
+            rules.append(m.rules(v.shape[1]))
+        core[f"{per}_fields"] = np.ascontiguousarray(np.concatenate(values, axis=1))
+        core[f"{per}_rules"] = np.concatenate(rules, axis=0)
+    kernels = []
+    for m in metrics:
+        if m.kind == "kernel":
+            k = m.make_kernel(ctx)
+            if not isinstance(k, m.kernel):
+                raise MetricError(f"metric {m.name!r}: make_kernel returned {type(k).__name__}, not {m.kernel.__name__}")
+            kernels.append((m, k))
+    core["kernels"] = [k for _, k in kernels]
+    # the folded quadric: sum of weight * Q over the quadric metrics
+    if blocks:
+        if len(blocks) == 1 and blocks[0][1] is ctx.face_quadrics:
+            if total_w != 1.0:
+                vdata[:, :10] *= total_w              # plain QEM, weighted: scale in place
+        else:
+            acc = np.zeros((n, 10))
+            for m, q in blocks:
+                acc += m.weight * q[:, :10]
+            vdata[:, :10] = acc
+        del blocks
+        core["quadric_weight"], core["error_scale"] = 1.0, 1.0 / total_w
+    else:
+        core["quadric_weight"], core["error_scale"], total_w = 0.0, 1.0, 1.0
+    bw = ctx.settings.get("boundary_weight", 0.0)
+    if ctx.settings.get("boundary") == "preserve" and bw > 0.0:
+        # boundary planes scale with the quadric weights, so "preserve" means the same
+        add_boundary_planes(ctx.halfedge, ctx.positions, bw * total_w, vdata)
+    return _MetricSetup(core, kernels, [m for m in metrics if m.kind == "batch"])
+
+
+def _checked(metric, arr, shape, what, columns=None):
+    """A metric's array as float64, with the shape it must have and no NaN."""
+    try:
+        out = np.asarray(arr, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise MetricError(f"metric {metric.name!r} returned {what} that are not numbers: {exc}") from None
+    ok = out.ndim >= 1 and out.shape[0] == shape[0]
+    if columns is not None:
+        ok = ok and out.ndim == 2 and out.shape[1] >= columns
+    elif len(shape) == 1:
+        ok = ok and out.ndim in (1, 2)
+    if not ok:
+        want = f"({shape[0]}, {columns})" if columns else f"({shape[0]},) or ({shape[0]}, k)"
+        raise MetricError(f"metric {metric.name!r} returned {what} of shape {out.shape}; expected {want}")
+    if np.isnan(out).any():
+        raise MetricError(f"metric {metric.name!r} returned {what} with NaN values")
+    return out
+
+
+def _raise_if_failed(collapser, setup) -> None:
+    if not collapser.failed:
+        return
+    for m, k in setup.kernels:
+        if k.failed:
+            raise MetricError(f"metric {m.name!r} failed during the run: {k.message}")
+    raise MetricError(f"a metric kernel failed during the run: {collapser.error_message}")
+
+
+def _no_collapse_detail(collapser, hm) -> str:
+    if collapser.n_vetoed and collapser.n_collapses == 0:
+        return (f"every candidate collapse was vetoed by a metric kernel "
+                f"({collapser.n_vetoed} vetoes); the mesh is unchanged")
+    if collapser.n_vetoed:
+        return f"the remaining candidates failed the checks or were vetoed by a metric kernel ({collapser.n_vetoed} vetoes)"
+    return "every remaining collapse would break the topology, flip or degrade a face, or move a locked vertex"
+
+
+def _run_passes(collapser, setup, ctx, target, bar, start_faces):
+    """The pass driver for batch metrics: rank every candidate (the core's cost, then each
+    batch metric in order), collapse the cheapest ``fraction`` that share no vertex
+    neighbourhood, repeat.  Returns (status, candidates over max_error, passes)."""
+    from .metrics import Batch
+
+    fraction = min(m.params["fraction"] for m in setup.batch)
+    passes = 0
+    while ctx.halfedge.n_alive_faces > target:
+        plan = collapser.plan_all()
+        if plan is None:
+            _raise_if_failed(collapser, setup)
+        rejected = collapser.n_rejected_error
+        k = plan["edge"].shape[0]
+        if k == 0:
+            return 2, rejected, passes
+        cost, pos = plan["cost"], None
+        live = collapser.positions
+        for m in setup.batch:
+            batch = Batch(edge=plan["edge"], u=plan["u"], v=plan["v"], removed=plan["removed"],
+                          kept=plan["kept"], position=plan["position"] if pos is None else pos,
+                          cost=cost, error=plan["error"], positions=live, ctx=ctx)
+            cost, new_pos = _batch_result(m, m.costs(batch), k)
+            if new_pos is not None:
+                pos = new_pos
+        order = np.argsort(cost, kind="stable")
+        n_try = max(int(math.ceil(fraction * k)), 1)
+        done = 0
+        for take in ((order[:n_try], order) if n_try < k else (order,)):
+            done = collapser.collapse_pass(plan["edge"][take], None if pos is None else pos[take], target)
+            if done != 0:
+                break
+        if done < 0:
+            _raise_if_failed(collapser, setup)
+        passes += 1
+        if bar:
+            bar.update(start_faces - ctx.halfedge.n_alive_faces)
+        if done == 0:
+            return 2, rejected, passes
+    return 0, 0, passes
+
+
+def _batch_result(metric, result, k):
+    pos = None
+    if isinstance(result, tuple):
+        if len(result) != 2:
+            raise MetricError(f"metric {metric.name!r}: costs() must return costs or (costs, positions)")
+        result, pos = result
+        pos = _checked(metric, pos, (k, 3), "positions", columns=3)
+        if pos.shape != (k, 3) or not np.isfinite(pos).all():
+            raise MetricError(f"metric {metric.name!r} returned positions that are not ({k}, 3) finite numbers")
+    cost = _checked(metric, result, (k,), "costs")
+    if cost.shape != (k,):
+        raise MetricError(f"metric {metric.name!r} returned costs of shape {cost.shape}; expected ({k},)")
+    return cost, pos
 
 
 def _closed_connected(hm) -> bool:

@@ -15,3 +15,13 @@ class OptionError(LodkitError, ValueError):
 
 class MeshIOError(LodkitError, OSError):
     """A mesh file could not be read or written."""
+
+
+class MetricError(LodkitError, RuntimeError):
+    """A metric plugin could not be loaded, has the wrong shape, or failed during a run.
+    The message names the metric and the package that provides it."""
+
+
+class UnknownMetricError(OptionError, LookupError):
+    """No metric of that name is registered (a bad ``metric=`` option); the message lists
+    the available ones."""

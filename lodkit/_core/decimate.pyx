@@ -229,12 +229,9 @@ def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=
     else:
         out[:, :QSIZE] = 0.0
     cdef double[:, ::1] Q = out
-    cdef int f, h, i, a, b, c
-    cdef double e1[3]
-    cdef double e2[3]
+    cdef int f, i, a
     cdef double nrm[3]
-    cdef double m[3]
-    cdef double length, area, d, w, el
+    cdef double length, area, d
     with nogil:
         for f in range(hm.n_faces):
             if not hm.face_alive[f]:
@@ -250,8 +247,36 @@ def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=
             for i in range(3):
                 add_plane(&Q[hm.corner[3 * f + i], 0], nrm[0], nrm[1], nrm[2], d, area)
                 Q[hm.corner[3 * f + i], 10] += area
-            if boundary_weight <= 0.0:
+    if boundary_weight > 0.0:
+        add_boundary_planes(hm, P, boundary_weight, out)
+    return out
+
+
+def add_boundary_planes(HalfEdgeMesh hm, positions, double weight, out):
+    """Add to ``out`` (n, >= 10) float64 quadrics, for every boundary edge and to both its
+    ends, the plane through the edge perpendicular to its face, weighted by
+    ``weight * length^2`` (a length^2 weight keeps the constraint scale-invariant, like the
+    area weight of faces)."""
+    cdef double[:, ::1] P = np.ascontiguousarray(positions, dtype=np.float64)
+    cdef double[:, ::1] Q = out
+    if P.shape[0] != hm.n_vertices or Q.shape[0] != hm.n_vertices or Q.shape[1] < 10:
+        raise ValueError(f"positions and out must have {hm.n_vertices} rows (out >= 10 columns)")
+    cdef int f, h, i, a, b, c
+    cdef double e1[3]
+    cdef double nrm[3]
+    cdef double m[3]
+    cdef double length, d, w, el
+    with nogil:
+        for f in range(hm.n_faces):
+            if not hm.face_alive[f]:
                 continue
+            if hm.twin[3 * f] >= 0 and hm.twin[3 * f + 1] >= 0 and hm.twin[3 * f + 2] >= 0:
+                continue
+            length = face_cross(P, hm.corner[3 * f], hm.corner[3 * f + 1], hm.corner[3 * f + 2], nrm)
+            if length <= 0.0:
+                continue
+            for i in range(3):
+                nrm[i] /= length
             for i in range(3):
                 h = 3 * f + i
                 if hm.twin[h] >= 0:
@@ -268,10 +293,9 @@ def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=
                 for c in range(3):
                     m[c] /= length
                 d = -(m[0] * P[a, 0] + m[1] * P[a, 1] + m[2] * P[a, 2])
-                w = boundary_weight * el
+                w = weight * el
                 add_plane(&Q[a, 0], m[0], m[1], m[2], d, w)
                 add_plane(&Q[b, 0], m[0], m[1], m[2], d, w)
-    return out
 
 
 cdef inline double apply_field(double cost, double value, const double* rule) noexcept nogil:
