@@ -3,7 +3,7 @@ import numpy
 from Cython.Build import cythonize
 from setuptools import Extension, setup
 
-MODULES = ["heap", "halfedge", "kernel", "decimate", "qem_kernel"]
+MODULES = ["heap", "halfedge", "kernel", "decimate", "qem_kernel", "testkernels"]
 
 extensions = [
     Extension(
