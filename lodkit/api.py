@@ -231,7 +231,11 @@ def simplify(
         fixed |= _boundary_mask(hm)
     ctx = _metric_context(src, prep, vdata, fixed, placement=placement, boundary=boundary,
                           boundary_weight=float(boundary_weight))
-    setup = _metric_setup(metrics, ctx, vdata)
+    layout, col = {}, 0
+    for name, width in names:
+        layout[name] = col
+        col += width
+    setup = _metric_setup(metrics, ctx, vdata, layout)
     err_limit = math.inf
     if max_error is not None:
         err_limit = float(max_error) / (prep.scale if absolute else 1.0)
@@ -336,11 +340,13 @@ def _metric_context(src, prep, vdata, fixed, **settings):
                          center=prep.center, mesh=src, face_quadrics=face_quadrics, settings=settings)
 
 
-def _metric_setup(metrics, ctx, vdata) -> _MetricSetup:
+def _metric_setup(metrics, ctx, vdata, attr_layout=None) -> _MetricSetup:
     """Turn the metrics into what the core runs: one folded quadric, field blocks with their
     rules, a chain of prepared kernels, and the batch metrics for the pass driver."""
     from ._core.decimate import add_boundary_planes
+    from .metrics.base import packed_size
 
+    attr_layout = attr_layout or {}
     n = ctx.n_vertices
     for m in metrics:
         m.prepare(ctx)
@@ -349,7 +355,11 @@ def _metric_setup(metrics, ctx, vdata) -> _MetricSetup:
     total_w = sum(m.weight for m in quads)
     blocks = []
     if quads and total_w > 0.0:
-        blocks = [(m, _checked(m, m.quadrics(ctx), (n, 10), "quadrics", columns=10)) for m in quads]
+        blocks = [(m, _checked(m, m.quadrics(ctx), (n, packed_size(m.dimension())), "quadrics",
+                               columns=packed_size(m.dimension()))) for m in quads]
+    attr_names = []
+    for m in quads:
+        attr_names += [a for a in m.attributes if a not in attr_names]
     core = {}
     for per, rows in (("vertex", n), ("edge", ctx.n_edges)):
         fields = [m for m in metrics if m.kind == "field" and m.per == per]
@@ -371,6 +381,17 @@ def _metric_setup(metrics, ctx, vdata) -> _MetricSetup:
                 raise MetricError(f"metric {m.name!r}: make_kernel returned {type(k).__name__}, not {m.kernel.__name__}")
             kernels.append((m, k))
     core["kernels"] = [k for _, k in kernels]
+    bw = ctx.settings.get("boundary_weight", 0.0)
+    preserve = ctx.settings.get("boundary") == "preserve" and bw > 0.0
+    if blocks and attr_names:
+        # quadrics over attributes: fold them in D = 3 + k dimensions; the 3D rows of vdata
+        # keep the plain quadric (+ boundary planes) and measure the geometric error
+        core["attribute_quadrics"], core["attribute_columns"] = _fold_attribute_quadrics(
+            blocks, attr_names, attr_layout, ctx, total_w * bw if preserve else 0.0)
+        if preserve:
+            add_boundary_planes(ctx.halfedge, ctx.positions, bw, vdata)
+        core["quadric_weight"], core["error_scale"] = 1.0, 1.0
+        return _MetricSetup(core, kernels, [m for m in metrics if m.kind == "batch"])
     # the folded quadric: sum of weight * Q over the quadric metrics
     if blocks:
         if len(blocks) == 1 and blocks[0][1] is ctx.face_quadrics:
@@ -385,11 +406,58 @@ def _metric_setup(metrics, ctx, vdata) -> _MetricSetup:
         core["quadric_weight"], core["error_scale"] = 1.0, 1.0 / total_w
     else:
         core["quadric_weight"], core["error_scale"], total_w = 0.0, 1.0, 1.0
-    bw = ctx.settings.get("boundary_weight", 0.0)
-    if ctx.settings.get("boundary") == "preserve" and bw > 0.0:
+    if preserve:
         # boundary planes scale with the quadric weights, so "preserve" means the same
         add_boundary_planes(ctx.halfedge, ctx.positions, bw * total_w, vdata)
     return _MetricSetup(core, kernels, [m for m in metrics if m.kind == "batch"])
+
+
+def _fold_attribute_quadrics(blocks, attr_names, attr_layout, ctx, boundary_weight):
+    """Sum weight * Q over the quadric metrics in the space [x, y, z, attributes...] of the
+    union of their attributes.  Returns the packed (n, S) fold and, for each dimension past
+    3, its column in the collapser's attribute array."""
+    from ._core.decimate import add_boundary_planes
+    from .metrics.base import ATTRIBUTE_WIDTHS as widths, packed_size
+
+    columns, dim_of = [], {}
+    for name in attr_names:
+        if name not in attr_layout:
+            users = ", ".join(repr(m.name) for m, _ in blocks if name in m.attributes)
+            raise MetricError(f"metric {users} needs per-vertex {name}, and the mesh has none")
+        dim_of[name] = 3 + len(columns)
+        start = attr_layout[name]
+        columns += list(range(start, start + widths[name]))
+    D = 3 + len(columns)
+    tri = D * (D + 1) // 2
+
+    def index(i, j):
+        i, j = min(i, j), max(i, j)
+        return i * D - i * (i - 1) // 2 + (j - i)
+
+    n = ctx.n_vertices
+    fold = np.zeros((n, packed_size(D)))
+
+    def add(packed, dims, weight):
+        d = len(dims)
+        k = 0
+        for i in range(d):
+            for j in range(i, d):
+                fold[:, index(dims[i], dims[j])] += weight * packed[:, k]
+                k += 1
+        for i in range(d):
+            fold[:, tri + dims[i]] += weight * packed[:, k + i]
+        fold[:, tri + D] += weight * packed[:, k + d]
+
+    for m, packed in blocks:
+        dims = [0, 1, 2]
+        for name in m.attributes:
+            dims += list(range(dim_of[name], dim_of[name] + widths[name]))
+        add(packed, dims, m.weight)
+    if boundary_weight > 0.0:
+        planes = np.zeros((n, 10))
+        add_boundary_planes(ctx.halfedge, ctx.positions, boundary_weight, planes)
+        add(planes, [0, 1, 2], 1.0)
+    return fold, np.asarray(columns, dtype=np.intc)
 
 
 def _checked(metric, arr, shape, what, columns=None):
@@ -400,7 +468,7 @@ def _checked(metric, arr, shape, what, columns=None):
         raise MetricError(f"metric {metric.name!r} returned {what} that are not numbers: {exc}") from None
     ok = out.ndim >= 1 and out.shape[0] == shape[0]
     if columns is not None:
-        ok = ok and out.ndim == 2 and out.shape[1] >= columns
+        ok = ok and out.ndim == 2 and out.shape[1] == columns
     elif len(shape) == 1:
         ok = ok and out.ndim in (1, 2)
     if not ok:

@@ -49,6 +49,10 @@ cdef enum:
 
 # quadric layout: a11 a12 a13 a22 a23 a33 b1 b2 b3 c w   (w = summed face area)
 cdef enum:
+    GMAX_D = 16          # quadrics over attributes: up to 13 attribute channels
+    GMAX_S = 153         # packed size for GMAX_D: D(D+1)/2 + D + 1
+
+cdef enum:
     QSIZE = 11
     VSTRIDE = 14         # per-vertex row: quadric (QSIZE) then position (3)
 
@@ -109,6 +113,11 @@ cdef class EdgeCollapser:
     cdef bint use_heap              # False: the pass driver (batch metrics) runs instead
     cdef readonly int n_vetoed      # candidates refused by a kernel since the last rescan
     cdef readonly bint failed       # a kernel returned KERNEL_ERROR
+    cdef int gdim                   # dimension of the quadrics over attributes (0: none)
+    cdef int gsize                  # packed size D(D+1)/2 + D + 1
+    cdef double[:, ::1] gq          # (n, gsize)
+    cdef double* GQ
+    cdef int[::1] gcol              # attribute column of each quadric dimension past 3
     cdef int[::1] touched           # pass driver: vertices touched in the current pass
     cdef int pass_counter
 
@@ -120,8 +129,10 @@ cdef class EdgeCollapser:
     cdef void recost_he(self, int e, int h, int u, int v) noexcept nogil
     cdef int plan_he(self, int h, int u, int v, int* h_out, int* r_out, double* p, double* cost,
                      double* err) noexcept nogil
-    cdef int metric_cost(self, int h, int u, int v, int fu, int fv, const double* q, int* r_out,
-                         double* p, double* c, double* err) noexcept nogil
+    cdef int metric_cost(self, int h, int u, int v, int fu, int fv, const double* q, const double* qg,
+                         int* r_out, double* p, double* c, double* err) noexcept nogil
+    cdef void general_marginal(self, int u, int v, double* q) noexcept nogil
+    cdef void general_commit(self, int r, int k, const double* p) noexcept nogil
     cdef int kernel_refused(self, int rc) noexcept nogil
     cdef void merge_fields(self, int r, int k, const int* dead, const int* merged_into) noexcept nogil
     cdef void recost_ring(self, int v) noexcept nogil

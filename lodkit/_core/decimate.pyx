@@ -153,6 +153,134 @@ cdef void quadric_solve_truncated(const double* q, const double* x0, double* p) 
                 p[i] += coef * V[3 * i + j]
 
 
+cdef int cholesky(double* M, int m, double rel_eps) noexcept nogil:
+    """In-place Cholesky M = L L^T of an m x m SPD matrix (row-major, lower triangle
+    written); 0 if a pivot falls below rel_eps times the largest diagonal entry."""
+    cdef int i, j, k
+    cdef double s, dmax = 0.0
+    for i in range(m):
+        if M[i * m + i] > dmax:
+            dmax = M[i * m + i]
+    if not (dmax > 0.0):
+        return 0
+    for j in range(m):
+        s = M[j * m + j]
+        for k in range(j):
+            s -= M[j * m + k] * M[j * m + k]
+        if not (s > rel_eps * dmax):
+            return 0
+        M[j * m + j] = sqrt(s)
+        for i in range(j + 1, m):
+            s = M[i * m + j]
+            for k in range(j):
+                s -= M[i * m + k] * M[j * m + k]
+            M[i * m + j] = s / M[j * m + j]
+    return 1
+
+
+cdef void cholesky_solve(const double* L, int m, double* x) noexcept nogil:
+    """Solve L L^T y = x in place."""
+    cdef int i, k
+    cdef double s
+    for i in range(m):
+        s = x[i]
+        for k in range(i):
+            s -= L[i * m + k] * x[k]
+        x[i] = s / L[i * m + i]
+    for i in range(m - 1, -1, -1):
+        s = x[i]
+        for k in range(i + 1, m):
+            s -= L[k * m + i] * x[k]
+        x[i] = s / L[i * m + i]
+
+
+cdef bint gq_marginal(const double* g, int D, double* q3, const double* p, double* a) noexcept nogil:
+    """Marginal of a packed D-dimensional quadric over x = [position, attributes]:
+    min over the attributes of Q, a 3D quadric written to q3[0..9] (a11 a12 a13 a22 a23
+    a33 b1 b2 b3 c).  With p given, also the minimising attributes at p into a[0..D-4].
+    Packed layout: the upper triangle of A row by row, then b (D), then c.
+
+    With M = A_aa (the attribute block), Y = M^-1 A_ax and z = M^-1 b_a:
+    A' = A_xx - A_xa Y, b' = b_x - A_xa z, c' = c - b_a . z, and a*(p) = -(z + Y p).
+    If M is singular (an attribute with no information) a tiny ridge is added; if it is
+    zero the attributes are ignored (q3 = the position block) and False is returned."""
+    cdef double A[GMAX_D * GMAX_D]
+    cdef double b[GMAX_D]
+    cdef double M[GMAX_D * GMAX_D]
+    cdef double Y[3 * GMAX_D]        # column j of Y at Y[j * m]
+    cdef double z[GMAX_D]
+    cdef double c, ridge, dmax = 0.0
+    cdef int i, j, k, idx = 0, m = D - 3
+    for i in range(D):
+        for j in range(i, D):
+            A[i * D + j] = g[idx]
+            A[j * D + i] = g[idx]
+            idx += 1
+    for i in range(D):
+        b[i] = g[idx + i]
+    c = g[idx + D]
+    for i in range(m):
+        for j in range(m):
+            M[i * m + j] = A[(3 + i) * D + 3 + j]
+        if M[i * m + i] > dmax:
+            dmax = M[i * m + i]
+    cdef bint ok = dmax > 0.0 and m > 0
+    if ok and not cholesky(M, m, 1e-12):
+        # rank-deficient attribute block: regularise slightly (a direction with no
+        # information then stays near zero change rather than blowing up)
+        ridge = 1e-9 * dmax
+        for i in range(m):
+            for j in range(m):
+                M[i * m + j] = A[(3 + i) * D + 3 + j] + (ridge if i == j else 0.0)
+        ok = cholesky(M, m, 1e-15)
+    # position block
+    q3[0] = A[0]; q3[1] = A[1]; q3[2] = A[2]
+    q3[3] = A[D + 1]; q3[4] = A[D + 2]; q3[5] = A[2 * D + 2]
+    q3[6] = b[0]; q3[7] = b[1]; q3[8] = b[2]; q3[9] = c
+    if not ok:
+        return False
+    for j in range(3):
+        for i in range(m):
+            Y[j * m + i] = A[(3 + i) * D + j]
+        cholesky_solve(M, m, &Y[j * m])
+    for i in range(m):
+        z[i] = b[3 + i]
+    cholesky_solve(M, m, z)
+    # A' = A_xx - A_xa Y ; b' = b_x - A_xa z ; c' = c - b_a . z
+    idx = 0
+    for i in range(3):
+        for j in range(i, 3):
+            for k in range(m):
+                q3[idx] -= A[i * D + 3 + k] * Y[j * m + k]
+            idx += 1
+    for i in range(3):
+        for k in range(m):
+            q3[6 + i] -= A[i * D + 3 + k] * z[k]
+    for k in range(m):
+        q3[9] -= b[3 + k] * z[k]
+    if p != NULL:
+        for i in range(m):
+            a[i] = -(z[i] + Y[i] * p[0] + Y[m + i] * p[1] + Y[2 * m + i] * p[2])
+    return True
+
+
+def general_quadric_marginal(g, int D, p=None):
+    """Python access to the marginal of one packed quadric (for tests): returns the 3D
+    quadric (10,) and, with p, the minimising attributes (D-3,) or None."""
+    cdef double[::1] G = np.ascontiguousarray(g, dtype=np.float64)
+    if not 3 <= D <= GMAX_D or G.shape[0] != D * (D + 1) // 2 + D + 1:
+        raise ValueError(f"a packed quadric of dimension D (3..{GMAX_D}) has D(D+1)/2 + D + 1 entries")
+    cdef double q3[QSIZE]
+    cdef double a[GMAX_D]
+    cdef double pp[3]
+    if p is not None:
+        pp[0], pp[1], pp[2] = p[0], p[1], p[2]
+    ok = gq_marginal(&G[0], D, q3, pp if p is not None else NULL, a)
+    q = np.array([q3[i] for i in range(10)])
+    attrs = np.array([a[i] for i in range(D - 3)]) if (p is not None and ok) else None
+    return q, attrs
+
+
 cdef inline void add_plane(double* q, double nx, double ny, double nz, double d, double w) noexcept nogil:
     q[0] += w * nx * nx
     q[1] += w * nx * ny
@@ -359,7 +487,7 @@ cdef class EdgeCollapser:
                  double max_error=INFINITY, bint record=False, bint closed_connected=False,
                  double quadric_weight=1.0, double error_scale=1.0,
                  vertex_fields=None, vertex_rules=None, edge_fields=None, edge_rules=None,
-                 kernels=(), bint use_heap=True):
+                 kernels=(), bint use_heap=True, attribute_quadrics=None, attribute_columns=None):
         cdef int n = hm.n_vertices
         self.hm = hm
         # One row per vertex: the quadric (11 doubles) then the position (3), so that a
@@ -437,6 +565,7 @@ cdef class EdgeCollapser:
         self.A = &self.attr[0, 0] if n and self.n_attr else NULL
         self._setup_metric(quadric_weight, error_scale, vertex_fields, vertex_rules,
                            edge_fields, edge_rules, kernels, use_heap)
+        self._setup_attribute_quadrics(attribute_quadrics, attribute_columns)
         cdef int f
         if closed_connected and n:
             for f in range(hm.n_faces):
@@ -445,6 +574,33 @@ cdef class EdgeCollapser:
         if self.use_heap:
             with nogil:
                 self.rescan()
+
+    def _setup_attribute_quadrics(self, gq, columns):
+        cdef int n = self.hm.n_vertices
+        self.gdim = 0
+        self.gsize = 0
+        self.gq = np.zeros((1, 1))
+        self.GQ = NULL
+        self.gcol = np.zeros(1, dtype=np.intc)
+        if gq is None:
+            return
+        cols = np.ascontiguousarray(columns, dtype=np.intc).reshape(-1)
+        D = 3 + cols.shape[0]
+        if D > GMAX_D:
+            raise ValueError(f"quadrics over attributes support at most {GMAX_D - 3} attribute channels")
+        if cols.shape[0] == 0:
+            raise ValueError("attribute_columns must name at least one attribute column")
+        if cols.min() < 0 or cols.max() >= self.n_attr:
+            raise ValueError(f"attribute_columns must be in 0..{self.n_attr - 1}")
+        arr = np.ascontiguousarray(gq, dtype=np.float64)
+        S = D * (D + 1) // 2 + D + 1
+        if arr.shape != (n, S):
+            raise ValueError(f"attribute_quadrics must have shape ({n}, {S}) for {D - 3} attribute channels")
+        self.gq = arr
+        self.GQ = &self.gq[0, 0] if n else NULL
+        self.gcol = cols
+        self.gdim = D
+        self.gsize = S
 
     def _setup_metric(self, double quadric_weight, double error_scale, vertex_fields, vertex_rules,
                       edge_fields, edge_rules, kernels, bint use_heap):
@@ -500,6 +656,7 @@ cdef class EdgeCollapser:
         cdef bint fu = (gu & 1) != 0
         cdef bint fv = (gv & 1) != 0
         cdef double q[QSIZE]
+        cdef double qg[QSIZE]
         cdef double cand[3]
         cdef double best, c, t, denom, d0, d1
         cdef double du[3]
@@ -516,6 +673,12 @@ cdef class EdgeCollapser:
             return -1
         for i in range(QSIZE):
             q[i] = self.Q[VSTRIDE * u + i] + self.Q[VSTRIDE * v + i]
+        if self.gdim > 0:
+            # quadrics over attributes: place by the marginal quadric in x (the attributes
+            # minimised out), keep the plain one (qg) to measure the geometric error
+            for i in range(QSIZE):
+                qg[i] = q[i]
+            self.general_marginal(u, v, q)
         h_out[0] = h
         if fu or fv:
             keep = u if fu else v
@@ -585,16 +748,29 @@ cdef class EdgeCollapser:
         if c < 0.0:
             c = 0.0
         if self.has_extras:
-            keep = self.metric_cost(h, u, v, fu, fv, q, r_out, p, &c, err)
+            keep = self.metric_cost(h, u, v, fu, fv, q, &qg[0] if self.gdim > 0 else &q[0], r_out, p, &c, err)
             cost[0] = c
             return keep
         if err != NULL:
-            err[0] = sqrt(self.error_scale * c / q[10]) if q[10] > 0.0 else 0.0
+            if self.gdim > 0:
+                d0 = quadric_eval(qg, p)
+                err[0] = sqrt(self.error_scale * d0 / q[10]) if q[10] > 0.0 and d0 > 0.0 else 0.0
+            else:
+                err[0] = sqrt(self.error_scale * c / q[10]) if q[10] > 0.0 else 0.0
         cost[0] = self.quadric_weight * c
         return 0
 
-    cdef int metric_cost(self, int h, int u, int v, int fu, int fv, const double* q, int* r_out,
-                         double* p, double* c, double* err) noexcept nogil:
+    cdef void general_marginal(self, int u, int v, double* q) noexcept nogil:
+        """Sum the attribute quadrics of u and v and write into q[0..9] their marginal in
+        x: min over the attributes a of Q(x, a), itself a 3D quadric (Schur complement)."""
+        cdef double g[GMAX_S]
+        cdef int i, gs = self.gsize
+        for i in range(gs):
+            g[i] = self.GQ[gs * u + i] + self.GQ[gs * v + i]
+        gq_marginal(g, self.gdim, q, NULL, NULL)
+
+    cdef int metric_cost(self, int h, int u, int v, int fu, int fv, const double* q, const double* qg,
+                         int* r_out, double* p, double* c, double* err) noexcept nogil:
         """The rest of the metric after the quadric: a kernel may re-place, then the
         quadric cost (times its weight), the fields in order, the kernels in order.
         ``c`` holds the quadric value at ``p`` on entry, the total cost on return.
@@ -643,7 +819,11 @@ cdef class EdgeCollapser:
                     cq = quadric_eval(q, p)
                     if cq < 0.0:
                         cq = 0.0
-        e_err = sqrt(self.error_scale * cq / q[10]) if q[10] > 0.0 else 0.0
+        if qg != q:
+            e_err = quadric_eval(qg, p)
+            e_err = sqrt(self.error_scale * e_err / q[10]) if q[10] > 0.0 and e_err > 0.0 else 0.0
+        else:
+            e_err = sqrt(self.error_scale * cq / q[10]) if q[10] > 0.0 else 0.0
         if err != NULL:
             err[0] = e_err
         total = self.quadric_weight * cq
@@ -916,6 +1096,8 @@ cdef class EdgeCollapser:
             self.Q[VSTRIDE * k + i] += self.Q[VSTRIDE * r + i]
         for i in range(self.n_attr):
             self.A[self.n_attr * k + i] = (1.0 - t) * self.A[self.n_attr * r + i] + t * self.A[self.n_attr * k + i]
+        if self.gdim > 0:
+            self.general_commit(r, k, p)
         if p[0] != self.P[VSTRIDE * k + 0] or p[1] != self.P[VSTRIDE * k + 1] or p[2] != self.P[VSTRIDE * k + 2]:
             for i in range(3):
                 self.P[VSTRIDE * k + i] = p[i]
@@ -952,6 +1134,19 @@ cdef class EdgeCollapser:
                 return
         if self.use_heap:
             self.recost_ring(k)
+
+    cdef void general_commit(self, int r, int k, const double* p) noexcept nogil:
+        """Add the attribute quadric of r to k's and give k the attribute values that
+        minimise it at the new position (where that is determined; else the interpolated
+        values stay)."""
+        cdef double a[GMAX_D]
+        cdef double q3[QSIZE]
+        cdef int i, gs = self.gsize, m = self.gdim - 3
+        for i in range(gs):
+            self.GQ[gs * k + i] += self.GQ[gs * r + i]
+        if gq_marginal(&self.GQ[gs * k], self.gdim, q3, p, a):
+            for i in range(m):
+                self.A[self.n_attr * k + self.gcol[i]] = a[i]
 
     cdef void merge_fields(self, int r, int k, const int* dead, const int* merged_into) noexcept nogil:
         """The kept vertex takes merge(kept, removed) of each vertex field; the edge that a

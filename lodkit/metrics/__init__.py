@@ -25,13 +25,15 @@ from importlib import metadata
 from typing import Any, Callable, Iterable, Optional
 
 from ..errors import MetricError, OptionError, UnknownMetricError
-from .base import (KINDS, Batch, BatchMetric, FieldMetric, KernelMetric, Metric, MetricContext,
-                   Option, QuadricMetric, check_metric_class)
+from .base import (ATTRIBUTE_WIDTHS, KINDS, Batch, BatchMetric, FieldMetric, KernelMetric, Metric,
+                   MetricContext, Option, QuadricMetric, check_metric_class, pack_quadrics,
+                   packed_size, unpack_quadrics)
 
 __all__ = [
     "GROUP", "DISCOVERY_ENV", "MetricInfo", "available", "get", "create", "register",
     "unregister", "refresh", "Metric", "QuadricMetric", "FieldMetric", "KernelMetric",
-    "BatchMetric", "Option", "MetricContext", "Batch", "KINDS",
+    "BatchMetric", "Option", "MetricContext", "Batch", "KINDS", "ATTRIBUTE_WIDTHS",
+    "pack_quadrics", "unpack_quadrics", "packed_size",
 ]
 
 GROUP = "lodkit.metrics"

@@ -21,7 +21,8 @@ from ..errors import OptionError
 
 __all__ = [
     "Option", "Metric", "QuadricMetric", "FieldMetric", "KernelMetric", "BatchMetric",
-    "MetricContext", "Batch", "KINDS",
+    "MetricContext", "Batch", "KINDS", "ATTRIBUTE_WIDTHS", "pack_quadrics", "unpack_quadrics",
+    "packed_size",
 ]
 
 KINDS = ("quadric", "field", "kernel", "batch")
@@ -172,15 +173,57 @@ class Metric:
         return f"<metric {self.name} ({self.kind}){' ' + opts if opts else ''}>"
 
 
+#: per-vertex attributes a quadric may range over, and their widths
+ATTRIBUTE_WIDTHS = {"colors": 3, "uvs": 2, "normals": 3}
+
+
+def packed_size(dim: int) -> int:
+    """Entries of a packed quadric of dimension ``dim``: dim(dim+1)/2 + dim + 1."""
+    return dim * (dim + 1) // 2 + dim + 1
+
+
+def pack_quadrics(A: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """(n, D, D), (n, D), (n,) -> (n, S) packed rows: the upper triangle of A row by row,
+    then b, then c (for D = 3: a11 a12 a13 a22 a23 a33 b1 b2 b3 c)."""
+    A = np.asarray(A, dtype=np.float64)
+    D = A.shape[-1]
+    iu = np.triu_indices(D)
+    return np.concatenate([A[:, iu[0], iu[1]], np.asarray(b, dtype=np.float64),
+                           np.asarray(c, dtype=np.float64).reshape(-1, 1)], axis=1)
+
+
+def unpack_quadrics(packed: np.ndarray, dim: int):
+    """Inverse of :func:`pack_quadrics`: (A (n, D, D), b (n, D), c (n,))."""
+    packed = np.asarray(packed, dtype=np.float64)
+    n = packed.shape[0]
+    iu = np.triu_indices(dim)
+    t = iu[0].size
+    A = np.zeros((n, dim, dim))
+    A[:, iu[0], iu[1]] = packed[:, :t]
+    A[:, iu[1], iu[0]] = packed[:, :t]
+    return A, packed[:, t:t + dim].copy(), packed[:, t + dim].copy()
+
+
 class QuadricMetric(Metric):
     """Per-vertex quadrics Q_v(x) = x^T A x + 2 b^T x + c, added on collapse.
 
-    ``quadrics(ctx)`` returns an (n, 10) float64 array, one row per vertex slot:
-    a11 a12 a13 a22 a23 a33 b1 b2 b3 c, in normalised coordinates.  Several quadric metrics
-    fold into one quadric: sum of weight * Q.  The folded quadric places the new vertex.
+    ``quadrics(ctx)`` returns one packed row per vertex slot, in normalised coordinates.
+    With no ``attributes`` x is the position and a row is a11 a12 a13 a22 a23 a33 b1 b2 b3 c
+    (n, 10).  With ``attributes = ("colors",)`` (any of "colors" 3, "uvs" 2, "normals" 3)
+    x = [x, y, z, r, g, b] and a row is the packed D = 6 quadric (:func:`pack_quadrics`):
+    the core minimises the folded quadric over position and attributes together, so the
+    kept vertex gets the attribute values of the optimum.
+
+    Several quadric metrics fold into one quadric: sum of weight * Q (over the union of
+    their attributes).  The folded quadric places the new vertex.
     """
 
     kind = "quadric"
+    attributes: ClassVar[tuple] = ()
+
+    @classmethod
+    def dimension(cls) -> int:
+        return 3 + sum(ATTRIBUTE_WIDTHS[a] for a in cls.attributes)
 
     def quadrics(self, ctx: "MetricContext") -> np.ndarray:
         raise NotImplementedError
@@ -364,6 +407,13 @@ def check_metric_class(obj: Any) -> Optional[str]:
     for key, opt in obj.all_options().items():
         if not isinstance(opt, Option):
             return f"option {key!r} is {opt!r}, not a lodkit.metrics.Option"
+    if obj.kind == "quadric":
+        attrs = getattr(obj, "attributes", ())
+        if not isinstance(attrs, tuple) or any(a not in ATTRIBUTE_WIDTHS for a in attrs) or len(set(attrs)) != len(attrs):
+            return (f"has attributes={attrs!r}; a quadric ranges over a tuple of distinct names among "
+                    + ", ".join(ATTRIBUTE_WIDTHS))
+        if obj.dimension() > 16:
+            return f"has dimension {obj.dimension()}; quadrics go up to 16 dimensions"
     if obj.kind == "field" and obj.per not in ("vertex", "edge"):
         return f"has per={obj.per!r}; a field is per 'vertex' or per 'edge'"
     if obj.kind == "kernel":
