@@ -352,6 +352,10 @@ def _metric_setup(metrics, ctx, vdata, attr_layout=None) -> _MetricSetup:
         m.prepare(ctx)
     # everything that reads ctx.face_quadrics runs before vdata is overwritten below
     quads = [m for m in metrics if m.kind == "quadric"]
+    for m in quads:
+        missing = [a for a in m.attributes if a not in attr_layout]
+        if missing:
+            raise MetricError(f"metric {m.name!r} needs per-vertex {missing[0]}, and the mesh has none")
     total_w = sum(m.weight for m in quads)
     blocks = []
     if quads and total_w > 0.0:
@@ -421,9 +425,6 @@ def _fold_attribute_quadrics(blocks, attr_names, attr_layout, ctx, boundary_weig
 
     columns, dim_of = [], {}
     for name in attr_names:
-        if name not in attr_layout:
-            users = ", ".join(repr(m.name) for m, _ in blocks if name in m.attributes)
-            raise MetricError(f"metric {users} needs per-vertex {name}, and the mesh has none")
         dim_of[name] = 3 + len(columns)
         start = attr_layout[name]
         columns += list(range(start, start + widths[name]))
