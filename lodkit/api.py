@@ -365,26 +365,38 @@ def _metric_setup(metrics, ctx, vdata, attr_layout=None) -> _MetricSetup:
     for m in quads:
         attr_names += [a for a in m.attributes if a not in attr_names]
     core = {}
-    for per, rows in (("vertex", n), ("edge", ctx.n_edges)):
-        fields = [m for m in metrics if m.kind == "field" and m.per == per]
-        if not fields:
-            continue
-        values, rules = [], []
-        for m in fields:
-            v = _checked(m, m.values(ctx), (rows,), f"{per} field values")
-            v = v.reshape(rows, -1)
-            values.append(v)
-            rules.append(m.rules(v.shape[1]))
-        core[f"{per}_fields"] = np.ascontiguousarray(np.concatenate(values, axis=1))
-        core[f"{per}_rules"] = np.concatenate(rules, axis=0)
-    kernels = []
+    # fields and kernels apply in the order the metrics are listed: steps (kind, first, end)
+    # over the columns of the vertex / edge field blocks and the kernel chain
+    values = {"vertex": [], "edge": []}
+    rules = {"vertex": [], "edge": []}
+    width = {"vertex": 0, "edge": 0}
+    kernels, steps = [], []
     for m in metrics:
-        if m.kind == "kernel":
+        if m.kind == "field":
+            rows = n if m.per == "vertex" else ctx.n_edges
+            v = _checked(m, m.values(ctx), (rows,), f"{m.per} field values").reshape(rows, -1)
+            values[m.per].append(v)
+            rules[m.per].append(m.rules(v.shape[1]))
+            step = (0 if m.per == "vertex" else 1, width[m.per], width[m.per] + v.shape[1])
+            width[m.per] += v.shape[1]
+        elif m.kind == "kernel":
             k = m.make_kernel(ctx)
             if not isinstance(k, m.kernel):
                 raise MetricError(f"metric {m.name!r}: make_kernel returned {type(k).__name__}, not {m.kernel.__name__}")
+            step = (2, len(kernels), len(kernels) + 1)
             kernels.append((m, k))
+        else:
+            continue
+        if steps and steps[-1][0] == step[0] and steps[-1][2] == step[1]:
+            steps[-1] = (step[0], steps[-1][1], step[2])          # one run of the same kind
+        else:
+            steps.append(step)
+    for per in ("vertex", "edge"):
+        if values[per]:
+            core[f"{per}_fields"] = np.ascontiguousarray(np.concatenate(values[per], axis=1))
+            core[f"{per}_rules"] = np.concatenate(rules[per], axis=0)
     core["kernels"] = [k for _, k in kernels]
+    core["steps"] = steps
     bw = ctx.settings.get("boundary_weight", 0.0)
     preserve = ctx.settings.get("boundary") == "preserve" and bw > 0.0
     if blocks and attr_names:
@@ -409,7 +421,10 @@ def _metric_setup(metrics, ctx, vdata, attr_layout=None) -> _MetricSetup:
         del blocks
         core["quadric_weight"], core["error_scale"] = 1.0, 1.0 / total_w
     else:
-        core["quadric_weight"], core["error_scale"], total_w = 0.0, 1.0, 1.0
+        # no quadric metric: plain QEM places the vertex and measures the error; it is also
+        # the cost when nothing else supplies one (fields alone modulate plain QEM)
+        only_fields = all(m.kind == "field" for m in metrics)
+        core["quadric_weight"], core["error_scale"], total_w = (1.0 if only_fields else 0.0), 1.0, 1.0
     if preserve:
         # boundary planes scale with the quadric weights, so "preserve" means the same
         add_boundary_planes(ctx.halfedge, ctx.positions, bw * total_w, vdata)

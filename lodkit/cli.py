@@ -1,4 +1,4 @@
-"""The ``lodkit`` command: ``simplify``, ``info`` and ``demo``.
+"""The ``lodkit`` command: ``simplify``, ``info``, ``metrics`` and ``demo``.
 
 Every failure the user can cause (a missing or unreadable file, a bad option, a mesh
 lodkit cannot use) prints one line ``lodkit: error: ...`` on standard error and exits
@@ -87,7 +87,11 @@ def _build_parser() -> argparse.ArgumentParser:
                         help="stop before the error exceeds E (a fraction of the bounding-box "
                              "diagonal, or model units with --absolute)")
     p.add_argument("--absolute", action="store_true", help="--max-error and the reported error are in model units")
-    p.add_argument("--metric", metavar="M", help="cost metric (default: qem)")
+    p.add_argument("--metric", type=_metric_option, action="append", metavar="NAME[:OPT=VAL,...]",
+                   help="cost metric, with options after a colon, e.g. 'qem' or "
+                        "'importance:weight=2,merge=min' (values are read as int, float, "
+                        "true/false or text); repeat to combine metrics (default: qem); "
+                        "'lodkit metrics' lists them")
     p.add_argument("--placement", choices=("optimal", "endpoint"), help="where the merged vertex goes (default: optimal)")
     p.add_argument("--boundary", choices=("lock", "preserve", "free"), help="how boundaries are treated (default: preserve)")
     p.add_argument("--max-normal-angle", type=float, metavar="DEG",
@@ -103,6 +107,13 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("file", metavar="FILE", help="mesh file")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.set_defaults(run=_run_info)
+
+    p = sub.add_parser("metrics", help="list the available cost metrics",
+                       description="List every cost metric lodkit finds (its own and those of "
+                                   "installed plugin packages): name, package, version, kind and "
+                                   "whether it loads. Each metric is imported to check it.")
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.set_defaults(run=_run_metrics)
 
     p = sub.add_parser("demo", help="simplify a generated test surface to several levels",
                        description="Generate the demo surface (creases, a boundary, fine detail, "
@@ -148,6 +159,48 @@ def _non_negative(text: str) -> float:
     return value
 
 
+def _metric_option(text: str):
+    """``NAME[:OPT=VAL,...]`` -> ``NAME`` or ``(NAME, {OPT: VAL})``.  NAME may itself be
+    ``package:name``: the options start at the first ``:`` followed by ``OPT=``."""
+    parts = text.split(":")
+    start = next((i for i in range(1, len(parts)) if "=" in parts[i]), len(parts))
+    name = ":".join(parts[:start]).strip()
+    if not name or any(not p.strip() for p in parts[:start]):
+        raise argparse.ArgumentTypeError(f"expected NAME[:OPT=VALUE,...], got {text!r}")
+    if start == len(parts):
+        return name
+    options = {}
+    for item in ":".join(parts[start:]).split(","):
+        key, eq, value = item.partition("=")
+        key = key.strip()
+        if not eq or not key:
+            raise argparse.ArgumentTypeError(
+                f"metric {name!r}: expected OPT=VALUE, got {item.strip()!r} (in {text!r})")
+        if key in options:
+            raise argparse.ArgumentTypeError(f"metric {name!r}: option {key!r} given twice")
+        options[key] = _option_value(value.strip())
+    return name, options
+
+
+def _option_value(text: str):
+    """An option value from the command line: int, float, bool (true/false) or text."""
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    if text.lower() in ("true", "false"):
+        return text.lower() == "true"
+    return text
+
+
+def _metric_spec(items):
+    """The ``metric=`` argument of simplify() from the ``--metric`` options (None: default)."""
+    if not items:
+        return None
+    return items[0] if len(items) == 1 else list(items)
+
+
 # ---------------------------------------------------------------------- commands
 def _run_simplify(args) -> int:
     from . import load, save, simplify
@@ -155,12 +208,18 @@ def _run_simplify(args) -> int:
     if args.ratio is None and args.faces is None and args.max_error is None:
         raise _UsageError("simplify needs a target: --ratio, --faces or --max-error (see 'lodkit simplify --help')")
     _check_output(args.output)     # before the work, not after it
+    metric = _metric_spec(args.metric)
+    if metric is not None:
+        # unknown names and bad options fail here, before a large mesh is loaded
+        from .metrics import create
+
+        create(metric)
     options = {
         "target_ratio": args.ratio,
         "target_faces": args.faces,
         "max_error": args.max_error,
         "absolute": args.absolute,
-        "metric": args.metric,
+        "metric": metric,
         "placement": args.placement,
         "boundary": args.boundary,
         "max_normal_angle": args.max_normal_angle,
@@ -227,6 +286,37 @@ def _run_info(args) -> int:
     width = max(len(name) for name, _ in rows)
     for name, value in rows:
         print(f"{name:<{width}}  {value}")
+    return EXIT_OK
+
+
+def _run_metrics(args) -> int:
+    from .metrics import available
+
+    rows = []
+    for info in available(load=True):
+        status = "ok" if info.loaded else " ".join(str(info.error or "not loaded").split())
+        rows.append({
+            "name": info.name,
+            "package": info.package,
+            "version": info.version,
+            "kind": info.kind,
+            "status": status,
+            "ok": bool(info.loaded),
+            "qualified": info.qualified,
+            "source": info.source,
+            "target": info.target,
+            "description": info.description,
+        })
+    if args.json:
+        print(json.dumps(rows, indent=2))
+        return EXIT_OK
+    columns = ("name", "package", "version", "kind", "status")
+    table = [columns] + [tuple(str(r[c]) if r[c] not in (None, "") else "-" for c in columns) for r in rows]
+    widths = [max(len(row[i]) for row in table) for i in range(len(columns) - 1)]
+    for row in table:
+        print("  ".join(f"{cell:<{w}}" for cell, w in zip(row, widths)) + "  " + row[-1])
+    if not rows:
+        print("(no metrics found)")
     return EXIT_OK
 
 

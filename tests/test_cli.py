@@ -14,6 +14,9 @@ import lodkit
 from lodkit.cli import main
 
 REPO = Path(__file__).resolve().parents[1]
+# where the lodkit under test lives (the installed copy in CI, the source tree in a dev
+# checkout): subprocesses must import that one, not an unbuilt source tree
+LODKIT_ROOT = Path(lodkit.__file__).resolve().parents[1]
 
 
 def _simplify_available() -> bool:
@@ -210,7 +213,7 @@ def test_lodkit_error_from_the_library_is_one_line(tetra_ply, capsys, monkeypatc
 
 def test_python_dash_m():
     proc = subprocess.run([sys.executable, "-m", "lodkit", "--help"], capture_output=True, text=True,
-                          cwd=REPO, env={"PYTHONPATH": str(REPO), "PATH": ""}, timeout=120)
+                          cwd=REPO, env={"PYTHONPATH": str(LODKIT_ROOT), "PATH": ""}, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.startswith("usage: lodkit")
 
@@ -275,3 +278,172 @@ def test_demo_command(tmp_path, capsys):
     assert "stop reason" in text
     files = sorted(p.name for p in out.iterdir())
     assert files == [f"demo_lod{i}.ply" for i in range(5)]
+
+
+# ---------------------------------------------------------------------- metrics
+@pytest.fixture
+def builtin_metrics_only(monkeypatch):
+    """lodkit's own metrics only, whatever plugins the environment has installed."""
+    import lodkit.metrics
+
+    monkeypatch.setenv(lodkit.metrics.DISCOVERY_ENV, "0")
+    lodkit.metrics.refresh()
+    yield
+    lodkit.metrics.refresh()
+
+
+@pytest.fixture
+def broken_plugin(monkeypatch):
+    """Discovery over two fake entry points: one that fails to import, one that works."""
+    from importlib import metadata
+
+    import lodkit.metrics
+
+    class Dist:
+        metadata = {"Name": "acme-metrics"}
+        version = "0.3"
+
+    def entry_point(name, value):
+        ep = metadata.EntryPoint(name, value, lodkit.metrics.GROUP)
+        return type("EP", (), {"name": name, "value": value, "dist": Dist, "load": staticmethod(ep.load)})()
+
+    monkeypatch.delenv(lodkit.metrics.DISCOVERY_ENV, raising=False)
+    monkeypatch.setattr(lodkit.metrics, "_entry_points", lambda: [
+        entry_point("acme_broken", "acme_no_such_module:Metric"),
+        entry_point("acme_qem", "lodkit.metrics.qem:QEM"),
+    ])
+    lodkit.metrics.refresh()
+    yield
+    lodkit.metrics.refresh()
+
+
+def metrics_table(out: str) -> dict:
+    lines = out.strip().splitlines()
+    assert re.split(r"\s+", lines[0]) == ["name", "package", "version", "kind", "status"]
+    rows = {}
+    for line in lines[1:]:
+        name, package, version, kind, status = re.split(r"\s{2,}", line, maxsplit=4)
+        rows[(name, package)] = (version, kind, status)
+    return rows
+
+
+def test_metrics_table(builtin_metrics_only, capsys):
+    assert main(["metrics"]) == 0
+    rows = metrics_table(capsys.readouterr().out)
+    v = lodkit.__version__
+    assert rows == {("importance", "lodkit"): (v, "field", "ok"), ("qem", "lodkit"): (v, "quadric", "ok"),
+                    ("qem_native", "lodkit"): (v, "kernel", "ok")}
+
+
+def test_metrics_json(builtin_metrics_only, capsys):
+    assert main(["metrics", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert [(r["name"], r["package"], r["kind"], r["status"], r["ok"]) for r in rows] == [
+        ("importance", "lodkit", "field", "ok", True), ("qem", "lodkit", "quadric", "ok", True),
+        ("qem_native", "lodkit", "kernel", "ok", True)]
+    assert all(r["version"] == lodkit.__version__ and r["description"] for r in rows)
+
+
+def test_metrics_lists_a_broken_plugin_with_its_error(broken_plugin, capsys):
+    assert main(["metrics"]) == 0
+    rows = metrics_table(capsys.readouterr().out)
+    assert rows[("acme_broken", "acme-metrics")] == (
+        "0.3", "-", "import failed: ModuleNotFoundError: No module named 'acme_no_such_module'")
+    assert rows[("acme_qem", "acme-metrics")] == ("0.3", "quadric", "ok")
+    assert rows[("qem", "lodkit")][1:] == ("quadric", "ok")
+    assert main(["metrics", "--json"]) == 0
+    by_name = {r["name"]: r for r in json.loads(capsys.readouterr().out)}
+    broken = by_name["acme_broken"]
+    assert broken["ok"] is False and broken["kind"] is None and "acme_no_such_module" in broken["status"]
+    assert broken["qualified"] == "acme-metrics:acme_broken" and broken["target"] == "acme_no_such_module:Metric"
+
+
+def test_metrics_command_with_a_real_broken_distribution(tmp_path):
+    """A .dist-info whose entry point cannot be imported: the command lists it, exit 0."""
+    info = tmp_path / "acme_broken-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: acme-broken\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text("[lodkit.metrics]\nacme_broken = acme_no_such_module:X\n")
+    env = {"PYTHONPATH": f"{tmp_path}{__import__('os').pathsep}{LODKIT_ROOT}", "PATH": ""}
+    proc = subprocess.run([sys.executable, "-m", "lodkit", "metrics", "--json"], capture_output=True, text=True,
+                          cwd=tmp_path, env=env, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    rows = {(r["name"], r["package"]): r for r in json.loads(proc.stdout)}
+    assert rows[("acme_broken", "acme-broken")]["ok"] is False
+    assert rows[("qem", "lodkit")]["status"] == "ok"
+
+
+@pytest.mark.parametrize("text, spec", [
+    ("qem", "qem"),
+    ("importance:weight=2", ("importance", {"weight": 2})),
+    ("importance:weight=2.5,merge=min,mode=add", ("importance", {"weight": 2.5, "merge": "min", "mode": "add"})),
+    ("acme-metrics:curv", "acme-metrics:curv"),
+    ("acme-metrics:curv:weight=1e-3,flag=true,off=False,n=-3",
+     ("acme-metrics:curv", {"weight": 0.001, "flag": True, "off": False, "n": -3})),
+    (" qem : weight = 2 ", ("qem", {"weight": 2})),
+    ("acme:mode=yes,flag=TRUE,x=1.5e2,name=no", ("acme", {"mode": "yes", "flag": True, "x": 150.0, "name": "no"})),
+])
+def test_metric_option_parsing(text, spec):
+    from lodkit.cli import _metric_option
+
+    assert _metric_option(text) == spec
+
+
+@pytest.mark.parametrize("text", ["", ":weight=2", "qem:weight=1,oops", "qem:=3", "qem:weight=1,weight=2",
+                                  "qem::weight=1"])
+def test_bad_metric_option_syntax(tetra_ply, tmp_path, capsys, text):
+    assert main(["simplify", str(tetra_ply), str(tmp_path / "o.ply"), "--faces", "2", "--metric", text]) == 2
+    assert "--metric" in one_error_line(capsys)
+
+
+@needs_simplify
+def test_metric_options_reach_the_library(surface_ply, tmp_path, monkeypatch):
+    seen = {}
+    real = lodkit.simplify
+
+    def spy(mesh, **kwargs):
+        seen.update(kwargs)
+        return real(mesh, **kwargs)
+
+    monkeypatch.setattr(lodkit, "simplify", spy)
+    argv = ["simplify", str(surface_ply), str(tmp_path / "o.ply"), "--ratio", "0.5", "--quiet",
+            "--metric", "qem", "--metric", "qem_native:weight=0.5"]
+    assert main(argv) == 0
+    assert seen["metric"] == ["qem", ("qem_native", {"weight": 0.5})]
+    seen.clear()
+    assert main(argv[:6]) == 0                       # no --metric: simplify's default
+    assert "metric" not in seen
+
+
+@needs_simplify
+def test_simplify_with_qem_native(builtin_metrics_only, surface_ply, tmp_path, capsys):
+    a, b = tmp_path / "a.ply", tmp_path / "b.ply"
+    assert main(["simplify", str(surface_ply), str(a), "--ratio", "0.3", "--metric", "qem"]) == 0
+    assert main(["simplify", str(surface_ply), str(b), "--ratio", "0.3", "--metric", "qem_native"]) == 0
+    assert "target_faces" in capsys.readouterr().out
+    ma, mb = lodkit.load(a), lodkit.load(b)
+    assert np.array_equal(ma.faces, mb.faces) and np.array_equal(ma.vertices, mb.vertices)
+
+
+@needs_simplify
+def test_importance_needs_values_on_the_command_line(builtin_metrics_only, surface_ply, tmp_path, capsys):
+    out = tmp_path / "o.ply"
+    assert main(["simplify", str(surface_ply), str(out), "--ratio", "0.5",
+                 "--metric", "qem", "--metric", "importance:weight=2"]) == 2
+    line = one_error_line(capsys)
+    assert "importance" in line and "values" in line
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("metric, message", [
+    ("curvature", "unknown metric 'curvature'; available: importance, qem, qem_native"),
+    ("qem:weight=-1", "metric 'qem': option 'weight' must be a number >= 0.0, got -1"),
+    ("qem:wieght=1", "metric 'qem' has no option 'wieght'; its options: weight"),
+    ("importance:merge=median", "option 'merge' must be one of"),
+])
+def test_bad_metric_fails_before_loading(builtin_metrics_only, tetra_ply, tmp_path, capsys, monkeypatch,
+                                         metric, message):
+    monkeypatch.setattr(lodkit, "load", lambda *a, **k: pytest.fail("loaded before checking --metric"))
+    assert main(["simplify", str(tetra_ply), str(tmp_path / "o.ply"), "--faces", "2",
+                 "--metric", "qem", "--metric", metric]) == 2
+    assert message in one_error_line(capsys)

@@ -40,6 +40,11 @@ cdef enum FieldMode:
     MODE_ADD = 1         # cost += weight * value
 
 cdef enum:
+    STEP_VFIELD = 0      # rows of EdgeCollapser.steps: (kind, first, end)
+    STEP_EFIELD = 1
+    STEP_KERNEL = 2
+
+cdef enum:
     RULE_MERGE = 0       # columns of the (n_fields, 5) rule arrays
     RULE_VALUE = 1
     RULE_MODE = 2
@@ -109,6 +114,8 @@ cdef class EdgeCollapser:
     cdef Kernel kernel              # first of the chain, None if no kernels
     cdef bint kernel_places
     cdef KernelMesh kmesh
+    cdef int[:, ::1] steps          # (n_steps, 3): fields and kernels in the metrics' order
+    cdef int n_steps
     cdef bint has_extras            # any field or kernel
     cdef bint use_heap              # False: the pass driver (batch metrics) runs instead
     cdef readonly int n_vetoed      # candidates refused by a kernel since the last rescan

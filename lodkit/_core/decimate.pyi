@@ -1,28 +1,65 @@
 """Type stubs for lodkit._core.decimate (Cython)."""
-from typing import Optional
+from typing import Iterable, Optional, TypedDict
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .halfedge import HalfEdgeMesh
+from .kernel import Kernel
+
+def face_unit_normals(hm: HalfEdgeMesh, positions: ArrayLike) -> NDArray[np.int16]:
+    """(n_faces * 3,) int16 unit normals of the face slots, scaled by 32767 (zeros for
+    degenerate faces)."""
 
 def vertex_quadrics(
     hm: HalfEdgeMesh, positions: ArrayLike, boundary_weight: float = ..., out: Optional[NDArray[np.float64]] = ...
 ) -> NDArray[np.float64]:
     """(n, 11) area-weighted plane quadrics (a11 a12 a13 a22 a23 a33 b1 b2 b3 c w)."""
 
+def general_quadric_marginal(
+    g: ArrayLike, D: int, p: Optional[ArrayLike] = ...
+) -> tuple[NDArray[np.float64], Optional[NDArray[np.float64]]]:
+    """The marginal of one packed D-dimensional quadric (3 <= D <= 16): its 3D quadric (10,)
+    and, with ``p``, the attributes (D - 3,) that minimise it there (None without ``p`` or
+    when the attribute block is singular).  For tests."""
+
+def add_boundary_planes(hm: HalfEdgeMesh, positions: ArrayLike, weight: float, out: NDArray[np.float64]) -> None:
+    """Add to ``out`` (n, >= 10), for every boundary edge and to both its ends, the plane
+    through the edge perpendicular to its face, weighted by ``weight * length^2``."""
+
+class _Plan(TypedDict):
+    """What :meth:`EdgeCollapser.plan_all` returns: one row per edge that may collapse."""
+
+    edge: NDArray[np.intc]
+    u: NDArray[np.intc]
+    v: NDArray[np.intc]
+    removed: NDArray[np.intc]
+    kept: NDArray[np.intc]
+    position: NDArray[np.float64]
+    cost: NDArray[np.float64]
+    error: NDArray[np.float64]
+
 class EdgeCollapser:
-    """Greedy QEM edge collapse over a HalfEdgeMesh, modified in place."""
+    """Greedy QEM edge collapse over a HalfEdgeMesh, modified in place.
+
+    Field rules are (k, 5) float rows: merge, value, mode, weight, offset (codes in
+    decimate.pxd: merge max 0, min 1, sum 2, keep 3, mean 4; value max 0, min 1, sum 2,
+    kept 3, removed 4, mean 5; mode scale 0, add 1).
+    """
 
     n_collapses: int
     max_error_done: float
     n_rejected_error: int
     n_rejected_topology: int
     n_rejected_geometry: int
+    n_vetoed: int
+    """Candidates refused by a kernel since the last rescan (or plan_all)."""
+    failed: bool
+    """A kernel returned KERNEL_ERROR: see ``error_message``."""
     def __init__(
         self,
         hm: HalfEdgeMesh,
-        positions: ArrayLike,
+        positions: Optional[ArrayLike],
         quadrics: ArrayLike,
         attributes: Optional[ArrayLike],
         fixed: ArrayLike,
@@ -31,9 +68,43 @@ class EdgeCollapser:
         max_normal_angle: float = ...,
         min_quality: float = ...,
         max_error: float = ...,
-    ) -> None: ...
+        record: bool = ...,
+        closed_connected: bool = ...,
+        quadric_weight: float = ...,
+        error_scale: float = ...,
+        vertex_fields: Optional[ArrayLike] = ...,
+        vertex_rules: Optional[ArrayLike] = ...,
+        edge_fields: Optional[ArrayLike] = ...,
+        edge_rules: Optional[ArrayLike] = ...,
+        kernels: Iterable[Kernel] = ...,
+        use_heap: bool = ...,
+        attribute_quadrics: Optional[ArrayLike] = ...,
+        attribute_columns: Optional[ArrayLike] = ...,
+    ) -> None:
+        """quadric_weight: factor of the quadric in the cost (0: the quadric only places);
+        error_scale: error = sqrt(error_scale * Q(p) / area); vertex_fields (n, k) and
+        edge_fields (n_edges, k) with their (k, 5) rules (C-contiguous float64 arrays are
+        used, and merged, in place); kernels: chained in order; use_heap=False for the pass
+        driver (plan_all / collapse_pass) instead of ``run``; attribute_quadrics (n, S)
+        packed D-dimensional quadrics over [x, y, z, attributes] with attribute_columns, the
+        D - 3 columns of ``attributes`` they range over (placement by their marginal)."""
+    def _setup_attribute_quadrics(self, gq: Optional[ArrayLike], columns: Optional[ArrayLike]) -> None: ...
     def run(self, target_faces: int, max_steps: int = ...) -> int:
-        """0: target reached, 1: step budget used, 2: no legal collapse left."""
+        """0: target reached, 1: step budget used, 2: no legal collapse left, 3: a kernel failed."""
+    def plan_all(self) -> Optional[_Plan]:
+        """Plan every live edge (batch driver); None if a kernel failed."""
+    def collapse_pass(self, edges: ArrayLike, positions: Optional[ArrayLike] = ..., target_faces: int = ...) -> int:
+        """Collapse, in the order given, the edges no earlier collapse of this pass touched;
+        the number of collapses, or -1 if a kernel failed.  Needs use_heap=False."""
+    @property
+    def error_message(self) -> str:
+        """The message of the kernel that failed ('' if none did)."""
+    @property
+    def vertex_field_values(self) -> NDArray[np.float64]:
+        """(n, k) current vertex fields (merged on collapse)."""
+    @property
+    def edge_field_values(self) -> NDArray[np.float64]:
+        """(n_edges, k) current edge fields (merged on collapse)."""
     def release(self) -> None:
         """Free the heap, quadrics and input normals after the run."""
     def plan_edge(self, u: int, v: int) -> Optional[tuple[int, int, NDArray[np.float64], float, float]]:
@@ -49,4 +120,4 @@ class EdgeCollapser:
     @property
     def quadrics(self) -> NDArray[np.float64]: ...
     def records(self) -> dict[str, NDArray]:
-        """The collapse sequence: removed, kept, position, cost, error."""
+        """The collapse sequence: removed, kept, position, cost, error, moved."""

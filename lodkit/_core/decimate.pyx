@@ -432,6 +432,19 @@ cdef inline double apply_field(double cost, double value, const double* rule) no
     return cost + rule[RULE_WEIGHT] * value
 
 
+cdef int chain_cost_range(Kernel k, Candidate* c, int skip, int count) noexcept nogil:
+    """cost() of ``count`` kernels of the chain, starting ``skip`` kernels past ``k``."""
+    cdef int rc
+    if skip > 0:
+        return chain_cost_range(k._next, c, skip - 1, count)
+    rc = k.cost(c)
+    if rc != KERNEL_OK:
+        return rc
+    if count > 1 and k._next is not None:
+        return chain_cost_range(k._next, c, 0, count - 1)
+    return KERNEL_OK
+
+
 cdef bint chain_failed(Kernel k) noexcept nogil:
     if k.failed:
         return True
@@ -487,7 +500,8 @@ cdef class EdgeCollapser:
                  double max_error=INFINITY, bint record=False, bint closed_connected=False,
                  double quadric_weight=1.0, double error_scale=1.0,
                  vertex_fields=None, vertex_rules=None, edge_fields=None, edge_rules=None,
-                 kernels=(), bint use_heap=True, attribute_quadrics=None, attribute_columns=None):
+                 kernels=(), bint use_heap=True, attribute_quadrics=None, attribute_columns=None,
+                 steps=None):
         cdef int n = hm.n_vertices
         self.hm = hm
         # One row per vertex: the quadric (11 doubles) then the position (3), so that a
@@ -564,7 +578,7 @@ cdef class EdgeCollapser:
                 self.vflags[v] |= 3 if boundary == BOUNDARY_LOCK else 2
         self.A = &self.attr[0, 0] if n and self.n_attr else NULL
         self._setup_metric(quadric_weight, error_scale, vertex_fields, vertex_rules,
-                           edge_fields, edge_rules, kernels, use_heap)
+                           edge_fields, edge_rules, kernels, use_heap, steps)
         self._setup_attribute_quadrics(attribute_quadrics, attribute_columns)
         cdef int f
         if closed_connected and n:
@@ -603,7 +617,7 @@ cdef class EdgeCollapser:
         self.gsize = S
 
     def _setup_metric(self, double quadric_weight, double error_scale, vertex_fields, vertex_rules,
-                      edge_fields, edge_rules, kernels, bint use_heap):
+                      edge_fields, edge_rules, kernels, bint use_heap, steps=None):
         cdef int n = self.hm.n_vertices
         if not (quadric_weight >= 0.0) or not (error_scale > 0.0):
             raise ValueError("quadric_weight must be >= 0 and error_scale > 0")
@@ -630,6 +644,24 @@ cdef class EdgeCollapser:
         self.kmesh.flags = &self.vflags[0] if n else NULL
         self.kmesh.n_vertices = n
         self.kmesh.n_faces = self.hm.n_faces
+        if steps is None:
+            # default order: vertex fields, edge fields, kernels
+            rows = []
+            if self.n_vfields:
+                rows.append((STEP_VFIELD, 0, self.n_vfields))
+            if self.n_efields:
+                rows.append((STEP_EFIELD, 0, self.n_efields))
+            if kernels:
+                rows.append((STEP_KERNEL, 0, len(kernels)))
+            steps = rows
+        st = np.asarray(steps, dtype=np.intc).reshape(-1, 3)
+        limits = {STEP_VFIELD: self.n_vfields, STEP_EFIELD: self.n_efields, STEP_KERNEL: len(kernels)}
+        for kind, first, end in st:
+            if kind not in limits or not (0 <= first < end <= limits[kind]):
+                raise ValueError(f"bad step ({kind}, {first}, {end}): kinds 0 vertex field, 1 edge field, "
+                                 f"2 kernels, with 0 <= first < end <= their count")
+        self.steps = np.ascontiguousarray(st) if st.shape[0] else np.zeros((1, 3), dtype=np.intc)
+        self.n_steps = st.shape[0]
         self.has_extras = self.n_vfields > 0 or self.n_efields > 0 or self.kernel is not None
         self.use_heap = use_heap
         self.n_vetoed = 0
@@ -779,7 +811,8 @@ cdef class EdgeCollapser:
         cdef double cq = c[0]
         cdef double total, val, a, b, e_err
         cdef double* rule
-        cdef int j, rc, e = self.m.edge[h]
+        cdef int* step
+        cdef int i, j, rc, e = self.m.edge[h]
         cdef int kept = v if r_out[0] == u else u
         if self.kernel is not None:
             cand.mesh = &self.kmesh
@@ -827,37 +860,41 @@ cdef class EdgeCollapser:
         if err != NULL:
             err[0] = e_err
         total = self.quadric_weight * cq
-        for j in range(self.n_vfields):
-            rule = &self.vrules[j, 0]
-            a = self.VF[self.n_vfields * u + j]
-            b = self.VF[self.n_vfields * v + j]
-            if <int>rule[RULE_VALUE] == VALUE_MAX:
-                val = a if a > b else b
-            elif <int>rule[RULE_VALUE] == VALUE_MIN:
-                val = a if a < b else b
-            elif <int>rule[RULE_VALUE] == VALUE_SUM:
-                val = a + b
-            elif <int>rule[RULE_VALUE] == VALUE_KEPT:
-                val = a if kept == u else b
-            elif <int>rule[RULE_VALUE] == VALUE_REMOVED:
-                val = b if kept == u else a
+        # fields and kernels in the order the metrics were listed (steps: kind, first, end)
+        for i in range(self.n_steps):
+            step = &self.steps[i, 0]
+            if step[0] == STEP_VFIELD:
+                for j in range(step[1], step[2]):
+                    rule = &self.vrules[j, 0]
+                    a = self.VF[self.n_vfields * u + j]
+                    b = self.VF[self.n_vfields * v + j]
+                    if <int>rule[RULE_VALUE] == VALUE_MAX:
+                        val = a if a > b else b
+                    elif <int>rule[RULE_VALUE] == VALUE_MIN:
+                        val = a if a < b else b
+                    elif <int>rule[RULE_VALUE] == VALUE_SUM:
+                        val = a + b
+                    elif <int>rule[RULE_VALUE] == VALUE_KEPT:
+                        val = a if kept == u else b
+                    elif <int>rule[RULE_VALUE] == VALUE_REMOVED:
+                        val = b if kept == u else a
+                    else:
+                        val = 0.5 * (a + b)
+                    total = apply_field(total, val, rule)
+            elif step[0] == STEP_EFIELD:
+                for j in range(step[1], step[2]):
+                    total = apply_field(total, self.EF[self.n_efields * e + j], &self.erules[j, 0])
             else:
-                val = 0.5 * (a + b)
-            total = apply_field(total, val, rule)
-        for j in range(self.n_efields):
-            total = apply_field(total, self.EF[self.n_efields * e + j], &self.erules[j, 0])
-        if self.kernel is not None:
-            cand.removed = r_out[0]
-            cand.kept = kept
-            cand.p[0] = p[0]
-            cand.p[1] = p[1]
-            cand.p[2] = p[2]
-            cand.cost = total
-            cand.error = e_err
-            rc = chain_cost(self.kernel, &cand)
-            if rc != KERNEL_OK:
-                return self.kernel_refused(rc)
-            total = cand.cost
+                # removed / kept / p in cand are current: set above, or by place() and copied out
+                cand.cost = total
+                cand.error = e_err
+                if step[1] == 0 and self.kernel._next is None:
+                    rc = self.kernel.cost(&cand)
+                else:
+                    rc = chain_cost_range(self.kernel, &cand, step[1], step[2] - step[1])
+                if rc != KERNEL_OK:
+                    return self.kernel_refused(rc)
+                total = cand.cost
         if total != total:
             total = INFINITY          # a NaN cost ranks last rather than breaking the heap order
         c[0] = total

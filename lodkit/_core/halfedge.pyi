@@ -17,7 +17,8 @@ class HalfEdgeMesh:
     @property
     def twins(self) -> NDArray[np.intc]: ...
     @property
-    def edges(self) -> NDArray[np.intc]: ...
+    def edges(self) -> NDArray[np.intc]:
+        """(3 * n_faces,) edge id of each half-edge."""
     @property
     def edge_halfedges(self) -> NDArray[np.intc]: ...
     @property
@@ -41,6 +42,10 @@ class HalfEdgeMesh:
         """Whether edge (u, v) exists and passes the link condition."""
     def collapse_edge(self, u: int, v: int) -> int:
         """Collapse (u, v) removing u; returns v.  ValueError if not allowed."""
+    def _check_vertex(self, v: int) -> None:
+        """ValueError unless ``v`` is a live vertex."""
+    def _find_halfedge(self, u: int, v: int) -> int:
+        """A half-edge running u -> v, or -1 if (u, v) is not an edge (ValueError for a dead vertex)."""
     def check(self) -> bool:
         """Verify all invariants; AssertionError naming the first broken one."""
 

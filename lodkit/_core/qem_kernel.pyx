@@ -17,6 +17,7 @@ cdef class QEMKernel(Kernel):
 
     cdef double[:, ::1] q          # (n, 10) quadric of each vertex slot
     cdef double* Q
+    cdef double weight
 
     def prepare(self, ctx, options):
         from .decimate import add_boundary_planes
@@ -25,6 +26,7 @@ cdef class QEMKernel(Kernel):
         if ctx.settings.get("boundary") == "preserve" and ctx.settings.get("boundary_weight", 0.0) > 0.0:
             add_boundary_planes(ctx.halfedge, ctx.positions, float(ctx.settings["boundary_weight"]), q)
         self.q = q
+        self.weight = float(options.get("weight", 1.0))
         self.Q = &self.q[0, 0] if q.shape[0] else NULL
 
     cdef int cost(self, Candidate* c) noexcept nogil:
@@ -34,7 +36,7 @@ cdef class QEMKernel(Kernel):
         cdef double e = ((a[0] + b[0]) * x * x + 2.0 * (a[1] + b[1]) * x * y + 2.0 * (a[2] + b[2]) * x * z
                          + (a[3] + b[3]) * y * y + 2.0 * (a[4] + b[4]) * y * z + (a[5] + b[5]) * z * z
                          + 2.0 * ((a[6] + b[6]) * x + (a[7] + b[7]) * y + (a[8] + b[8]) * z) + (a[9] + b[9]))
-        c.cost += e if e > 0.0 else 0.0
+        c.cost += self.weight * e if e > 0.0 else 0.0
         return KERNEL_OK
 
     cdef int commit(self, const Candidate* c) noexcept nogil:

@@ -228,8 +228,8 @@ def get(name: str) -> type:
     if ":" in name:
         package, _, name = name.partition(":")
     entries = _all().get(name, [])
-    if package is None and name in _registered:
-        entries = [_registered[name]]
+    if name in _registered:
+        entries = [_registered[name]] if package is None else [_registered[name]] + entries
     if package is not None:
         entries = [e for e in entries if _normal(e.info.package) == _normal(package)]
         if not entries:

@@ -1,0 +1,35 @@
+"""Type stubs for lodkit._core.testkernels (Cython): small kernels for tests and examples."""
+from typing import Any, ClassVar
+
+from .kernel import Kernel
+
+class VetoAll(Kernel):
+    """Refuses every collapse (``cost`` returns VETO)."""
+
+    api_version: ClassVar[int]
+
+class FailAfter(Kernel):
+    """Reports an error from nogil code once ``options['n']`` cost calls are spent."""
+
+    api_version: ClassVar[int]
+    def prepare(self, ctx: Any, options: dict[str, Any]) -> None:
+        """Reads ``n`` (default 0) and resets the call count."""
+
+class MidpointPlacer(Kernel):
+    """Places the kept vertex at the midpoint of the edge (sets ``places``)."""
+
+    api_version: ClassVar[int]
+    def prepare(self, ctx: Any, options: dict[str, Any]) -> None: ...
+
+class ScaleBy(Kernel):
+    """Multiplies the cost so far by ``options['factor']`` and counts its calls."""
+
+    api_version: ClassVar[int]
+    @property
+    def n_cost(self) -> int:
+        """Calls of ``cost`` since ``prepare``."""
+    @property
+    def n_commit(self) -> int:
+        """Calls of ``commit`` since ``prepare``."""
+    def prepare(self, ctx: Any, options: dict[str, Any]) -> None:
+        """Reads ``factor`` (default 1.0) and resets the counters."""

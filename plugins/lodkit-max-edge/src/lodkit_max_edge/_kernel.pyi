@@ -1,0 +1,8 @@
+from typing import Any
+
+from lodkit._core.kernel import Kernel
+
+class MaxEdgeKernel(Kernel):
+    max_length: float
+    weight: float
+    def prepare(self, ctx: Any, options: dict) -> None: ...
