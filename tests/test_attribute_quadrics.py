@@ -69,32 +69,28 @@ def test_pack_unpack_round_trip():
                                   [2, 0, 0, 2, 0, 2, 1, 1, 1, 7])
 
 
-class ColorAnchor(QuadricMetric):
-    """|colour - colour_v|^2 per vertex: summed over a collapse, the minimiser is the mean."""
+def anchor_metric(attribute: str, width: int) -> type:
+    """A quadric metric |attribute - attribute_v|^2 per vertex: summed over a collapse, its
+    minimiser is the mean of the two ends' values."""
 
-    attributes = ("colors",)
+    class Anchor(QuadricMetric):
+        attributes = (attribute,)
 
-    def quadrics(self, ctx):
-        n = ctx.n_vertices
-        col = ctx.vertex_attribute("colors")
-        A = np.zeros((n, 6, 6))
-        A[:, 3:, 3:] = np.eye(3)
-        b = np.zeros((n, 6))
-        b[:, 3:] = -col
-        return pack_quadrics(A, b, (col ** 2).sum(axis=1))
+        def quadrics(self, ctx):
+            n = ctx.n_vertices
+            values = ctx.vertex_attribute(attribute)
+            A = np.zeros((n, 3 + width, 3 + width))
+            A[:, 3:, 3:] = np.eye(width)
+            b = np.zeros((n, 3 + width))
+            b[:, 3:] = -values
+            return pack_quadrics(A, b, (values ** 2).sum(axis=1))
+
+    Anchor.__name__ = f"{attribute.title()}Anchor"
+    return Anchor
 
 
-class UVAnchor(QuadricMetric):
-    attributes = ("uvs",)
-
-    def quadrics(self, ctx):
-        n = ctx.n_vertices
-        uv = ctx.vertex_attribute("uvs")
-        A = np.zeros((n, 5, 5))
-        A[:, 3:, 3:] = np.eye(2)
-        b = np.zeros((n, 5))
-        b[:, 3:] = -uv
-        return pack_quadrics(A, b, (uv ** 2).sum(axis=1))
+ColorAnchor = anchor_metric("colors", 3)
+UVAnchor = anchor_metric("uvs", 2)
 
 
 def coloured_grid():

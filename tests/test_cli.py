@@ -233,8 +233,9 @@ def test_simplify_end_to_end(surface_ply, tmp_path, capsys):
     assert result.colors is not None and result.normals is not None
 
 
-@needs_simplify
-def test_simplify_options_reach_the_library(surface_ply, tmp_path, capsys, monkeypatch):
+@pytest.fixture
+def simplify_spy(monkeypatch):
+    """The keyword arguments the CLI passes to lodkit.simplify (the real one still runs)."""
     seen = {}
     real = lodkit.simplify
 
@@ -243,6 +244,12 @@ def test_simplify_options_reach_the_library(surface_ply, tmp_path, capsys, monke
         return real(mesh, **kwargs)
 
     monkeypatch.setattr(lodkit, "simplify", spy)
+    return seen
+
+
+@needs_simplify
+def test_simplify_options_reach_the_library(surface_ply, tmp_path, capsys, simplify_spy):
+    seen = simplify_spy
     out = tmp_path / "out.obj"
     argv = ["simplify", str(surface_ply), str(out), "--faces", "300", "--max-error", "0.01", "--absolute",
             "--metric", "qem", "--placement", "endpoint", "--boundary", "lock", "--max-normal-angle", "60",
@@ -397,15 +404,8 @@ def test_bad_metric_option_syntax(tetra_ply, tmp_path, capsys, text):
 
 
 @needs_simplify
-def test_metric_options_reach_the_library(surface_ply, tmp_path, monkeypatch):
-    seen = {}
-    real = lodkit.simplify
-
-    def spy(mesh, **kwargs):
-        seen.update(kwargs)
-        return real(mesh, **kwargs)
-
-    monkeypatch.setattr(lodkit, "simplify", spy)
+def test_metric_options_reach_the_library(surface_ply, tmp_path, simplify_spy):
+    seen = simplify_spy
     argv = ["simplify", str(surface_ply), str(tmp_path / "o.ply"), "--ratio", "0.5", "--quiet",
             "--metric", "qem", "--metric", "qem_native:weight=0.5"]
     assert main(argv) == 0

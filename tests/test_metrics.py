@@ -25,6 +25,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import lodkit
+from test_qem import uv_sphere
+from test_simplify import grid
 import lodkit.metrics as M
 from lodkit import MetricError, OptionError, UnknownMetricError
 from lodkit._core import testkernels
@@ -72,39 +74,12 @@ def registry(monkeypatch):
 # ---------------------------------------------------------------------- meshes
 def grid_mesh(nx: int = 20, ny: int = 20, seed: int = 0, amplitude: float = 0.3) -> lodkit.Mesh:
     """A jittered height field over an nx x ny grid of unit quads (one boundary loop)."""
-    rng = np.random.default_rng(seed)
-    xs, ys = np.meshgrid(np.arange(nx + 1, dtype=float), np.arange(ny + 1, dtype=float))
-    v = np.stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)], axis=1)
-    v[:, :2] += rng.uniform(-0.2, 0.2, (len(v), 2))
-    v[:, 2] = amplitude * np.sin(0.9 * v[:, 0]) * np.cos(0.6 * v[:, 1]) + rng.normal(0, 0.02, len(v))
-    faces = []
-    for j in range(ny):
-        for i in range(nx):
-            a = j * (nx + 1) + i
-            b, c, d = a + 1, a + nx + 2, a + nx + 1
-            faces += [[a, b, c], [a, c, d]] if (i + j) % 2 == 0 else [[a, b, d], [b, c, d]]
-    return lodkit.Mesh(v, np.array(faces))
+    return lodkit.Mesh(*grid(nx, ny, np.random.default_rng(seed), amplitude, alternate=True))
 
 
 def sphere_mesh(n_lon: int = 12, n_lat: int = 8, seed: int = 0) -> lodkit.Mesh:
     """A closed, radially jittered UV sphere (poles 0 and 1), outward normals."""
-    rng = np.random.default_rng(seed)
-    verts = [[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]]
-    for j in range(1, n_lat):
-        t = np.pi * j / n_lat
-        for i in range(n_lon):
-            p = 2 * np.pi * i / n_lon
-            verts.append([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)])
-    verts = np.array(verts) * (1.0 + rng.uniform(-0.05, 0.05, (len(verts), 1)))
-    ring = lambda j, i: 2 + j * n_lon + i % n_lon  # noqa: E731
-    faces = []
-    for i in range(n_lon):
-        faces += [[0, ring(0, i), ring(0, i + 1)], [1, ring(n_lat - 2, i + 1), ring(n_lat - 2, i)]]
-    for j in range(n_lat - 2):
-        for i in range(n_lon):
-            a, b, c, d = ring(j, i), ring(j + 1, i), ring(j + 1, i + 1), ring(j, i + 1)
-            faces += [[a, b, c], [a, c, d]]
-    return lodkit.Mesh(verts, np.array(faces))
+    return lodkit.Mesh(*uv_sphere(n_lon, n_lat, jitter=0.05, seed=seed, uniform=True))
 
 
 OCTAHEDRON = lodkit.Mesh(

@@ -42,8 +42,9 @@ def bumpy_grid():
     return v, f
 
 
-def uv_sphere(n_lon: int = 10, n_lat: int = 6, jitter: float = 0.03, seed: int = 3):
-    """A closed UV sphere: poles 0 and 1, then n_lat - 1 rings of n_lon vertices."""
+def uv_sphere(n_lon: int = 10, n_lat: int = 6, jitter: float = 0.03, seed: int = 3, uniform: bool = False):
+    """A closed UV sphere: poles 0 and 1, then n_lat - 1 rings of n_lon vertices, radii
+    jittered by a normal (or, with ``uniform``, a uniform +-jitter) factor."""
     rng = np.random.default_rng(seed)
     verts = [[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]]
     for j in range(1, n_lat):
@@ -51,7 +52,8 @@ def uv_sphere(n_lon: int = 10, n_lat: int = 6, jitter: float = 0.03, seed: int =
         for i in range(n_lon):
             phi = 2 * np.pi * i / n_lon
             verts.append([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)])
-    verts = np.array(verts) * (1.0 + jitter * rng.standard_normal((len(verts), 1)))
+    noise = rng.uniform(-jitter, jitter, (len(verts), 1)) if uniform else jitter * rng.standard_normal((len(verts), 1))
+    verts = np.array(verts) * (1.0 + noise)
     ring = lambda j, i: 2 + j * n_lon + i % n_lon  # noqa: E731
     faces = []
     for i in range(n_lon):

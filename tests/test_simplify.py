@@ -18,10 +18,11 @@ SETTINGS = settings(max_examples=30, deadline=None, suppress_health_check=[Healt
 
 
 # ---------------------------------------------------------------------- generated meshes
-def grid(nx: int, ny: int, rng, amplitude: float, holes=()):
+def grid(nx: int, ny: int, rng, amplitude: float, holes=(), alternate: bool = False):
     """A jittered height field over an nx x ny grid of quads, faces counter-clockwise from
     +z (so normals point up); each hole (i0, j0, i1, j1) removes quads i0 <= i < i1,
-    j0 <= j < j1 -- callers keep holes apart and away from the border."""
+    j0 <= j < j1 -- callers keep holes apart and away from the border.  Quad diagonals are
+    random, or alternate in a checkerboard with ``alternate``."""
     xs, ys = np.meshgrid(np.arange(nx + 1, dtype=float), np.arange(ny + 1, dtype=float))
     v = np.stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)], axis=1)
     v[:, :2] += rng.uniform(-0.2, 0.2, (len(v), 2))
@@ -33,7 +34,8 @@ def grid(nx: int, ny: int, rng, amplitude: float, holes=()):
                 continue
             a = j * (nx + 1) + i
             b, c, d = a + 1, a + nx + 2, a + nx + 1
-            faces += [[a, b, c], [a, c, d]] if rng.random() < 0.5 else [[a, b, d], [b, c, d]]
+            first = (i + j) % 2 == 0 if alternate else rng.random() < 0.5
+            faces += [[a, b, c], [a, c, d]] if first else [[a, b, d], [b, c, d]]
     faces = np.array(faces)
     used = np.unique(faces)                      # holes may leave vertices unused
     remap = np.full(len(v), -1)

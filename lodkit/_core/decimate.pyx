@@ -19,7 +19,7 @@ from libc.math cimport sqrt, fabs, cos, M_PI, INFINITY
 from .halfedge cimport HalfEdgeMesh, HEArrays, he_next, he_prev, he_dest, he_ring_next, he_is_boundary
 from .heap cimport IndexedHeap
 from .kernel cimport (Kernel, KernelMesh, Candidate, chain_place, chain_cost, chain_commit,
-                      KERNEL_OK, KERNEL_VETO, KERNEL_ERROR)
+                      fill_candidate, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR)
 
 cnp.import_array()
 
@@ -815,18 +815,7 @@ cdef class EdgeCollapser:
         cdef int i, j, rc, e = self.m.edge[h]
         cdef int kept = v if r_out[0] == u else u
         if self.kernel is not None:
-            cand.mesh = &self.kmesh
-            cand.edge = e
-            cand.h = h
-            cand.u = u
-            cand.v = v
-            cand.removed = r_out[0]
-            cand.kept = kept
-            cand.p[0] = p[0]
-            cand.p[1] = p[1]
-            cand.p[2] = p[2]
-            cand.cost = 0.0
-            cand.error = 0.0
+            fill_candidate(&cand, &self.kmesh, e, h, u, v, r_out[0], kept, p, 0.0, 0.0)
             if self.kernel_places:
                 rc = chain_place(self.kernel, &cand)
                 if rc != KERNEL_OK:
@@ -1154,18 +1143,8 @@ cdef class EdgeCollapser:
             self.max_error_done = err
         self.collapses_since_rescan += 1
         if self.kernel is not None:
-            cand.mesh = &self.kmesh
-            cand.edge = dead[0]
-            cand.h = h
-            cand.u = self.m.corner[h]       # both ends are k now: u, v are not meaningful
-            cand.v = k
-            cand.removed = r
-            cand.kept = k
-            cand.p[0] = p[0]
-            cand.p[1] = p[1]
-            cand.p[2] = p[2]
-            cand.cost = cost
-            cand.error = err
+            # both ends are k now: u, v are not meaningful, removed / kept are
+            fill_candidate(&cand, &self.kmesh, dead[0], h, r, k, r, k, p, cost, err)
             if chain_commit(self.kernel, &cand) == KERNEL_ERROR:
                 self.failed = True
                 return

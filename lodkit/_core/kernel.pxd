@@ -69,6 +69,23 @@ cdef inline const double* vertex_position(const KernelMesh* m, int v) noexcept n
     return &m.positions[m.stride * v]
 
 
+cdef inline void fill_candidate(Candidate* c, const KernelMesh* mesh, int edge, int h, int u, int v,
+                                int removed, int kept, const double* p, double cost,
+                                double error) noexcept nogil:
+    c.mesh = mesh
+    c.edge = edge
+    c.h = h
+    c.u = u
+    c.v = v
+    c.removed = removed
+    c.kept = kept
+    c.p[0] = p[0]
+    c.p[1] = p[1]
+    c.p[2] = p[2]
+    c.cost = cost
+    c.error = error
+
+
 cdef class Kernel:
     cdef Kernel _next                     # the next kernel of a combined metric (driver's)
     cdef readonly bint places             # True: the driver calls place()

@@ -61,18 +61,9 @@ cdef class Kernel:
     # for tests: drive a kernel by hand on a bare candidate
     def _call(self, str which, int u, int v, int removed, int kept, p, double cost):
         cdef Candidate c
-        c.mesh = NULL
-        c.edge = -1
-        c.h = -1
-        c.u = u
-        c.v = v
-        c.removed = removed
-        c.kept = kept
-        c.p[0] = p[0]
-        c.p[1] = p[1]
-        c.p[2] = p[2]
-        c.cost = cost
-        c.error = 0.0
+        cdef double pos[3]
+        pos[0], pos[1], pos[2] = p[0], p[1], p[2]
+        fill_candidate(&c, NULL, -1, -1, u, v, removed, kept, pos, cost, 0.0)
         cdef int rc
         if which == "place":
             rc = self.place(&c)
