@@ -956,6 +956,14 @@ def test_kernel_failure_raises_metric_error(spec):
     assert str(exc.value) == "metric 'Fail' failed during the run: FailAfter: the cost budget is spent"
 
 
+def test_a_commit_that_vetoes_is_a_contract_error():
+    class Veto(M.KernelMetric):
+        kernel = testkernels.CommitVeto
+
+    with pytest.raises(M.MetricError, match="commit\\(\\) must return KERNEL_OK or KERNEL_ERROR"):
+        lodkit.simplify(grid_mesh(8, 8), target_ratio=0.5, metric=["qem", Veto()])
+
+
 def test_failing_kernel_with_a_large_budget_is_qem():
     mesh = grid_mesh(10, 10)
     assert same_output(lodkit.simplify(mesh, target_ratio=0.2, metric=["qem", (Fail, {"n": 10**9})]),

@@ -235,6 +235,23 @@ def test_max_edge_length_bounds_every_output_edge(max_edge, surface, with_qem):
     assert_topology_kept(surface, result.mesh)
 
 
+def test_batch_positions_are_rechecked_by_the_kernel(max_edge, surface):
+    """A batch metric that places the vertex itself (here: far along the edge, past its
+    end) must not slip past the kernel's veto, which judged the core's position."""
+
+    class Overshoot(lodkit.metrics.BatchMetric):
+        def costs(self, batch):
+            pos = batch.positions
+            return batch.length, pos[batch.u] + 1.5 * (pos[batch.v] - pos[batch.u])
+
+    limit = 0.08
+    diag = bbox_diagonal(surface)
+    result = lodkit.simplify(surface, target_ratio=0.3, max_normal_angle=180.0, min_quality=0.0,
+                             metric=[("max_edge_length", {"max_length": limit}), Overshoot()])
+    assert result.n_collapses > 0
+    assert edge_lengths(result.mesh).max() <= limit * diag * (1 + 1e-9)
+
+
 def test_max_edge_length_stops_when_the_target_is_unreachable(max_edge, surface):
     limit = 0.08
     diag = bbox_diagonal(surface)

@@ -1224,7 +1224,8 @@ cdef class EdgeCollapser:
         cdef double cost, err
         cdef double p[3]
         cdef double q[QSIZE]
-        cdef int stamp
+        cdef Candidate cand
+        cdef int stamp, rc
         self.pass_counter += 1
         stamp = self.pass_counter
         self.n_rejected_error = 0
@@ -1254,6 +1255,15 @@ cdef class EdgeCollapser:
                     q[k] = self.Q[VSTRIDE * u + k] + self.Q[VSTRIDE * v + k]
                 err = quadric_eval(q, p)
                 err = sqrt(self.error_scale * err / q[10]) if err > 0.0 and q[10] > 0.0 else 0.0
+                if self.kernel is not None:
+                    # the kernels judged the core's position: ask them again about this one
+                    # (only their verdict counts here; the batch has ranked already)
+                    fill_candidate(&cand, &self.kmesh, e, h, u, v, r, v if r == u else u, p, cost, err)
+                    rc = chain_cost(self.kernel, &cand)
+                    if rc != KERNEL_OK:
+                        if self.kernel_refused(rc) == -2:
+                            return -1
+                        continue
             if err > self.max_error:
                 self.n_rejected_error += 1
                 continue

@@ -99,7 +99,8 @@ cdef int chain_cost(Kernel k, Candidate* c) noexcept nogil:
 cdef int chain_commit(Kernel k, const Candidate* c) noexcept nogil:
     cdef int rc = k.commit(c)
     if rc != KERNEL_OK:
-        return rc
+        # a collapse that is done cannot be vetoed: anything but OK is an error
+        return rc if rc == KERNEL_ERROR else k.fail(b"commit() must return KERNEL_OK or KERNEL_ERROR")
     if k._next is not None:
         return chain_commit(k._next, c)
     return KERNEL_OK

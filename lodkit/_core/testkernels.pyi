@@ -33,3 +33,8 @@ class ScaleBy(Kernel):
         """Calls of ``commit`` since ``prepare``."""
     def prepare(self, ctx: Any, options: dict[str, Any]) -> None:
         """Reads ``factor`` (default 1.0) and resets the counters."""
+
+class CommitVeto(Kernel):
+    """Wrongly answers KERNEL_VETO from ``commit`` (a contract error: the run fails)."""
+
+    api_version: ClassVar[int]

@@ -67,3 +67,11 @@ cdef class ScaleBy(Kernel):
     cdef int commit(self, const Candidate* c) noexcept nogil:
         self.n_commit += 1
         return KERNEL_OK
+
+
+cdef class CommitVeto(Kernel):
+    """Wrongly answers KERNEL_VETO from commit(), which is a contract error."""
+    api_version = KERNEL_API_VERSION
+
+    cdef int commit(self, const Candidate* c) noexcept nogil:
+        return KERNEL_VETO
