@@ -228,7 +228,7 @@ def simplify(
     prep.positions = None
     vertex_quadrics(hm, vdata[:, 11:], 0.0, out=vdata)
     if boundary == "lock":
-        fixed |= _boundary_mask(hm)
+        fixed |= hm.boundary_vertices
     ctx = _metric_context(src, prep, vdata, fixed, placement=placement, boundary=boundary,
                           boundary_weight=float(boundary_weight))
     layout, col = {}, 0
@@ -322,11 +322,6 @@ class _MetricSetup:
     batch: list                   # batch metrics, in order
 
 
-def _boundary_mask(hm) -> np.ndarray:
-    vhe = hm.vertex_halfedges
-    return (vhe >= 0) & (hm.twins[np.maximum(vhe, 0)] < 0)
-
-
 def _metric_context(src, prep, vdata, fixed, **settings):
     from .metrics import MetricContext
 
@@ -398,18 +393,20 @@ def _metric_setup(metrics, ctx, vdata, attr_layout=None) -> _MetricSetup:
     core["kernels"] = [k for _, k in kernels]
     core["steps"] = steps
     bw = ctx.settings.get("boundary_weight", 0.0)
-    preserve = ctx.settings.get("boundary") == "preserve" and bw > 0.0
+    if ctx.settings.get("boundary") != "preserve":
+        bw = 0.0
+    # weight of the boundary planes added to vdata's 3D quadrics below: they scale with the
+    # quadric weights, so "preserve" means the same whatever the weights
+    plane_weight = bw * total_w
     if blocks and attr_names:
-        # quadrics over attributes: fold them in D = 3 + k dimensions; the 3D rows of vdata
-        # keep the plain quadric (+ boundary planes) and measure the geometric error
+        # quadrics over attributes: fold them in D = 3 + k dimensions (boundary planes
+        # included); the 3D rows of vdata keep the plain quadric and measure the geometric error
         core["attribute_quadrics"], core["attribute_columns"] = _fold_attribute_quadrics(
-            blocks, attr_names, attr_layout, ctx, total_w * bw if preserve else 0.0)
-        if preserve:
-            add_boundary_planes(ctx.halfedge, ctx.positions, bw, vdata)
+            blocks, attr_names, attr_layout, ctx, plane_weight)
         core["quadric_weight"], core["error_scale"] = 1.0, 1.0
-        return _MetricSetup(core, kernels, [m for m in metrics if m.kind == "batch"])
-    # the folded quadric: sum of weight * Q over the quadric metrics
-    if blocks:
+        plane_weight = bw
+    elif blocks:
+        # the folded quadric: sum of weight * Q over the quadric metrics
         if len(blocks) == 1 and blocks[0][1] is ctx.face_quadrics:
             if total_w != 1.0:
                 vdata[:, :10] *= total_w              # plain QEM, weighted: scale in place
@@ -424,10 +421,10 @@ def _metric_setup(metrics, ctx, vdata, attr_layout=None) -> _MetricSetup:
         # no quadric metric: plain QEM places the vertex and measures the error; it is also
         # the cost when nothing else supplies one (fields alone modulate plain QEM)
         only_fields = all(m.kind == "field" for m in metrics)
-        core["quadric_weight"], core["error_scale"], total_w = (1.0 if only_fields else 0.0), 1.0, 1.0
-    if preserve:
-        # boundary planes scale with the quadric weights, so "preserve" means the same
-        add_boundary_planes(ctx.halfedge, ctx.positions, bw * total_w, vdata)
+        core["quadric_weight"], core["error_scale"] = (1.0 if only_fields else 0.0), 1.0
+        plane_weight = bw
+    if plane_weight > 0.0:
+        add_boundary_planes(ctx.halfedge, ctx.positions, plane_weight, vdata)
     return _MetricSetup(core, kernels, [m for m in metrics if m.kind == "batch"])
 
 

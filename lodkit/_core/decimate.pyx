@@ -39,6 +39,16 @@ cdef inline double sq(double x) noexcept nogil:
     return x * x
 
 
+cdef inline bint same_point(const double* a, const double* b) noexcept nogil:
+    return a[0] == b[0] and a[1] == b[1] and a[2] == b[2]
+
+
+cdef inline double collapse_error(double value, double area, double scale) noexcept nogil:
+    """The error reported for a collapse: sqrt(scale * Q(p) / area), the area-weighted RMS
+    distance to the planes the vertex stands for (0 without area or below zero)."""
+    return sqrt(scale * value / area) if area > 0.0 and value > 0.0 else 0.0
+
+
 cdef inline double quadric_eval(const double* q, const double* p) noexcept nogil:
     cdef double x = p[0], y = p[1], z = p[2]
     return (q[0] * x * x + 2.0 * q[1] * x * y + 2.0 * q[2] * x * z
@@ -563,7 +573,7 @@ cdef class EdgeCollapser:
         self.check_orig = max_normal_angle < 180.0
         self.face_n0 = face_unit_normals(hm, np.asarray(self.vdata)[:, QSIZE:])
         self.N0 = &self.face_n0[0] if hm.n_faces else NULL
-        self.heap = IndexedHeap(hm.n_edges)
+        self.heap = IndexedHeap(hm.n_edges if use_heap else 0)   # the pass driver needs none
         self.m = &hm.c
         # The volume guard is on for a closed, connected surface (the common case): six
         # times its signed volume, kept up to date collapse by collapse.
@@ -668,8 +678,6 @@ cdef class EdgeCollapser:
         self.failed = False
         self.touched = np.zeros(n if not use_heap else 1, dtype=np.intc)
         self.pass_counter = 0
-        if not use_heap:
-            self.heap = IndexedHeap(0)
 
     # ------------------------------------------------------------- planning
     cdef int plan(self, int e, int* h_out, int* r_out, double* p, double* cost, double* err) noexcept nogil:
@@ -784,11 +792,7 @@ cdef class EdgeCollapser:
             cost[0] = c
             return keep
         if err != NULL:
-            if self.gdim > 0:
-                d0 = quadric_eval(qg, p)
-                err[0] = sqrt(self.error_scale * d0 / q[10]) if q[10] > 0.0 and d0 > 0.0 else 0.0
-            else:
-                err[0] = sqrt(self.error_scale * c / q[10]) if q[10] > 0.0 else 0.0
+            err[0] = collapse_error(quadric_eval(qg, p) if self.gdim > 0 else c, q[10], self.error_scale)
         cost[0] = self.quadric_weight * c
         return 0
 
@@ -812,7 +816,7 @@ cdef class EdgeCollapser:
         cdef double total, val, a, b, e_err
         cdef double* rule
         cdef int* step
-        cdef int i, j, rc, e = self.m.edge[h]
+        cdef int i, j, rc, code, e = self.m.edge[h]
         cdef int kept = v if r_out[0] == u else u
         if self.kernel is not None:
             fill_candidate(&cand, &self.kmesh, e, h, u, v, r_out[0], kept, p, 0.0, 0.0)
@@ -828,24 +832,19 @@ cdef class EdgeCollapser:
                 if (fu and cand.removed == u) or (fv and cand.removed == v):
                     self.n_vetoed += 1
                     return -1
-                if (fu or fv) and (cand.p[0] != self.P[VSTRIDE * cand.kept] or cand.p[1] != self.P[VSTRIDE * cand.kept + 1]
-                                   or cand.p[2] != self.P[VSTRIDE * cand.kept + 2]):
+                if (fu or fv) and not same_point(cand.p, &self.P[VSTRIDE * cand.kept]):
                     self.n_vetoed += 1
                     return -1
                 r_out[0] = cand.removed
                 kept = cand.kept
-                if cand.p[0] != p[0] or cand.p[1] != p[1] or cand.p[2] != p[2]:
+                if not same_point(cand.p, p):
                     p[0] = cand.p[0]
                     p[1] = cand.p[1]
                     p[2] = cand.p[2]
                     cq = quadric_eval(q, p)
                     if cq < 0.0:
                         cq = 0.0
-        if qg != q:
-            e_err = quadric_eval(qg, p)
-            e_err = sqrt(self.error_scale * e_err / q[10]) if q[10] > 0.0 and e_err > 0.0 else 0.0
-        else:
-            e_err = sqrt(self.error_scale * cq / q[10]) if q[10] > 0.0 else 0.0
+        e_err = collapse_error(quadric_eval(qg, p) if qg != q else cq, q[10], self.error_scale)
         if err != NULL:
             err[0] = e_err
         total = self.quadric_weight * cq
@@ -855,20 +854,16 @@ cdef class EdgeCollapser:
             if step[0] == STEP_VFIELD:
                 for j in range(step[1], step[2]):
                     rule = &self.vrules[j, 0]
-                    a = self.VF[self.n_vfields * u + j]
-                    b = self.VF[self.n_vfields * v + j]
-                    if <int>rule[RULE_VALUE] == VALUE_MAX:
-                        val = a if a > b else b
-                    elif <int>rule[RULE_VALUE] == VALUE_MIN:
-                        val = a if a < b else b
-                    elif <int>rule[RULE_VALUE] == VALUE_SUM:
-                        val = a + b
-                    elif <int>rule[RULE_VALUE] == VALUE_KEPT:
-                        val = a if kept == u else b
-                    elif <int>rule[RULE_VALUE] == VALUE_REMOVED:
-                        val = b if kept == u else a
-                    else:
-                        val = 0.5 * (a + b)
+                    # a: the kept end's value, b: the removed end's
+                    a = self.VF[self.n_vfields * kept + j]
+                    b = self.VF[self.n_vfields * (v if kept == u else u) + j]
+                    code = <int>rule[RULE_VALUE]
+                    if code == VALUE_KEPT:
+                        val = a
+                    elif code == VALUE_REMOVED:
+                        val = b
+                    else:                      # max, min, sum, mean: the merge rules' own
+                        val = merge_value(a, b, MERGE_MEAN if code == VALUE_MEAN else code)
                     total = apply_field(total, val, rule)
             elif step[0] == STEP_EFIELD:
                 for j in range(step[1], step[2]):
@@ -995,7 +990,7 @@ cdef class EdgeCollapser:
         cdef double dvol = 0.0
         if not self.fan_ok(r, fa, fb, p, &dvol):
             return False
-        if p[0] != self.P[VSTRIDE * k + 0] or p[1] != self.P[VSTRIDE * k + 1] or p[2] != self.P[VSTRIDE * k + 2]:
+        if not same_point(p, &self.P[VSTRIDE * k]):
             if not self.fan_ok(k, fa, fb, p, &dvol):
                 return False
         if self.closed_volume != 0.0:
@@ -1124,7 +1119,7 @@ cdef class EdgeCollapser:
             self.A[self.n_attr * k + i] = (1.0 - t) * self.A[self.n_attr * r + i] + t * self.A[self.n_attr * k + i]
         if self.gdim > 0:
             self.general_commit(r, k, p)
-        if p[0] != self.P[VSTRIDE * k + 0] or p[1] != self.P[VSTRIDE * k + 1] or p[2] != self.P[VSTRIDE * k + 2]:
+        if not same_point(p, &self.P[VSTRIDE * k]):
             for i in range(3):
                 self.P[VSTRIDE * k + i] = p[i]
             self.moved[k] = 1
@@ -1253,8 +1248,7 @@ cdef class EdgeCollapser:
                 p[2] = PO[3 * i + 2]
                 for k in range(QSIZE):
                     q[k] = self.Q[VSTRIDE * u + k] + self.Q[VSTRIDE * v + k]
-                err = quadric_eval(q, p)
-                err = sqrt(self.error_scale * err / q[10]) if err > 0.0 and q[10] > 0.0 else 0.0
+                err = collapse_error(quadric_eval(q, p), q[10], self.error_scale)
                 if self.kernel is not None:
                     # the kernels judged the core's position: ask them again about this one
                     # (only their verdict counts here; the batch has ranked already)
@@ -1315,11 +1309,15 @@ cdef class EdgeCollapser:
         cdef double cost, err
         cdef double p[3]
         out_e = np.empty(ne, dtype=np.intc)
+        out_u = np.empty(ne, dtype=np.intc)
+        out_v = np.empty(ne, dtype=np.intc)
         out_r = np.empty(ne, dtype=np.intc)
         out_p = np.empty((ne, 3), dtype=np.float64)
         out_c = np.empty(ne, dtype=np.float64)
         out_x = np.empty(ne, dtype=np.float64)
         cdef int[::1] OE = out_e
+        cdef int[::1] OU = out_u
+        cdef int[::1] OV = out_v
         cdef int[::1] OR = out_r
         cdef double[:, ::1] OP = out_p
         cdef double[::1] OC = out_c
@@ -1339,6 +1337,8 @@ cdef class EdgeCollapser:
                     self.n_rejected_error += 1
                     continue
                 OE[k] = e
+                OU[k] = self.m.corner[h]
+                OV[k] = he_dest(self.m, h)
                 OR[k] = r
                 OP[k, 0] = p[0]
                 OP[k, 1] = p[1]
@@ -1348,12 +1348,11 @@ cdef class EdgeCollapser:
                 k += 1
         if self.failed:
             return None
-        edges = out_e[:k].copy()
-        he = self.hm.edge_halfedges[edges]
-        u = self.hm.corners.reshape(-1)[he]
-        v = self.hm.corners.reshape(-1)[np.where(he % 3 == 2, he - 2, he + 1)]
+        u = out_u[:k].copy()
+        v = out_v[:k].copy()
         removed = out_r[:k].copy()
-        return {"edge": edges, "u": u, "v": v, "removed": removed, "kept": np.where(removed == u, v, u).astype(np.intc),
+        return {"edge": out_e[:k].copy(), "u": u, "v": v, "removed": removed,
+                "kept": np.where(removed == u, v, u).astype(np.intc),
                 "position": out_p[:k].copy(), "cost": out_c[:k].copy(), "error": out_x[:k].copy()}
 
     def collapse_pass(self, edges, positions=None, int target_faces=0):

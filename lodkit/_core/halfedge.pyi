@@ -24,6 +24,9 @@ class HalfEdgeMesh:
     @property
     def vertex_halfedges(self) -> NDArray[np.intc]: ...
     @property
+    def boundary_vertices(self) -> np.ndarray:
+        """(n_vertices,) bool: the vertex slots whose fan starts at a boundary half-edge."""
+    @property
     def vertex_sources(self) -> NDArray[np.intc]: ...
     @property
     def locked_vertices(self) -> NDArray[np.bool_]: ...

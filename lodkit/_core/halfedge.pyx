@@ -300,6 +300,12 @@ cdef class HalfEdgeMesh:
         return np.asarray(self.v_he)
 
     @property
+    def boundary_vertices(self):
+        """(n_vertices,) bool: the vertex slots whose fan starts at a boundary half-edge."""
+        vhe = np.asarray(self.v_he)
+        return (vhe >= 0) & (np.asarray(self.twin)[np.maximum(vhe, 0)] < 0)
+
+    @property
     def vertex_sources(self):
         """(n_vertices,) int32: for each vertex slot, the input vertex it copies."""
         if not self.has_copies:

@@ -353,8 +353,7 @@ class MetricContext:
     @property
     def boundary(self) -> np.ndarray:
         if self._boundary is None:
-            vhe = self.halfedge.vertex_halfedges
-            self._boundary = (vhe >= 0) & (self.halfedge.twins[np.maximum(vhe, 0)] < 0)
+            self._boundary = self.halfedge.boundary_vertices
         return self._boundary
 
     def vertex_attribute(self, name: str) -> Optional[np.ndarray]:
