@@ -152,12 +152,12 @@ def simplify(
     max_error: Optional[float] = None,
     absolute: bool = False,
     metric="qem",
-    placement: str = "optimal",
-    boundary: str = "preserve",
-    boundary_weight: float = 10.0,
+    placement: Optional[str] = None,
+    boundary: Optional[str] = None,
+    boundary_weight: Optional[float] = None,
     locked=None,
-    max_normal_angle: float = 90.0,
-    min_quality: float = 0.1,
+    max_normal_angle: Optional[float] = None,
+    min_quality: Optional[float] = None,
     progress: bool = False,
     record: bool = False,
 ) -> SimplifyResult:
@@ -172,16 +172,24 @@ def simplify(
                        ``(name, {options})``, a Metric instance, or a list of those to combine
                        (quadrics add up, then fields and kernels apply in the order given,
                        then batch metrics; docs/writing-a-metric.md says exactly how)
-    placement        : "optimal" (minimise the quadric; falls back to the edge when the 3x3
+    placement        : "optimal" (default; minimise the quadric; falls back to the edge when the 3x3
                        system is ill-conditioned) or "endpoint" (half-edge collapse: output
                        vertices are a subset of the input)
-    boundary         : "preserve" (boundary planes weighted by ``boundary_weight``; a boundary
+    boundary         : "preserve" (default; boundary planes weighted by ``boundary_weight``; a boundary
                        vertex never moves into the interior), "lock" (boundary vertices never
                        move nor go) or "free" (no special treatment)
     locked           : (n,) bool mask or index array of vertices that must stay as they are
-    max_normal_angle : reject a collapse that turns any face normal by more than this (degrees)
+    boundary_weight  : weight of the boundary planes under "preserve" (default 10)
+    max_normal_angle : reject a collapse that turns any face normal by more than this
+                       (degrees, default 90)
     min_quality      : reject a collapse that makes a face with quality
                        Q = 4*sqrt(3)*A/(l0^2+l1^2+l2^2) below this (and below its old Q); 0 = off
+                       (default 0.1)
+
+    The five settings above that are left as None take the value the metric prefers (a
+    metric's ``defaults``, e.g. ``curvature`` checks normals within 60 degrees and quality
+    0.5, as its paper does; the first metric listed wins), else the default given here.
+    ``result.report["settings"]`` says what was used and where it came from.
     progress         : draw a progress bar on stderr
     record           : keep the collapse sequence in ``result.collapses``
 
@@ -194,6 +202,12 @@ def simplify(
     t0 = time.perf_counter()
     src, was_o3d = _as_mesh(mesh)
     metrics = create_metrics(metric)
+    settings = resolve_settings(metrics, placement=placement, boundary=boundary,
+                                boundary_weight=boundary_weight,
+                                max_normal_angle=max_normal_angle, min_quality=min_quality)
+    placement, boundary = settings["placement"][0], settings["boundary"][0]
+    boundary_weight = settings["boundary_weight"][0]
+    max_normal_angle, min_quality = settings["max_normal_angle"][0], settings["min_quality"][0]
     if placement not in PLACEMENTS:
         raise OptionError(f"placement must be one of {', '.join(PLACEMENTS)}, got {placement!r}")
     if boundary not in BOUNDARY_POLICIES:
@@ -309,10 +323,39 @@ def simplify(
             "vetoed": int(collapser.n_vetoed),
             "passes": n_passes,
             "stop_detail": detail,
+            "settings": {k: {"value": v, "from": src_} for k, (v, src_) in settings.items()},
         },
         collapses=records,
     )
     return result
+
+
+#: simplify()'s own defaults for the settings a metric may prefer other values of
+SETTING_DEFAULTS = {
+    "placement": "optimal",
+    "boundary": "preserve",
+    "boundary_weight": 10.0,
+    "max_normal_angle": 90.0,
+    "min_quality": 0.1,
+}
+
+
+def resolve_settings(metrics, **given) -> dict:
+    """{setting: (value, where it came from)}: the caller's value when given (not None),
+    else the first listed metric's ``defaults``, else :data:`SETTING_DEFAULTS`."""
+    out = {}
+    for key, default in SETTING_DEFAULTS.items():
+        value = given.get(key)
+        if value is not None:
+            out[key] = (value, "caller")
+            continue
+        for m in metrics:
+            if key in m.defaults:
+                out[key] = (m.defaults[key], f"metric {m.name}")
+                break
+        else:
+            out[key] = (default, "lodkit")
+    return out
 
 
 @dataclass

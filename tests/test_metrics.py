@@ -827,7 +827,7 @@ def test_edge_field_end_to_end(registry):
 # ---------------------------------------------------------------------- kernels
 def test_kernel_interface_constants():
     assert (OK, VETO, ERROR) == (0, 1, -1)
-    assert Kernel.api_version == API_VERSION == 1
+    assert Kernel.api_version == API_VERSION == 2
     from lodkit._core.qem_kernel import QEMKernel
 
     for cls in (QEMKernel, testkernels.VetoAll, testkernels.FailAfter, testkernels.MidpointPlacer,

@@ -113,6 +113,9 @@ cdef class EdgeCollapser:
     cdef double[:, ::1] erules
     cdef Kernel kernel              # first of the chain, None if no kernels
     cdef bint kernel_places
+    cdef bint wide_recost           # a kernel's costs depend on the stars: re-rank the 2-ring
+    cdef int[::1] edge_stamp        # wide re-rank: edges already re-ranked for this collapse
+    cdef int recost_counter
     cdef KernelMesh kmesh
     cdef int[:, ::1] steps          # (n_steps, 3): fields and kernels in the metrics' order
     cdef int n_steps
@@ -143,8 +146,11 @@ cdef class EdgeCollapser:
     cdef int kernel_refused(self, int rc) noexcept nogil
     cdef void merge_fields(self, int r, int k, const int* dead, const int* merged_into) noexcept nogil
     cdef void recost_ring(self, int v) noexcept nogil
+    cdef void recost_wide(self, int v) noexcept nogil
+    cdef void recost_around(self, int w, int stamp) noexcept nogil
     cdef void retry_refused(self, int w) noexcept nogil
     cdef void rescan(self) noexcept nogil
     cdef void perform(self, int h, int r, const double* p, double cost, double err) noexcept nogil
+    cdef void touch_ring(self, int w, int stamp) noexcept nogil
     cdef int collapse_pass_c(self, const int* E, int n_cand, const double* PO, int target_faces) noexcept nogil
     cdef int run_c(self, int target_faces, int max_steps) noexcept nogil

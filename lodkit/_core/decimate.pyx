@@ -644,10 +644,14 @@ cdef class EdgeCollapser:
                 raise TypeError("kernels must be lodkit._core.kernel.Kernel instances")
         self.kernel = kernels[0] if kernels else None
         self.kernel_places = False
+        self.wide_recost = False
         if self.kernel is not None:
             self.kernel._chain(kernels[1:])
             for k in kernels:
                 self.kernel_places |= k.places
+                self.wide_recost |= k.wide
+        self.edge_stamp = np.zeros(self.hm.n_edges if self.wide_recost else 1, dtype=np.intc)
+        self.recost_counter = 0
         self.kmesh.he = self.m
         self.kmesh.positions = self.P
         self.kmesh.stride = VSTRIDE
@@ -1050,6 +1054,47 @@ cdef class EdgeCollapser:
                 return
             y = ny
 
+    cdef void recost_wide(self, int v) noexcept nogil:
+        """Re-rank every edge around ``v`` and around each of its neighbours, once each (for
+        kernels whose costs depend on the stars of the ends: ``Kernel.wide``)."""
+        cdef int start = self.m.v_he[v]
+        cdef int y = start
+        cdef int ny
+        self.recost_counter += 1
+        self.refused[v] = 0
+        self.recost_around(v, self.recost_counter)
+        while True:
+            self.recost_around(he_dest(self.m, y), self.recost_counter)
+            ny = he_ring_next(self.m, y)
+            if ny < 0:
+                self.recost_around(self.m.corner[he_prev(y)], self.recost_counter)
+                return
+            if ny == start:
+                return
+            y = ny
+
+    cdef void recost_around(self, int w, int stamp) noexcept nogil:
+        cdef int start = self.m.v_he[w]
+        cdef int y = start
+        cdef int ny, e
+        self.refused[w] = 0
+        while True:
+            e = self.m.edge[y]
+            if self.edge_stamp[e] != stamp:
+                self.edge_stamp[e] = stamp
+                self.recost_he(e, y, w, he_dest(self.m, y))
+            ny = he_ring_next(self.m, y)
+            if ny < 0:
+                y = he_prev(y)
+                e = self.m.edge[y]
+                if self.edge_stamp[e] != stamp:
+                    self.edge_stamp[e] = stamp
+                    self.recost_he(e, y, self.m.corner[y], w)
+                return
+            if ny == start:
+                return
+            y = ny
+
     cdef void retry_refused(self, int w) noexcept nogil:
         cdef int start, y, ny, e
         if not self.refused[w]:
@@ -1144,7 +1189,10 @@ cdef class EdgeCollapser:
                 self.failed = True
                 return
         if self.use_heap:
-            self.recost_ring(k)
+            if self.wide_recost:
+                self.recost_wide(k)
+            else:
+                self.recost_ring(k)
 
     cdef void general_commit(self, int r, int k, const double* p) noexcept nogil:
         """Add the attribute quadric of r to k's and give k the attribute values that
@@ -1276,15 +1324,34 @@ cdef class EdgeCollapser:
             start = self.m.v_he[k]
             y = start
             while True:
+                if self.wide_recost:
+                    self.touch_ring(he_dest(self.m, y), stamp)
                 self.touched[he_dest(self.m, y)] = stamp
                 ny = he_ring_next(self.m, y)
                 if ny < 0:
+                    if self.wide_recost:
+                        self.touch_ring(self.m.corner[he_prev(y)], stamp)
                     self.touched[self.m.corner[he_prev(y)]] = stamp
                     break
                 if ny == start:
                     break
                 y = ny
         return done
+
+    cdef void touch_ring(self, int w, int stamp) noexcept nogil:
+        """Mark w's neighbours touched in this pass (wide kernels: their costs changed)."""
+        cdef int start = self.m.v_he[w]
+        cdef int y = start
+        cdef int ny
+        while True:
+            self.touched[he_dest(self.m, y)] = stamp
+            ny = he_ring_next(self.m, y)
+            if ny < 0:
+                self.touched[self.m.corner[he_prev(y)]] = stamp
+                return
+            if ny == start:
+                return
+            y = ny
 
     # ------------------------------------------------------------- Python API
     def run(self, int target_faces, int max_steps=2**31 - 1):

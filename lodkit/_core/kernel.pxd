@@ -22,6 +22,11 @@ Positions are the normalised ones the core works on (bbox centred at the origin,
 diagonal); ``ctx.scale`` and ``ctx.center`` map back.  Vertices are vertex *slots* of the
 half-edge arrays (``ctx.input_vertex[slot]`` is the input vertex).
 
+A kernel whose cost of edge (a, b) depends on the stars of a and b (not only on the two
+ends, as a quadric's does) sets ``self.wide = True`` in ``__cinit__`` or ``prepare``: after
+each collapse the driver then re-ranks the edges around every neighbour of the kept vertex,
+not only the edges at the kept vertex.
+
 Versioning: ``KERNEL_API_VERSION`` changes whenever this file changes in a way that breaks
 compiled plugins.  A kernel class states the version it was compiled against by setting
 ``api_version = KERNEL_API_VERSION`` in its class body; lodkit refuses a kernel whose
@@ -31,7 +36,7 @@ base type's size at import catches a layout change as well.)
 from .halfedge cimport HEArrays, he_next, he_prev, he_dest, he_ring_next, he_is_boundary
 
 cdef enum:
-    KERNEL_API_VERSION = 1
+    KERNEL_API_VERSION = 2
     KERNEL_OK = 0
     KERNEL_VETO = 1
     KERNEL_ERROR = -1
@@ -89,6 +94,8 @@ cdef inline void fill_candidate(Candidate* c, const KernelMesh* mesh, int edge, 
 cdef class Kernel:
     cdef Kernel _next                     # the next kernel of a combined metric (driver's)
     cdef readonly bint places             # True: the driver calls place()
+    cdef readonly bint wide               # True: a collapse changes the cost of every edge
+                                          # around the kept vertex's neighbours (2-ring re-rank)
     cdef readonly bint failed
     cdef char _message[KERNEL_MESSAGE_SIZE]
 

@@ -25,6 +25,10 @@ class Kernel:
     def places(self) -> bool:
         """True: the driver calls ``place()`` (set by the kernel in ``prepare``)."""
     @property
+    def wide(self) -> bool:
+        """True: the kernel's cost of an edge depends on the stars of its ends; after a
+        collapse the driver re-ranks the edges around every neighbour of the kept vertex."""
+    @property
     def failed(self) -> bool:
         """True once ``fail()`` was called (the run stops with MetricError)."""
     def prepare(self, ctx: Any, options: dict[str, Any]) -> None:

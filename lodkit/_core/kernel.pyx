@@ -16,6 +16,7 @@ cdef class Kernel:
     def __cinit__(self):
         self._next = None
         self.places = False
+        self.wide = False
         self.failed = False
         self._message[0] = 0
 

@@ -119,6 +119,9 @@ class Metric:
     Class attributes a metric sets:
         options     : {name: Option}; every metric also has ``weight`` (default 1.0)
         description : one line for ``lodkit metrics``
+        defaults    : {setting: value}, the simplify() settings this metric prefers
+                      (placement, boundary, boundary_weight, max_normal_angle, min_quality);
+                      the caller's explicit values win
 
     An instance holds validated options in ``self.params``; the registry sets ``name``.
     """
@@ -126,6 +129,7 @@ class Metric:
     kind: ClassVar[str] = ""
     description: ClassVar[str] = ""
     options: ClassVar[dict] = {}
+    defaults: ClassVar[dict] = {}
     name: str = ""
 
     _base_options: ClassVar[dict] = {
@@ -406,6 +410,12 @@ def check_metric_class(obj: Any) -> Optional[str]:
     for key, opt in obj.all_options().items():
         if not isinstance(opt, Option):
             return f"option {key!r} is {opt!r}, not a lodkit.metrics.Option"
+    from ..api import SETTING_DEFAULTS
+
+    defaults = getattr(obj, "defaults", {})
+    if not isinstance(defaults, dict) or any(k not in SETTING_DEFAULTS for k in defaults):
+        return (f"has defaults={defaults!r}; a metric may prefer values of "
+                + ", ".join(SETTING_DEFAULTS))
     if obj.kind == "quadric":
         attrs = getattr(obj, "attributes", ())
         if not isinstance(attrs, tuple) or any(a not in ATTRIBUTE_WIDTHS for a in attrs) or len(set(attrs)) != len(attrs):
