@@ -3,7 +3,7 @@ import numpy
 from Cython.Build import cythonize
 from setuptools import Extension, setup
 
-MODULES = ["heap", "halfedge", "kernel", "decimate", "qem_kernel", "testkernels"]
+MODULES = ["heap", "halfedge", "kernel", "decimate", "qem_kernel", "melod_kernel", "curvature_kernel", "testkernels"]
 
 extensions = [
     Extension(

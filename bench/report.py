@@ -233,12 +233,13 @@ def write(results: Path, out: Path) -> None:
     doc = json.loads(Path(results).read_text())
     text = render(doc)
     out = Path(out)
-    # keep the section that bench/metrics.py writes (between its markers)
-    begin, end = "<!-- metrics:begin -->", "<!-- metrics:end -->"
+    # keep the sections that bench/metrics.py and bench/fidelity.py write (between their markers)
     if out.exists():
         old = out.read_text()
-        if begin in old and end in old:
-            text = text.rstrip("\n") + "\n\n" + begin + old.split(begin, 1)[1].split(end, 1)[0] + end + "\n"
+        for name in ("metrics", "fidelity"):
+            begin, end = f"<!-- {name}:begin -->", f"<!-- {name}:end -->"
+            if begin in old and end in old:
+                text = text.rstrip("\n") + "\n\n" + begin + old.split(begin, 1)[1].split(end, 1)[0] + end + "\n"
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_suffix(out.suffix + ".tmp")
     tmp.write_text(text)

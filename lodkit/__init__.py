@@ -8,6 +8,7 @@ from .errors import LodkitError, MeshError, MeshIOError, MetricError, OptionErro
 from .mesh import Mesh
 from .io import load, save
 from .api import SimplifyResult, simplify
+from .curvature import point_curvature
 from .topology import TopologyReport, topology
 from . import metrics
 
@@ -25,6 +26,7 @@ __all__ = [
     "UnknownMetricError",
     "load",
     "metrics",
+    "point_curvature",
     "save",
     "simplify",
     "topology",

@@ -194,7 +194,10 @@ def simplify(
     record           : keep the collapse sequence in ``result.collapses``
 
     An open3d.geometry.TriangleMesh in gives one out.  Per-vertex normals, colours and uvs
-    are carried along (interpolated on the collapsed edge at the new position).
+    are carried along (interpolated on the collapsed edge at the new position).  Attribute
+    seams (coincident vertex copies, as OBJ / glTF uv seams load) stay closed under the
+    "preserve" and "free" boundary policies: seam vertices do not move, and a collapse along
+    a seam is done on both sides together (docs/metrics.md, "Attribute seams").
     """
     from ._core.decimate import EdgeCollapser, vertex_quadrics
     from .metrics import create as create_metrics
@@ -243,6 +246,11 @@ def simplify(
     vertex_quadrics(hm, vdata[:, 11:], 0.0, out=vdata)
     if boundary == "lock":
         fixed |= hm.boundary_vertices
+        seams = None                 # every seam vertex is a boundary vertex: all stay
+    else:
+        seams = _seam_partners(src, prep, fixed)
+        if seams is not None:
+            fixed |= seams == -2
     ctx = _metric_context(src, prep, vdata, fixed, placement=placement, boundary=boundary,
                           boundary_weight=float(boundary_weight))
     layout, col = {}, 0
@@ -259,7 +267,7 @@ def simplify(
         max_normal_angle=float(max_normal_angle), min_quality=float(min_quality),
         max_error=err_limit, record=bool(record),
         closed_connected=_closed_connected(hm),
-        use_heap=not setup.batch, **setup.core,
+        use_heap=not setup.batch, seam_partners=seams, **setup.core,
     )
     _raise_if_failed(collapser, setup)
 
@@ -323,6 +331,9 @@ def simplify(
             "vetoed": int(collapser.n_vetoed),
             "passes": n_passes,
             "stop_detail": detail,
+            "seams": {"paired_vertices": 0 if seams is None else int(np.count_nonzero(seams >= 0)),
+                      "fixed_vertices": 0 if seams is None else int(np.count_nonzero(seams == -2)),
+                      "pair_collapses": int(collapser.n_seam_pairs)},
             "settings": {k: {"value": v, "from": src_} for k, (v, src_) in settings.items()},
         },
         collapses=records,
@@ -608,6 +619,82 @@ def _batch_result(metric, result, k):
     if cost.shape != (k,):
         raise MetricError(f"metric {metric.name!r} returned costs of shape {cost.shape}; expected ({k},)")
     return cost, pos
+
+
+def _seam_partners(src: Mesh, prep: Prepared, fixed: np.ndarray) -> Optional[np.ndarray]:
+    """Attribute seams of the input, for the collapser's ``seam_partners``: (n_slots,)
+    int32 holding each seam vertex's partner slot, -1 off the seams and -2 for a seam
+    copy that must stay; None when there are no seams.
+
+    A seam is where a file splits a vertex to give it two sets of attributes (OBJ / glTF
+    uv, normal or colour seams): two input vertices with bit-identical positions, each on
+    a boundary chain of the split connectivity, the two chains running side by side in
+    opposite directions.  A boundary half-edge a -> b is a seam edge when some boundary
+    half-edge runs from a copy of b to a copy of a.  Two boundary copies of one position
+    are partners when each one's outgoing seam edge pairs with the other's incoming one
+    (as in meshoptimizer, positions alone decide: equal attributes on both sides make
+    no difference).  Boundary vertices touching a seam that cannot be paired -- more than
+    two copies, the end of a cut, a seam meeting a true boundary -- stay (-2).  Copies of
+    one input vertex (non-manifold splits) are no seam; they are locked anyway."""
+    hm = prep.hm
+    n = hm.n_vertices
+    corners = hm.corners.reshape(-1)
+    he = np.flatnonzero((hm.twins < 0) & np.repeat(hm.alive_faces, 3))
+    if he.size == 0:
+        return None                                 # a seam is a pair of boundary chains
+    a = corners[he]
+    b = corners[np.where(he % 3 == 2, he - 2, he + 1)]
+    out_he = np.full(n, -1, dtype=np.int64)
+    in_he = np.full(n, -1, dtype=np.int64)
+    out_he[a] = np.arange(he.size)
+    in_he[b] = np.arange(he.size)
+    slots = np.flatnonzero(out_he >= 0)             # the boundary vertex slots
+    # classes of equal position among them (+ 0.0: -0.0 and 0.0 are one position)
+    pos = src.vertices[prep.input_vertex[slots]] + 0.0
+    order = np.lexsort((pos[:, 2], pos[:, 1], pos[:, 0]))
+    sp = pos[order]
+    first = np.ones(slots.size, dtype=bool)
+    first[1:] = (sp[1:] != sp[:-1]).any(axis=1)
+    if first.all():
+        return None                                 # no two boundary slots share a position
+    cls = np.full(n, -1, dtype=np.int64)
+    cls[slots[order]] = np.cumsum(first) - 1
+    n_cls = int(cls.max()) + 1
+    # distinct input vertices at each position (split copies of one vertex do not count)
+    stride = int(prep.input_vertex.max()) + 1
+    pairs = np.unique(cls[slots] * stride + prep.input_vertex[slots])
+    n_inputs = np.bincount(pairs // stride, minlength=n_cls)
+    forward = np.sort(cls[a] * n_cls + cls[b])
+    backward = cls[b] * n_cls + cls[a]
+    at = np.minimum(np.searchsorted(forward, backward), forward.size - 1)
+    mated = forward[at] == backward                # a copy of b -> a copy of a exists
+    shared = np.zeros(n, dtype=bool)
+    shared[slots] = n_inputs[cls[slots]] >= 2
+    n_boundary = np.bincount(cls[slots], minlength=n_cls)
+    partners = np.full(n, -1, dtype=np.intc)
+    two = slots[shared[slots] & (n_boundary[cls[slots]] == 2)]
+    two = two[np.argsort(cls[two], kind="stable")]
+    s, t = two[0::2], two[1::2]
+
+    def chains_pair(x, y):
+        # x's outgoing seam edge x -> c runs beside y's incoming one c' -> y
+        o, i = out_he[x], in_he[y]
+        return mated[o] & mated[i] & (cls[b[o]] == cls[a[i]])
+
+    ok = chains_pair(s, t) & chains_pair(t, s) & ~fixed[s] & ~fixed[t]
+    partners[s[ok]] = t[ok]
+    partners[t[ok]] = s[ok]
+    near = shared.copy()
+    near[a[mated]] = True
+    near[b[mated]] = True
+    partners[near & (partners < 0)] = -2
+    # the copies made for non-manifold input are locked by the half-edge build; their cut
+    # edges pair up like seams, but unless another input vertex shares the position they
+    # are no attribute seam
+    partners[hm.locked_vertices & ~shared] = -1
+    if not (partners != -1).any():
+        return None
+    return partners
 
 
 def _closed_connected(hm) -> bool:

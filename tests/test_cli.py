@@ -334,20 +334,22 @@ def metrics_table(out: str) -> dict:
     return rows
 
 
+BUILTIN_KINDS = {"appearance": "quadric", "curvature": "kernel", "importance": "field", "melod": "kernel",
+                 "normal_qem": "quadric", "qem": "quadric", "qem_native": "kernel"}
+
+
 def test_metrics_table(builtin_metrics_only, capsys):
     assert main(["metrics"]) == 0
     rows = metrics_table(capsys.readouterr().out)
     v = lodkit.__version__
-    assert rows == {("importance", "lodkit"): (v, "field", "ok"), ("qem", "lodkit"): (v, "quadric", "ok"),
-                    ("qem_native", "lodkit"): (v, "kernel", "ok")}
+    assert rows == {(name, "lodkit"): (v, BUILTIN_KINDS[name], "ok") for name in BUILTIN_KINDS}
 
 
 def test_metrics_json(builtin_metrics_only, capsys):
     assert main(["metrics", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)
     assert [(r["name"], r["package"], r["kind"], r["status"], r["ok"]) for r in rows] == [
-        ("importance", "lodkit", "field", "ok", True), ("qem", "lodkit", "quadric", "ok", True),
-        ("qem_native", "lodkit", "kernel", "ok", True)]
+        (name, "lodkit", BUILTIN_KINDS[name], "ok", True) for name in sorted(BUILTIN_KINDS)]
     assert all(r["version"] == lodkit.__version__ and r["description"] for r in rows)
 
 
@@ -436,7 +438,7 @@ def test_importance_needs_values_on_the_command_line(builtin_metrics_only, surfa
 
 
 @pytest.mark.parametrize("metric, message", [
-    ("curvature", "unknown metric 'curvature'; available: importance, qem, qem_native"),
+    ("kurvature", "unknown metric 'kurvature'; available: " + ", ".join(sorted(BUILTIN_KINDS))),
     ("qem:weight=-1", "metric 'qem': option 'weight' must be a number >= 0.0, got -1"),
     ("qem:wieght=1", "metric 'qem' has no option 'wieght'; its options: weight"),
     ("importance:merge=median", "option 'merge' must be one of"),

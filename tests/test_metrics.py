@@ -40,7 +40,7 @@ REPO = Path(__file__).resolve().parents[1]
 # where the lodkit under test lives (the installed copy in CI, the source tree in a dev
 # checkout): subprocesses must import that one, not an unbuilt source tree
 LODKIT_ROOT = Path(lodkit.__file__).resolve().parents[1]
-BUILTIN_NAMES = ["importance", "qem", "qem_native"]
+BUILTIN_NAMES = sorted(M.BUILTINS)
 
 
 @pytest.fixture(autouse=True)
@@ -305,7 +305,8 @@ def test_builtins_are_available_without_discovery():
     names = [i.name for i in M.available()]
     assert names == BUILTIN_NAMES
     kinds = {i.name: i.kind for i in M.available(load=True)}
-    assert kinds == {"qem": "quadric", "qem_native": "kernel", "importance": "field"}
+    assert kinds == {"qem": "quadric", "qem_native": "kernel", "importance": "field", "melod": "kernel",
+                     "normal_qem": "quadric", "curvature": "kernel", "appearance": "quadric"}
     for info in M.available(load=True):
         assert info.package == "lodkit" and info.version == lodkit.__version__
         assert info.loaded is True and info.error is None and info.description
@@ -478,7 +479,7 @@ def test_available_does_not_import_entry_points(fake_entry_points):
     fake_entry_points.append(FakeEntryPoint("beta", "b:B", "pkg-b", obj=ShortestEdge, log=log))
     fake_entry_points.append(FakeEntryPoint("gamma", "no_such_mod_gamma:G", "pkg-c", log=log))
     listed = M.available()
-    assert [i.name for i in listed] == ["alpha", "beta", "gamma", *BUILTIN_NAMES]
+    assert [i.name for i in listed] == sorted(["alpha", "beta", "gamma", *BUILTIN_NAMES])
     assert log == []
     assert all(i.loaded is None and i.kind is None for i in listed if i.package != "lodkit")
     assert M.get("beta") is ShortestEdge
@@ -522,11 +523,12 @@ def test_discovery_switch(fake_entry_points, monkeypatch, value):
 def test_unknown_metric_lists_the_available_ones(fake_entry_points):
     fake_entry_points.append(FakeEntryPoint("alpha", "a:A", obj=CopyQEM))
     with pytest.raises(UnknownMetricError) as exc:
-        M.get("curvature")
-    assert str(exc.value) == "unknown metric 'curvature'; available: alpha, importance, qem, qem_native"
+        M.get("kurvature")
+    listed = ", ".join(sorted(["alpha", *BUILTIN_NAMES]))
+    assert str(exc.value) == f"unknown metric 'kurvature'; available: {listed}"
     assert isinstance(exc.value, OptionError) and isinstance(exc.value, LookupError)
-    with pytest.raises(UnknownMetricError, match="available: alpha, importance, qem, qem_native"):
-        lodkit.simplify(grid_mesh(4, 4), target_ratio=0.5, metric=["qem", "curvature"])
+    with pytest.raises(UnknownMetricError, match=f"available: {listed}"):
+        lodkit.simplify(grid_mesh(4, 4), target_ratio=0.5, metric=["qem", "kurvature"])
 
 
 def test_register_unregister_replace(registry):

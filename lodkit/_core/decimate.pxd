@@ -58,6 +58,10 @@ cdef enum:
     GMAX_S = 153         # packed size for GMAX_D: D(D+1)/2 + D + 1
 
 cdef enum:
+    SEAM_NONE = -1       # EdgeCollapser.seam: not on an attribute seam
+    SEAM_STAYS = -2      # a seam copy that may not move nor go (seam end, >2 copies, ...)
+
+cdef enum:
     QSIZE = 11
     VSTRIDE = 14         # per-vertex row: quadric (QSIZE) then position (3)
 
@@ -128,8 +132,19 @@ cdef class EdgeCollapser:
     cdef double[:, ::1] gq          # (n, gsize)
     cdef double* GQ
     cdef int[::1] gcol              # attribute column of each quadric dimension past 3
+    cdef double[:, ::1] gbox        # (n, 2 (D - 3)): per channel, the least and the largest
+                                    # input value on the faces a slot stands for
     cdef int[::1] touched           # pass driver: vertices touched in the current pass
     cdef int pass_counter
+    # attribute seams (uv / normal / colour splits: coincident vertex slots, each on its own
+    # side of a pair of boundary chains): seam[v] is v's partner slot, SEAM_NONE, or
+    # SEAM_STAYS for a seam copy that must not move nor go (it is also fixed)
+    cdef int[::1] seam
+    cdef int* SP                    # &seam[0], NULL when the mesh has no seams
+    cdef int seam_h                 # set by plan_he: the partner side's half-edge of a seam
+                                    # edge (-1 if the edge is not one)
+    cdef bint defer_recost          # perform(): leave the re-ranking to perform_pair
+    cdef readonly int n_seam_pairs  # seam edges collapsed together with their partner
 
     cdef int plan(self, int e, int* h_out, int* r_out, double* p, double* cost, double* err) noexcept nogil
     cdef bint geometry_ok(self, int h, int r, int k, const double* p) noexcept nogil
@@ -141,6 +156,14 @@ cdef class EdgeCollapser:
                      double* err) noexcept nogil
     cdef int metric_cost(self, int h, int u, int v, int fu, int fv, const double* q, const double* qg,
                          int* r_out, double* p, double* c, double* err) noexcept nogil
+    cdef int seam_mate(self, int h, int u, int v) noexcept nogil
+    cdef int plan_seam(self, int h, int hs, int* h_out, int* r_out, double* p, double* cost,
+                       double* err) noexcept nogil
+    cdef bint ring_has(self, int v, int a, int b) noexcept nogil
+    cdef int pair_ok(self, int h, int r, int k, int hs, int rs, int ks, const double* p,
+                     double* dvol) noexcept nogil
+    cdef void perform_pair(self, int h, int r, int hs, int rs, const double* p, double cost,
+                           double err, const double* dvol) noexcept nogil
     cdef void general_marginal(self, int u, int v, double* q) noexcept nogil
     cdef void general_commit(self, int r, int k, const double* p) noexcept nogil
     cdef int kernel_refused(self, int rc) noexcept nogil

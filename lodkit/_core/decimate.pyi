@@ -56,6 +56,8 @@ class EdgeCollapser:
     """Candidates refused by a kernel since the last rescan (or plan_all)."""
     failed: bool
     """A kernel returned KERNEL_ERROR: see ``error_message``."""
+    n_seam_pairs: int
+    """Seam edges collapsed together with their partner edge (two collapses each)."""
     def __init__(
         self,
         hm: HalfEdgeMesh,
@@ -80,6 +82,8 @@ class EdgeCollapser:
         use_heap: bool = ...,
         attribute_quadrics: Optional[ArrayLike] = ...,
         attribute_columns: Optional[ArrayLike] = ...,
+        steps: Optional[ArrayLike] = ...,
+        seam_partners: Optional[ArrayLike] = ...,
     ) -> None:
         """quadric_weight: factor of the quadric in the cost (0: the quadric only places);
         error_scale: error = sqrt(error_scale * Q(p) / area); vertex_fields (n, k) and
@@ -87,7 +91,11 @@ class EdgeCollapser:
         used, and merged, in place); kernels: chained in order; use_heap=False for the pass
         driver (plan_all / collapse_pass) instead of ``run``; attribute_quadrics (n, S)
         packed D-dimensional quadrics over [x, y, z, attributes] with attribute_columns, the
-        D - 3 columns of ``attributes`` they range over (placement by their marginal)."""
+        D - 3 columns of ``attributes`` they range over (placement by their marginal);
+        steps: (k, 3) rows (kind, first, end) ordering fields and kernels; seam_partners
+        (n,) int: each seam vertex's partner slot, -1 off the seams, -2 a seam copy that
+        stays (see lodkit.api._seam_partners)."""
+    def _setup_seams(self, partners: Optional[ArrayLike]) -> None: ...
     def _setup_attribute_quadrics(self, gq: Optional[ArrayLike], columns: Optional[ArrayLike]) -> None: ...
     def run(self, target_faces: int, max_steps: int = ...) -> int:
         """0: target reached, 1: step budget used, 2: no legal collapse left, 3: a kernel failed."""
@@ -111,6 +119,9 @@ class EdgeCollapser:
         """(removed, kept, position, cost, error) for edge (u, v), or None."""
     @property
     def n_alive_faces(self) -> int: ...
+    @property
+    def seam_partners(self) -> Optional[NDArray[np.intc]]:
+        """Each slot's seam partner (-1 none, -2 stays) as used, or None without seams."""
     @property
     def positions(self) -> NDArray[np.float64]: ...
     @property

@@ -502,6 +502,13 @@ cdef class EdgeCollapser:
     boundary  : 0 lock (boundary vertices are fixed), 1 preserve, 2 free
     closed_connected : the surface is closed and connected: refuse collapses that would
                 turn it inside out (its signed volume is tracked)
+    seam_partners : (n,) int or None: attribute seams.  For a vertex slot on a seam (a
+                coincident copy on the other side of a pair of boundary chains) its
+                partner slot; -1 off the seams; -2 for a seam copy that must stay where
+                and as it is (it is made fixed).  A seam vertex never moves, and keeps its
+                attributes; a seam edge collapses only together with its partner edge,
+                keeping the same end on both sides (``perform_pair``); any other collapse
+                keeps a seam vertex in place.
     """
 
     def __init__(self, HalfEdgeMesh hm, positions, quadrics, attributes, fixed,
@@ -511,7 +518,7 @@ cdef class EdgeCollapser:
                  double quadric_weight=1.0, double error_scale=1.0,
                  vertex_fields=None, vertex_rules=None, edge_fields=None, edge_rules=None,
                  kernels=(), bint use_heap=True, attribute_quadrics=None, attribute_columns=None,
-                 steps=None):
+                 steps=None, seam_partners=None):
         cdef int n = hm.n_vertices
         self.hm = hm
         # One row per vertex: the quadric (11 doubles) then the position (3), so that a
@@ -587,6 +594,7 @@ cdef class EdgeCollapser:
                 # under the 'lock' policy a boundary vertex is also fixed
                 self.vflags[v] |= 3 if boundary == BOUNDARY_LOCK else 2
         self.A = &self.attr[0, 0] if n and self.n_attr else NULL
+        self._setup_seams(seam_partners)
         self._setup_metric(quadric_weight, error_scale, vertex_fields, vertex_rules,
                            edge_fields, edge_rules, kernels, use_heap, steps)
         self._setup_attribute_quadrics(attribute_quadrics, attribute_columns)
@@ -599,6 +607,36 @@ cdef class EdgeCollapser:
             with nogil:
                 self.rescan()
 
+    def _setup_seams(self, partners):
+        cdef int n = self.hm.n_vertices
+        self.seam_h = -1
+        self.defer_recost = False
+        self.n_seam_pairs = 0
+        self.seam = np.full(1, SEAM_NONE, dtype=np.intc)
+        self.SP = NULL
+        if partners is None:
+            return
+        arr = np.array(partners, dtype=np.intc).reshape(-1)
+        if arr.shape[0] != n:
+            raise ValueError(f"seam_partners must have {n} entries")
+        if n == 0 or (arr == SEAM_NONE).all():
+            return
+        if arr.min() < SEAM_STAYS or arr.max() >= n:
+            raise ValueError(f"seam_partners must hold vertex slots 0..{n - 1}, -1 or -2")
+        paired = np.flatnonzero(arr >= 0)
+        if (arr[arr[paired]] != paired).any() or (arr[paired] == paired).any():
+            raise ValueError("seam_partners must pair distinct vertex slots both ways")
+        flags = np.asarray(self.vflags)
+        # a seam vertex off the boundary is no seam (nothing to keep apart); one whose
+        # partner is fixed stays too, so that both sides always agree
+        stays = (arr == SEAM_STAYS)
+        stays[paired] |= ((flags[paired] & 1) != 0) | ((flags[arr[paired]] & 1) != 0)
+        stays[paired] |= ((flags[paired] & 2) == 0) | ((flags[arr[paired]] & 2) == 0)
+        arr[stays] = SEAM_STAYS
+        flags[stays] |= 1
+        self.seam = arr
+        self.SP = &self.seam[0]
+
     def _setup_attribute_quadrics(self, gq, columns):
         cdef int n = self.hm.n_vertices
         self.gdim = 0
@@ -606,6 +644,7 @@ cdef class EdgeCollapser:
         self.gq = np.zeros((1, 1))
         self.GQ = NULL
         self.gcol = np.zeros(1, dtype=np.intc)
+        self.gbox = np.zeros((1, 1))
         if gq is None:
             return
         cols = np.ascontiguousarray(columns, dtype=np.intc).reshape(-1)
@@ -623,6 +662,19 @@ cdef class EdgeCollapser:
         self.gq = arr
         self.GQ = &self.gq[0, 0] if n else NULL
         self.gcol = cols
+        # the clamp box of a vertex: per channel, the range of the values on the input
+        # faces around it -- the faces its quadric is made of (a vertex placed a little
+        # outside its own neighbours keeps the linear extrapolation the faces allow)
+        vals = np.asarray(self.attr)[:, cols]
+        lo, hi = vals.copy(), vals.copy()
+        corners = np.asarray(self.hm.corners)[np.asarray(self.hm.alive_faces).astype(bool)]
+        if corners.shape[0]:
+            face_vals = vals[corners]                                   # (m, 3, channels)
+            face_lo, face_hi = face_vals.min(axis=1), face_vals.max(axis=1)
+            for i in range(3):
+                np.minimum.at(lo, corners[:, i], face_lo)
+                np.maximum.at(hi, corners[:, i], face_hi)
+        self.gbox = np.ascontiguousarray(np.concatenate([lo, hi], axis=1))
         self.gdim = D
         self.gsize = S
 
@@ -704,7 +756,20 @@ cdef class EdgeCollapser:
         cdef double cand[3]
         cdef double best, c, t, denom, d0, d1
         cdef double du[3]
-        cdef int i, keep
+        cdef int i, keep, hs
+        if self.SP != NULL:
+            self.seam_h = -1
+            if self.SP[u] != SEAM_NONE or self.SP[v] != SEAM_NONE:
+                if self.SP[u] >= 0 and self.SP[v] >= 0 and self.m.twin[h] < 0:
+                    hs = self.seam_mate(h, u, v)
+                    if hs >= 0:
+                        return self.plan_seam(h, hs, h_out, r_out, p, cost, err)
+                # any other collapse keeps a seam vertex where it is (its partner could
+                # not follow); a seam vertex that stays is fixed already
+                if self.SP[u] != SEAM_NONE:
+                    fu = True
+                if self.SP[v] != SEAM_NONE:
+                    fv = True
         if bu and bv and self.m.twin[h] >= 0:
             return -1                     # would pinch the surface (link condition)
         if self.boundary == BOUNDARY_PRESERVE:
@@ -795,6 +860,85 @@ cdef class EdgeCollapser:
             keep = self.metric_cost(h, u, v, fu, fv, q, &qg[0] if self.gdim > 0 else &q[0], r_out, p, &c, err)
             cost[0] = c
             return keep
+        if err != NULL:
+            err[0] = collapse_error(quadric_eval(qg, p) if self.gdim > 0 else c, q[10], self.error_scale)
+        cost[0] = self.quadric_weight * c
+        return 0
+
+    cdef int seam_mate(self, int h, int u, int v) noexcept nogil:
+        """The partner of seam edge ``h`` (u -> v, a boundary half-edge between two paired
+        seam vertices): the boundary half-edge partner(v) -> partner(u) on the other side
+        of the seam, or -1 if there is none (the seam chains part there)."""
+        cdef int vs = self.SP[v]
+        cdef int hs = self.m.v_he[vs]          # a boundary vertex's fan starts at its border
+        if self.m.twin[hs] < 0 and he_dest(self.m, hs) == self.SP[u]:
+            return hs
+        return -1
+
+    cdef int plan_seam(self, int h, int hs, int* h_out, int* r_out, double* p, double* cost,
+                       double* err) noexcept nogil:
+        """Plan seam edge ``h`` together with its partner ``hs`` on the other side: one
+        collapse on each side, removing the same position and keeping the other, which
+        stays where it is (endpoint placement: the seam stays a sub-polyline of the
+        input's, and the two sides cannot part).  The cost is that of both collapses: the
+        summed quadrics of both sides (attribute quadrics: the sum of each side's marginal,
+        as each side keeps its own attributes).  The plan is the same from either edge
+        (the side of the smaller edge id is side a), and ``seam_h`` gets side b's
+        half-edge.  Returns 0, or -1 / -2 as ``plan_he``."""
+        cdef int ha = h, hb = hs
+        if self.m.edge[hs] < self.m.edge[h]:
+            ha = hs
+            hb = h
+        self.seam_h = hb
+        h_out[0] = ha
+        cdef int ua = self.m.corner[ha], va = he_dest(self.m, ha)
+        cdef int ub = self.m.corner[hb], vb = he_dest(self.m, hb)     # partner(va), partner(ua)
+        # seam vertices whose partner is fixed are fixed themselves (SEAM_STAYS), so both
+        # sides agree on what may go
+        cdef bint fu = (self.vflags[ua] & 1) != 0
+        cdef bint fv = (self.vflags[va] & 1) != 0
+        cdef double q[QSIZE]
+        cdef double qg[QSIZE]
+        cdef double qb[QSIZE]
+        cdef double c, d0, d1
+        cdef int i, keep, rc
+        if fu and fv:
+            return -1
+        for i in range(QSIZE):
+            q[i] = (self.Q[VSTRIDE * ua + i] + self.Q[VSTRIDE * va + i]) + (self.Q[VSTRIDE * ub + i] + self.Q[VSTRIDE * vb + i])
+        if self.gdim > 0:
+            for i in range(QSIZE):
+                qg[i] = q[i]
+            self.general_marginal(ua, va, q)
+            self.general_marginal(ub, vb, qb)
+            for i in range(10):
+                q[i] += qb[i]
+        if fu:
+            keep = ua
+        elif fv:
+            keep = va
+        else:
+            d0 = quadric_eval(q, &self.P[VSTRIDE * ua])
+            d1 = quadric_eval(q, &self.P[VSTRIDE * va])
+            keep = ua if (d0 < d1 or (d0 == d1 and ua < va)) else va
+        for i in range(3):
+            p[i] = self.P[VSTRIDE * keep + i]
+        r_out[0] = va if keep == ua else ua
+        c = quadric_eval(q, p)
+        if c < 0.0:
+            c = 0.0
+        if self.has_extras:
+            # fields and kernels see side a's collapse; a kernel may swap the ends but not
+            # move the kept one (the seam would part)
+            rc = self.metric_cost(ha, ua, va, fu, fv, q, &qg[0] if self.gdim > 0 else &q[0], r_out, p, &c, err)
+            if rc != 0:
+                return rc
+            keep = va if r_out[0] == ua else ua
+            if not same_point(p, &self.P[VSTRIDE * keep]):
+                self.n_vetoed += 1
+                return -1
+            cost[0] = c
+            return 0
         if err != NULL:
             err[0] = collapse_error(quadric_eval(qg, p) if self.gdim > 0 else c, q[10], self.error_scale)
         cost[0] = self.quadric_weight * c
@@ -1008,6 +1152,67 @@ cdef class EdgeCollapser:
             self.pending_dvol = dvol
         return True
 
+    cdef bint ring_has(self, int v, int a, int b) noexcept nogil:
+        """Is ``a`` or ``b`` a neighbour of ``v``?"""
+        cdef int start = self.m.v_he[v]
+        cdef int y = start
+        cdef int w, ny
+        while True:
+            w = he_dest(self.m, y)
+            if w == a or w == b:
+                return True
+            ny = he_ring_next(self.m, y)
+            if ny < 0:
+                w = self.m.corner[he_prev(y)]
+                return w == a or w == b
+            if ny == start:
+                return False
+            y = ny
+
+    cdef int pair_ok(self, int h, int r, int k, int hs, int rs, int ks, const double* p,
+                     double* dvol) noexcept nogil:
+        """May seam edge h (r -> k) and its partner hs (rs -> ks) collapse together?
+        0 yes (``dvol[0..1]``: each side's volume change), 1 the topology says no, 2 the
+        geometry says no.  The two sides must not touch (no edge from one side's ends to
+        the other's): then the first collapse changes nothing the second one's checks
+        look at, and both can be checked before either is done."""
+        if not self.hm.link_ok(h) or not self.hm.link_ok(hs):
+            return 1
+        if self.ring_has(r, rs, ks) or self.ring_has(k, rs, ks):
+            return 1
+        if not self.geometry_ok(h, r, k, p):
+            return 2
+        dvol[0] = self.pending_dvol
+        if not self.geometry_ok(hs, rs, ks, p):
+            return 2
+        dvol[1] = self.pending_dvol
+        return 0
+
+    cdef void perform_pair(self, int h, int r, int hs, int rs, const double* p, double cost,
+                           double err, const double* dvol) noexcept nogil:
+        """Collapse seam edge h (removing r) and its partner hs (removing rs), then
+        re-rank around both kept vertices (once both sides are done: a seam edge's cost
+        reads both sides).  Both collapses are recorded."""
+        cdef int k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
+        cdef int ks = he_dest(self.m, hs) if self.m.corner[hs] == rs else self.m.corner[hs]
+        self.defer_recost = True
+        self.pending_dvol = dvol[0]
+        self.perform(h, r, p, cost, err)
+        if not self.failed:
+            self.pending_dvol = dvol[1]
+            self.perform(hs, rs, p, cost, err)
+        self.defer_recost = False
+        if self.failed:
+            return
+        self.n_seam_pairs += 1
+        if self.use_heap:
+            if self.wide_recost:
+                self.recost_wide(k)
+                self.recost_wide(ks)
+            else:
+                self.recost_ring(k)
+                self.recost_ring(ks)
+
     cdef double face_volume(self, int f) noexcept nogil:
         """Six times the signed volume of the cone from the origin over face ``f``."""
         cdef double* a = &self.P[VSTRIDE * self.m.corner[3 * f]]
@@ -1027,9 +1232,17 @@ cdef class EdgeCollapser:
         cdef double p[3]
         cdef double cost
         if self.plan_he(h, u, v, &hh, &r, p, &cost, NULL) == 0:       # ranking only
-            self.heap.push_fast(e, cost)
+            if self.SP != NULL and self.seam_h >= 0:
+                # a seam pair is ranked once, as the edge of side a (plan_seam's h_out)
+                self.heap.push_fast(self.m.edge[hh], cost)
+                self.heap.remove_fast(self.m.edge[self.seam_h])
+            else:
+                self.heap.push_fast(e, cost)
         else:
             self.heap.remove_fast(e)
+            if self.SP != NULL and self.seam_h >= 0:
+                self.heap.remove_fast(self.m.edge[self.seam_h])
+                self.heap.remove_fast(self.m.edge[hh])
 
     cdef void recost_ring(self, int v) noexcept nogil:
         """Re-cost the edges around ``v``; around each neighbour that had a candidate
@@ -1125,6 +1338,8 @@ cdef class EdgeCollapser:
         self.n_vetoed = 0
         for e in range(self.hm.n_edges):
             if self.m.edge_alive[e] and self.plan(e, &h, &r, p, &cost, NULL) == 0:
+                if self.SP != NULL and self.seam_h >= 0 and self.m.edge[h] != e:
+                    continue              # side b of a seam pair: ranked as side a's edge
                 self.heap.append_unordered(e, cost)
             if self.failed:
                 break
@@ -1188,7 +1403,7 @@ cdef class EdgeCollapser:
             if chain_commit(self.kernel, &cand) == KERNEL_ERROR:
                 self.failed = True
                 return
-        if self.use_heap:
+        if self.use_heap and not self.defer_recost:
             if self.wide_recost:
                 self.recost_wide(k)
             else:
@@ -1197,15 +1412,28 @@ cdef class EdgeCollapser:
     cdef void general_commit(self, int r, int k, const double* p) noexcept nogil:
         """Add the attribute quadric of r to k's and give k the attribute values that
         minimise it at the new position (where that is determined; else the interpolated
-        values stay)."""
+        values stay), each channel clamped to the range of the input values on the
+        faces k now stands for (``gbox``).  The minimum of a sum of quadrics is no
+        convex combination: unclamped, it can extrapolate (colours a few percent outside
+        anything in the input)."""
         cdef double a[GMAX_D]
         cdef double q3[QSIZE]
+        cdef double lo, hi
         cdef int i, gs = self.gsize, m = self.gdim - 3
         for i in range(gs):
             self.GQ[gs * k + i] += self.GQ[gs * r + i]
+        for i in range(m):
+            if self.gbox[r, i] < self.gbox[k, i]:
+                self.gbox[k, i] = self.gbox[r, i]
+            if self.gbox[r, m + i] > self.gbox[k, m + i]:
+                self.gbox[k, m + i] = self.gbox[r, m + i]
+        if self.SP != NULL and self.SP[k] != SEAM_NONE:
+            return            # a seam vertex keeps its attributes: its side's chart at the seam
         if gq_marginal(&self.GQ[gs * k], self.gdim, q3, p, a):
             for i in range(m):
-                self.A[self.n_attr * k + self.gcol[i]] = a[i]
+                lo = self.gbox[k, i]
+                hi = self.gbox[k, m + i]
+                self.A[self.n_attr * k + self.gcol[i]] = lo if a[i] < lo else (hi if a[i] > hi else a[i])
 
     cdef void merge_fields(self, int r, int k, const int* dead, const int* merged_into) noexcept nogil:
         """The kept vertex takes merge(kept, removed) of each vertex field; the edge that a
@@ -1223,9 +1451,10 @@ cdef class EdgeCollapser:
                 self.EF[ne * es + j] = merge_value(self.EF[ne * es + j], self.EF[ne * ed + j], <int>self.erules[j, RULE_MERGE])
 
     cdef int run_c(self, int target_faces, int max_steps) noexcept nogil:
-        cdef int e, h, r, k, steps = 0
+        cdef int e, h, r, k, hs, rs, ks, rc, steps = 0
         cdef double key, cost, err
         cdef double p[3]
+        cdef double dvol[2]
         while self.hm.n_alive_faces > target_faces:
             if steps >= max_steps:
                 return RUN_CHUNK
@@ -1242,6 +1471,27 @@ cdef class EdgeCollapser:
                 self.n_rejected_error += 1
                 continue
             k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
+            if self.SP != NULL and self.seam_h >= 0:
+                # a seam edge: both sides together or neither
+                hs = self.seam_h
+                rs = self.SP[r]
+                ks = self.SP[k]
+                rc = self.pair_ok(h, r, k, hs, rs, ks, p, dvol)
+                if rc != 0:
+                    if rc == 1:
+                        self.n_rejected_topology += 1
+                    else:
+                        self.n_rejected_geometry += 1
+                    self.refused[r] = 1
+                    self.refused[k] = 1
+                    self.refused[rs] = 1
+                    self.refused[ks] = 1
+                    continue
+                self.perform_pair(h, r, hs, rs, p, cost, err, dvol)
+                if self.failed:
+                    return RUN_ERROR
+                steps += 1
+                continue
             if not self.hm.link_ok(h):
                 self.n_rejected_topology += 1
                 self.refused[r] = 1
@@ -1263,10 +1513,11 @@ cdef class EdgeCollapser:
         with an end that an earlier collapse of this pass touched (the kept vertex and its
         1-ring), so every collapse sees the costs it was ranked with.  Returns the number of
         collapses, or -1 if a kernel failed."""
-        cdef int i, e, h, r, k, u, v, y, start, ny, done = 0
+        cdef int i, e, h, r, k, u, v, y, start, ny, hs, rs, ks, side, done = 0
         cdef double cost, err
         cdef double p[3]
         cdef double q[QSIZE]
+        cdef double dvol[2]
         cdef Candidate cand
         cdef int stamp, rc
         self.pass_counter += 1
@@ -1289,7 +1540,50 @@ cdef class EdgeCollapser:
                 if self.failed:
                     return -1
                 continue
-            if PO != NULL and not ((self.vflags[u] | self.vflags[v]) & (1 if self.boundary == BOUNDARY_FREE else 3)):
+            if self.SP != NULL and self.seam_h >= 0:
+                # a seam edge: both sides together or neither, where the core placed it
+                hs = self.seam_h
+                k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
+                rs = self.SP[r]
+                ks = self.SP[k]
+                if self.touched[rs] == stamp or self.touched[ks] == stamp:
+                    continue
+                if err > self.max_error:
+                    self.n_rejected_error += 1
+                    continue
+                rc = self.pair_ok(h, r, k, hs, rs, ks, p, dvol)
+                if rc != 0:
+                    if rc == 1:
+                        self.n_rejected_topology += 1
+                    else:
+                        self.n_rejected_geometry += 1
+                    continue
+                self.perform_pair(h, r, hs, rs, p, cost, err, dvol)
+                if self.failed:
+                    return -1
+                done += 1
+                for side in range(2):
+                    k = ks if side else k
+                    self.touched[k] = stamp
+                    start = self.m.v_he[k]
+                    y = start
+                    while True:
+                        if self.wide_recost:
+                            self.touch_ring(he_dest(self.m, y), stamp)
+                        self.touched[he_dest(self.m, y)] = stamp
+                        ny = he_ring_next(self.m, y)
+                        if ny < 0:
+                            if self.wide_recost:
+                                self.touch_ring(self.m.corner[he_prev(y)], stamp)
+                            self.touched[self.m.corner[he_prev(y)]] = stamp
+                            break
+                        if ny == start:
+                            break
+                        y = ny
+                continue
+            if PO != NULL and self.SP != NULL and (self.SP[u] != SEAM_NONE or self.SP[v] != SEAM_NONE):
+                pass            # a seam vertex stays where it is, whatever a batch metric says
+            elif PO != NULL and not ((self.vflags[u] | self.vflags[v]) & (1 if self.boundary == BOUNDARY_FREE else 3)):
                 # the batch metric placed it: both ends are free to move
                 p[0] = PO[3 * i]
                 p[1] = PO[3 * i + 1]
@@ -1400,6 +1694,8 @@ cdef class EdgeCollapser:
                     if self.failed:
                         break
                     continue
+                if self.SP != NULL and self.seam_h >= 0 and self.m.edge[h] != e:
+                    continue              # side b of a seam pair: listed as side a's edge
                 if err > self.max_error:
                     self.n_rejected_error += 1
                     continue
@@ -1501,6 +1797,14 @@ cdef class EdgeCollapser:
     @property
     def n_alive_faces(self):
         return self.hm.n_alive_faces
+
+    @property
+    def seam_partners(self):
+        """(n,) int32: each vertex slot's seam partner, -1 off the seams, -2 a seam copy
+        that stays (as given, with the fixed rules applied); None without seams."""
+        if self.SP == NULL:
+            return None
+        return np.asarray(self.seam).copy()
 
     @property
     def positions(self):

@@ -47,6 +47,10 @@ BUILTINS = {
     "qem": "lodkit.metrics.qem:QEM",
     "qem_native": "lodkit.metrics.qem:QEMNative",
     "importance": "lodkit.metrics.importance:Importance",
+    "melod": "lodkit.metrics.melod:MELOD",
+    "normal_qem": "lodkit.metrics.normal_qem:NormalQEM",
+    "curvature": "lodkit.metrics.curvature:Curvature",
+    "appearance": "lodkit.metrics.appearance:Appearance",
 }
 
 

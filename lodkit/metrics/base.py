@@ -42,6 +42,14 @@ class Option:
                  max: Optional[float] = None, choices: Optional[tuple] = None, doc: str = "",
                  allow_none: bool = False):
         self.default = default
+        # the type, or its name ("array" is an array of numbers)
+        kinds = {"float": float, "int": int, "bool": bool, "str": str, "array": "array"}
+        if isinstance(kind, str):
+            if kind not in kinds:
+                raise ValueError(f"Option kind must be one of {', '.join(kinds)}, got {kind!r}")
+            kind = kinds[kind]
+        elif choices is not None and kind is float and all(isinstance(c, str) for c in choices):
+            kind = str                                  # choices of text: a text option
         self.kind = kind
         self.min = min
         self.max = max

@@ -1,0 +1,432 @@
+# cython: language_level=3, boundscheck=False, wraparound=False, cdivision=True
+"""MELOD (Hussain, Okada, Nijima 2004) as a native kernel: the ``melod`` metric.
+
+Half-edge collapse o -> h (o goes, h stays where it is).  For the triangles t = (o, a, b)
+around o that do not contain h, the collapse turns t into t' = (h, a, b):
+
+    Q_t = l_t * (1 - n_t . n_t'),    l_t = (area(t) + area(t')) / 2
+    surface(o -> h) = sum of Q_t
+
+The visual importance of a vertex is w_v = 1 - |sum_i A_i n_i / sum_i A_i| over its star
+(0 on a flat vertex).  The key of the half-edge is
+
+    key(o -> h) = w_o * max(surface(o -> h), acc_o) + boundary(o -> h)
+
+where acc_o is the cost accumulated into o by earlier collapses around it (after a
+collapse with cost c = max(surface, acc_removed), every vertex of the new 1-ring of the
+kept vertex, and the kept vertex, get acc = max(acc, c)).  An edge costs the smaller key of
+its two half-edges, so the edge heap pops exactly the vertex with the least key, as the
+paper's per-vertex queue does.
+
+Boundary (the paper's heuristics): a boundary vertex never collapses into the interior; a
+half-edge along a boundary edge pays lambda * phi * |o - h|.  See docs/metrics/melod.md for
+phi and the other readings of the paper.
+"""
+import numpy as np
+from libc.math cimport sqrt, INFINITY
+
+from .halfedge cimport HEArrays, he_next, he_prev, he_dest, he_ring_next
+from .kernel cimport (Kernel, Candidate, KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_API_VERSION,
+                      VERTEX_FIXED, VERTEX_BOUNDARY)
+
+cdef enum:
+    ACC_OFF = 0       # no accumulation
+    ACC_COST = 1      # neighbours take max(acc, cost of the collapse) (unscaled)
+    ACC_KEY = 2       # neighbours take max(acc, key of the collapse) (scaled by w)
+
+cdef enum:
+    RING_MAX = 128    # neighbours of the removed vertex remembered by place() for commit()
+
+cdef enum:
+    PHI_HEAD = 0      # the paper's formula: phi_oh = 1 - u_ho . u_hn (turn at the head)
+    PHI_ORIGIN = 1    # phi_oh = 1 + u_op . u_oh (turn at the removed vertex)
+
+
+cdef inline void sub3(const double* a, const double* b, double* out) noexcept nogil:
+    out[0] = a[0] - b[0]
+    out[1] = a[1] - b[1]
+    out[2] = a[2] - b[2]
+
+
+cdef inline void cross3(const double* a, const double* b, double* out) noexcept nogil:
+    out[0] = a[1] * b[2] - a[2] * b[1]
+    out[1] = a[2] * b[0] - a[0] * b[2]
+    out[2] = a[0] * b[1] - a[1] * b[0]
+
+
+cdef inline bint same_point(const double* a, const double* b) noexcept nogil:
+    return a[0] == b[0] and a[1] == b[1] and a[2] == b[2]
+
+
+cdef inline double norm3(const double* a) noexcept nogil:
+    return sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+
+
+cdef inline double face_area_normal(const double* a, const double* b, const double* c,
+                                    double* n) noexcept nogil:
+    """Twice the area of triangle abc; n gets its unit normal (0 if degenerate)."""
+    cdef double e1[3]
+    cdef double e2[3]
+    cdef double l
+    sub3(b, a, e1)
+    sub3(c, a, e2)
+    cross3(e1, e2, n)
+    l = norm3(n)
+    if l > 0.0:
+        n[0] /= l
+        n[1] /= l
+        n[2] /= l
+    return l
+
+
+cdef inline double unit_dot(const double* o, const double* a, const double* b) noexcept nogil:
+    """(a - o)/|a - o| . (b - o)/|b - o| (0 if either has zero length)."""
+    cdef double x[3]
+    cdef double y[3]
+    cdef double lx, ly
+    sub3(a, o, x)
+    sub3(b, o, y)
+    lx = norm3(x)
+    ly = norm3(y)
+    if lx == 0.0 or ly == 0.0:
+        return 0.0
+    return (x[0] * y[0] + x[1] * y[1] + x[2] * y[2]) / (lx * ly)
+
+
+cdef class MELODKernel(Kernel):
+    """Hussain et al.'s half-edge collapse cost with visual importance, cost accumulation
+    and the boundary heuristics (see the module docstring)."""
+
+    api_version = KERNEL_API_VERSION
+
+    cdef double[::1] acc           # accumulated cost of each vertex slot
+    cdef double[::1] wv            # visual importance of each vertex slot (kept current)
+    cdef double lam
+    cdef int phi_mode
+    cdef bint use_importance
+    cdef int accumulate
+    # key of each half-edge (o -> h) as last computed, valid while its origin is untouched:
+    # a half-edge collapse moves no vertex, so key(o -> h) changes only when o's star does
+    cdef double[::1] hkey
+    cdef double[::1] hacc
+    cdef int[::1] hstamp
+    cdef int[::1] vstamp
+    cdef int stamp
+    cdef double[:, ::1] fn           # per face: (b - a) x (c - a) (twice the area times the normal), |.|
+    cdef int ring[RING_MAX]          # neighbours of the removed end of the last placed collapse
+    cdef int ring_len                # -1: too many, commit() uses the kept vertex's 1-ring
+    cdef bint scale_boundary
+    cdef double weight
+    # the last key computed by place(): cost() and commit() reuse it
+    cdef int cache_edge
+    cdef int cache_removed
+    cdef double cache_key
+    cdef double cache_acc
+
+    def __cinit__(self):
+        self.places = True
+        self.wide = True          # a collapse changes the stars (and acc) of the kept vertex's ring
+        self.cache_edge = -1
+
+    def prepare(self, ctx, options):
+        n = ctx.n_vertices
+        self.lam = float(options["boundary_lambda"])
+        self.phi_mode = PHI_HEAD if options["phi"] == "head" else PHI_ORIGIN
+        self.use_importance = bool(options["importance"])
+        self.accumulate = {"off": ACC_OFF, "cost": ACC_COST, "key": ACC_KEY}[options["accumulate"]]
+        self.scale_boundary = bool(options["scale_boundary"])
+        self.weight = float(options.get("weight", 1.0))
+        self.acc = np.zeros(n, dtype=np.float64)
+        self.wv = np.ascontiguousarray(visual_importance(ctx.positions, ctx.faces, n), dtype=np.float64)
+        P = np.asarray(ctx.positions, dtype=np.float64)
+        F = np.asarray(ctx.halfedge.corners).reshape(-1, 3)
+        cr = np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]])
+        fn = np.empty((F.shape[0], 4))
+        fn[:, :3] = cr
+        fn[:, 3] = np.linalg.norm(cr, axis=1)
+        self.fn = fn
+        self.cache_edge = -1
+        nh = 3 * ctx.halfedge.n_faces
+        self.hkey = np.zeros(nh, dtype=np.float64)
+        self.hacc = np.zeros(nh, dtype=np.float64)
+        self.hstamp = np.zeros(nh, dtype=np.intc)
+        self.vstamp = np.ones(n, dtype=np.intc)
+        self.stamp = 1
+
+    # ------------------------------------------------------------------ the measures
+    cdef double importance(self, const KernelMesh* m, int v) noexcept nogil:
+        """w_v = 1 - |sum A_i n_i| / sum A_i over the live star of v."""
+        cdef const HEArrays* a = m.he
+        cdef int start = a.v_he[v]
+        cdef int y = start
+        cdef int f
+        cdef double s0 = 0.0, s1 = 0.0, s2 = 0.0, total = 0.0, w
+        while True:
+            f = y // 3
+            s0 += self.fn[f, 0]
+            s1 += self.fn[f, 1]
+            s2 += self.fn[f, 2]
+            total += self.fn[f, 3]
+            y = he_ring_next(a, y)
+            if y < 0 or y == start:
+                break
+        if total <= 0.0:
+            return 0.0
+        w = 1.0 - sqrt(s0 * s0 + s1 * s1 + s2 * s2) / total
+        return w if w > 0.0 else 0.0
+
+    cdef void update_faces(self, const KernelMesh* m, int v) noexcept nogil:
+        """Recompute the cached normals of the faces around v."""
+        cdef const HEArrays* a = m.he
+        cdef int start = a.v_he[v]
+        cdef int y = start
+        cdef int f
+        cdef double n[3]
+        while True:
+            f = y // 3
+            self.fn[f, 3] = face_area_normal(&m.positions[m.stride * v],
+                                             &m.positions[m.stride * he_dest(a, y)],
+                                             &m.positions[m.stride * a.corner[he_prev(y)]], n)
+            self.fn[f, 0] = n[0] * self.fn[f, 3]
+            self.fn[f, 1] = n[1] * self.fn[f, 3]
+            self.fn[f, 2] = n[2] * self.fn[f, 3]
+            y = he_ring_next(a, y)
+            if y < 0 or y == start:
+                break
+
+    cdef double surface(self, const KernelMesh* m, int o, int h) noexcept nogil:
+        """sum of Q_t over the triangles around o that do not contain h, o moved onto h."""
+        cdef const HEArrays* a = m.he
+        cdef int start = a.v_he[o]
+        cdef int y = start
+        cdef int b, c, f
+        cdef double e1[3]
+        cdef double e2[3]
+        cdef double n1[3]
+        cdef double A0, A1, d, total = 0.0
+        cdef const double* P = m.positions
+        cdef const double* pb
+        cdef int s = m.stride
+        while True:
+            b = he_dest(a, y)
+            c = a.corner[he_prev(y)]
+            if b != h and c != h:
+                # twice the areas and the unnormalised normals of t = (o, b, c), t' = (h, b, c):
+                # both share the edge b -> c
+                # t = (o, b, c) from the face cache; t' = (h, b, c): (c - b) x (h - b)
+                f = y // 3
+                pb = &P[s * b]
+                sub3(&P[s * c], pb, e1)
+                sub3(&P[s * h], pb, e2)
+                cross3(e1, e2, n1)
+                A0 = self.fn[f, 3]
+                A1 = norm3(n1)
+                if A0 > 0.0 and A1 > 0.0:
+                    d = 1.0 - (self.fn[f, 0] * n1[0] + self.fn[f, 1] * n1[1] + self.fn[f, 2] * n1[2]) / (A0 * A1)
+                else:
+                    d = 1.0           # a degenerate triangle before or after: full turn
+                total += 0.25 * (A0 + A1) * d          # areas are A/2: l_t = (A0 + A1) / 4
+            y = he_ring_next(a, y)
+            if y < 0 or y == start:
+                break
+        return total
+
+    cdef void boundary_neighbours(self, const KernelMesh* m, int v, int* out_next, int* out_prev) noexcept nogil:
+        """The two neighbours of boundary vertex v along its boundary loop."""
+        cdef const HEArrays* a = m.he
+        cdef int start = a.v_he[v]           # the outgoing boundary half-edge
+        cdef int y = start
+        cdef int ny
+        out_next[0] = he_dest(a, start)
+        while True:
+            ny = he_ring_next(a, y)
+            if ny < 0 or ny == start:
+                break
+            y = ny
+        out_prev[0] = a.corner[he_prev(y)]
+
+    cdef double boundary_penalty(self, const KernelMesh* m, int o, int h) noexcept nogil:
+        """lambda * phi * |o - h| for a half-edge along a boundary edge."""
+        cdef int n1, n2, other
+        cdef double phi, L
+        cdef double d[3]
+        cdef const double* P = m.positions
+        cdef int s = m.stride
+        if self.phi_mode == PHI_HEAD:
+            # the paper: phi_oh = 1 - u_ho . u_hn, n the head's other boundary neighbour
+            self.boundary_neighbours(m, h, &n1, &n2)
+            other = n2 if n1 == o else n1
+            phi = 1.0 - unit_dot(&P[s * h], &P[s * o], &P[s * other])
+        else:
+            # phi_oh = 1 + u_op . u_oh, p the removed vertex's other boundary neighbour
+            self.boundary_neighbours(m, o, &n1, &n2)
+            other = n2 if n1 == h else n1
+            phi = 1.0 + unit_dot(&P[s * o], &P[s * other], &P[s * h])
+        sub3(&P[s * o], &P[s * h], d)
+        L = norm3(d)
+        return self.lam * phi * L
+
+    cdef bint may_remove(self, const KernelMesh* m, const Candidate* c, int o, int h) noexcept nogil:
+        cdef unsigned char fo = m.flags[o]
+        if fo & VERTEX_FIXED:
+            return False
+        if fo & VERTEX_BOUNDARY:
+            # a boundary vertex may only slide along a boundary edge onto its neighbour
+            if not (m.flags[h] & VERTEX_BOUNDARY) or m.he.twin[c.h] >= 0:
+                return False
+        return True
+
+    cdef double key(self, const KernelMesh* m, const Candidate* c, int o, int h, double* acc_out) noexcept nogil:
+        cdef int he = c.h if o == c.u else m.he.twin[c.h]      # the half-edge o -> h, if any
+        cdef double surf, w, bpen = 0.0, k
+        if he >= 0 and self.hstamp[he] == self.vstamp[o]:
+            acc_out[0] = self.hacc[he]
+            return self.hkey[he]
+        surf = self.surface(m, o, h)
+        w = self.wv[o] if self.use_importance else 1.0
+        if self.accumulate != ACC_OFF and self.acc[o] > surf:
+            surf = self.acc[o]
+        acc_out[0] = surf
+        if (m.flags[o] & VERTEX_BOUNDARY) and m.he.twin[c.h] < 0:
+            # depends on the boundary neighbours of h as well: not cached
+            bpen = self.boundary_penalty(m, o, h)
+            return w * (surf + bpen) if self.scale_boundary else w * surf + bpen
+        k = w * surf
+        if he >= 0:
+            self.hkey[he] = k
+            self.hacc[he] = surf
+            self.hstamp[he] = self.vstamp[o]
+        return k
+
+    # ------------------------------------------------------------------ the kernel
+    cdef int place(self, Candidate* c) noexcept nogil:
+        cdef const KernelMesh* m = c.mesh
+        cdef double ku = INFINITY, kv = INFINITY, au = 0.0, av = 0.0
+        cdef int r, k
+        if self.may_remove(m, c, c.u, c.v):
+            ku = self.key(m, c, c.u, c.v, &au)
+        if self.may_remove(m, c, c.v, c.u):
+            kv = self.key(m, c, c.v, c.u, &av)
+        if ku == INFINITY and kv == INFINITY:
+            self.cache_edge = -1
+            return KERNEL_VETO
+        if ku < kv or (ku == kv and c.u < c.v):
+            r, k = c.u, c.v
+            self.cache_key, self.cache_acc = ku, au
+        else:
+            r, k = c.v, c.u
+            self.cache_key, self.cache_acc = kv, av
+        c.removed = r
+        c.kept = k
+        c.p[0] = m.positions[m.stride * k]
+        c.p[1] = m.positions[m.stride * k + 1]
+        c.p[2] = m.positions[m.stride * k + 2]
+        self.cache_edge = c.edge
+        self.cache_removed = r
+        self.remember_ring(m, r)
+        return KERNEL_OK
+
+    cdef void remember_ring(self, const KernelMesh* m, int r) noexcept nogil:
+        """Keep the neighbours of r: the vertices whose stars the collapse changes."""
+        cdef const HEArrays* a = m.he
+        cdef int start = a.v_he[r]
+        cdef int y = start
+        cdef int ny, n = 0
+        while True:
+            if n == RING_MAX:
+                self.ring_len = -1
+                return
+            self.ring[n] = he_dest(a, y)
+            n += 1
+            ny = he_ring_next(a, y)
+            if ny < 0:
+                if n == RING_MAX:
+                    self.ring_len = -1
+                    return
+                self.ring[n] = a.corner[he_prev(y)]
+                n += 1
+                break
+            if ny == start:
+                break
+            y = ny
+        self.ring_len = n
+
+    cdef int cost(self, Candidate* c) noexcept nogil:
+        cdef double acc
+        if c.edge != self.cache_edge or c.removed != self.cache_removed:
+            # another kernel re-placed the collapse: cost the direction it chose
+            if not self.may_remove(c.mesh, c, c.removed, c.kept):
+                return KERNEL_VETO
+            self.cache_key = self.key(c.mesh, c, c.removed, c.kept, &acc)
+            self.cache_acc = acc
+            self.cache_edge = c.edge
+            self.cache_removed = c.removed
+            self.remember_ring(c.mesh, c.removed)
+        c.cost += self.weight * self.cache_key
+        return KERNEL_OK
+
+    cdef int commit(self, const Candidate* c) noexcept nogil:
+        cdef const KernelMesh* m = c.mesh
+        cdef const HEArrays* a = m.he
+        cdef int k = c.kept
+        cdef int start, y, ny, w, i
+        cdef double acc = self.cache_key if self.accumulate == ACC_KEY else self.cache_acc
+        if c.edge != self.cache_edge or c.removed != self.cache_removed:
+            return self.fail(b"melod: commit() for a collapse that place() did not rank last")
+        self.cache_edge = -1
+        self.update_faces(m, k)
+        # the stars of the removed vertex's neighbours (k among them) changed: new
+        # importance, accumulated cost (the paper's N_{v_i})
+        self.touch(m, k, acc)
+        if self.ring_len >= 0 and not same_point(c.p, &m.positions[m.stride * k]):
+            self.ring_len = -1             # another kernel moved k: every star around k changed
+        if self.ring_len >= 0:
+            for i in range(self.ring_len):
+                if self.ring[i] != k:
+                    self.touch(m, self.ring[i], acc)
+            return KERNEL_OK
+        start = a.v_he[k]
+        y = start
+        while True:
+            self.touch(m, he_dest(a, y), acc)
+            ny = he_ring_next(a, y)
+            if ny < 0:
+                self.touch(m, a.corner[he_prev(y)], acc)
+                break
+            if ny == start:
+                break
+            y = ny
+        return KERNEL_OK
+
+    cdef void touch(self, const KernelMesh* m, int v, double acc) noexcept nogil:
+        self.wv[v] = self.importance(m, v)
+        if self.accumulate != ACC_OFF and acc > self.acc[v]:
+            self.acc[v] = acc
+        self.stamp += 1
+        self.vstamp[v] = self.stamp
+
+    @property
+    def importance_values(self):
+        """The current visual importance of every vertex slot."""
+        return np.asarray(self.wv)
+
+    @property
+    def accumulated(self):
+        """The current accumulated cost of every vertex slot."""
+        return np.asarray(self.acc)
+
+
+def visual_importance(positions, faces, int n):
+    """w_v = 1 - |sum A_i n_i / sum A_i| over the faces around each vertex (numpy; 0 for a
+    vertex without faces of positive area)."""
+    P = np.asarray(positions, dtype=np.float64)
+    F = np.asarray(faces)
+    cr = np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]])     # 2 A n
+    area = np.linalg.norm(cr, axis=1)
+    idx = F.reshape(-1)
+    s = np.stack([np.bincount(idx, np.repeat(cr[:, j], 3), minlength=n) for j in range(3)], axis=1)
+    tot = np.bincount(idx, np.repeat(area, 3), minlength=n)
+    w = np.zeros(n)
+    ok = tot > 0.0
+    w[ok] = 1.0 - np.linalg.norm(s[ok], axis=1) / tot[ok]
+    return np.clip(w, 0.0, 1.0)
