@@ -342,6 +342,23 @@ def test_hand_made_seam_collapses_in_pairs(metric, placement):
         np.testing.assert_array_equal(mesh.vertices[rec["kept"][i]], mesh.vertices[rec["kept"][i + 1]])
 
 
+@settings(max_examples=20, deadline=None)
+@given(st.integers(3, 9), st.integers(2, 7), st.integers(0, 2**31 - 1), st.floats(0.05, 0.6),
+       st.sampled_from(["qem", "appearance"]), st.sampled_from(["optimal", "endpoint"]))
+def test_random_cut_grids_keep_their_seams(nx, ny, seed, ratio, metric, placement):
+    rng = np.random.default_rng(seed)
+    mesh, _ = seam_grid(nx + 1, ny, int(rng.integers(1, nx + 1)))
+    a, b, c = rng.uniform(0.05, 0.5), rng.uniform(0.3, 2.0), rng.uniform(0.3, 2.0)
+    v = mesh.vertices.copy()
+    v[:, 2] = a * np.sin(b * v[:, 0]) * np.cos(c * v[:, 1])   # a function of x, y: copies coincide
+    mesh = lodkit.Mesh(v, mesh.faces, uvs=mesh.uvs)
+    res = lodkit.simplify(mesh, target_ratio=ratio, metric=metric, placement=placement)
+    assert res.stop_reason == "target_faces" or res.report["stop_detail"]
+    seam_intact(mesh, res)
+    again = lodkit.simplify(mesh, target_ratio=ratio, metric=metric, placement=placement)
+    np.testing.assert_array_equal(again.mesh.faces, res.mesh.faces)       # deterministic
+
+
 def collapser_with_seams(mesh, policy):
     prep = prepare(mesh)
     partners = _seam_partners(mesh, prep, prep.hm.locked_vertices.copy())
@@ -369,6 +386,17 @@ def test_a_seam_vertex_stays_unless_its_partner_goes_with_it(policy):
     assert {r, k} <= {seam_v, up, partners[seam_v], partners[up]}
     np.testing.assert_array_equal(p, prep.positions[k])
     assert c.seam_partners is not None and (c.seam_partners == partners).all()
+    # run it down: the half-edge structure stays valid, seam vertices go in pairs and
+    # never move
+    before = prep.positions.copy()
+    c.run(12)
+    prep.hm.check()
+    assert c.n_seam_pairs > 0
+    alive = prep.hm.alive_vertices
+    paired = np.flatnonzero(partners >= 0)
+    np.testing.assert_array_equal(alive[paired], alive[partners[paired]])
+    seam = partners != -1
+    np.testing.assert_array_equal(c.positions[seam & alive], before[seam & alive])
 
 
 def test_no_seams_changes_nothing():
@@ -436,7 +464,7 @@ def test_without_seam_handling_spot_cracks(monkeypatch):
         seam_intact(spot, res, closed=True)
 
 
-@pytest.mark.parametrize("how", ["pass driver", "kernel", "free boundary", "field"])
+@pytest.mark.parametrize("how", ["pass driver", "kernel", "free boundary", "field", "folded"])
 def test_spot_seams_with_other_drivers_and_policies(how):
     spot = lodkit.load(shared_mesh("spot_triangulated.obj"))
     kw = {"metric": "appearance"}
@@ -446,6 +474,8 @@ def test_spot_seams_with_other_drivers_and_policies(how):
         kw["metric"] = ["appearance", "qem_native"]
     elif how == "free boundary":
         kw["boundary"] = "free"
+    elif how == "folded":
+        kw["metric"] = [("appearance", {"weight": 0.5}), Gate]
     else:
         kw["metric"] = ["appearance", ("importance", {"values": np.linspace(0, 1, spot.n_vertices)})]
     res = lodkit.simplify(spot, target_ratio=0.05, **kw)

@@ -118,6 +118,7 @@ cdef class EdgeCollapser:
     cdef Kernel kernel              # first of the chain, None if no kernels
     cdef bint kernel_places
     cdef bint wide_recost           # a kernel's costs depend on the stars: re-rank the 2-ring
+    cdef Kernel wide_kernel         # the only wide kernel (it may name the vertices), or None
     cdef int[::1] edge_stamp        # wide re-rank: edges already re-ranked for this collapse
     cdef int recost_counter
     cdef KernelMesh kmesh

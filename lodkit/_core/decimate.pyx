@@ -666,15 +666,25 @@ cdef class EdgeCollapser:
         # faces around it -- the faces its quadric is made of (a vertex placed a little
         # outside its own neighbours keeps the linear extrapolation the faces allow)
         vals = np.asarray(self.attr)[:, cols]
-        lo, hi = vals.copy(), vals.copy()
-        corners = np.asarray(self.hm.corners)[np.asarray(self.hm.alive_faces).astype(bool)]
-        if corners.shape[0]:
-            face_vals = vals[corners]                                   # (m, 3, channels)
-            face_lo, face_hi = face_vals.min(axis=1), face_vals.max(axis=1)
-            for i in range(3):
-                np.minimum.at(lo, corners[:, i], face_lo)
-                np.maximum.at(hi, corners[:, i], face_hi)
-        self.gbox = np.ascontiguousarray(np.concatenate([lo, hi], axis=1))
+        self.gbox = np.ascontiguousarray(np.concatenate([vals, vals], axis=1))
+        cdef double[:, ::1] box = self.gbox
+        cdef int[::1] gc = self.gcol
+        cdef int nch = cols.shape[0], f, i, j, ch, a, b
+        cdef double x
+        with nogil:
+            for f in range(self.hm.n_faces):
+                if not self.m.face_alive[f]:
+                    continue
+                for i in range(3):
+                    a = self.m.corner[3 * f + i]
+                    for j in range(3):
+                        b = self.m.corner[3 * f + j]
+                        for ch in range(nch):
+                            x = self.A[self.n_attr * b + gc[ch]]
+                            if x < box[a, ch]:
+                                box[a, ch] = x
+                            if x > box[a, nch + ch]:
+                                box[a, nch + ch] = x
         self.gdim = D
         self.gsize = S
 
@@ -697,11 +707,15 @@ cdef class EdgeCollapser:
         self.kernel = kernels[0] if kernels else None
         self.kernel_places = False
         self.wide_recost = False
+        self.wide_kernel = None
         if self.kernel is not None:
             self.kernel._chain(kernels[1:])
             for k in kernels:
                 self.kernel_places |= k.places
                 self.wide_recost |= k.wide
+            wide = [k for k in kernels if k.wide]
+            if len(wide) == 1:
+                self.wide_kernel = wide[0]
         self.edge_stamp = np.zeros(self.hm.n_edges if self.wide_recost else 1, dtype=np.intc)
         self.recost_counter = 0
         self.kmesh.he = self.m
@@ -1272,10 +1286,15 @@ cdef class EdgeCollapser:
         kernels whose costs depend on the stars of the ends: ``Kernel.wide``)."""
         cdef int start = self.m.v_he[v]
         cdef int y = start
-        cdef int ny
+        cdef int ny, i
         self.recost_counter += 1
         self.refused[v] = 0
         self.recost_around(v, self.recost_counter)
+        if self.wide_kernel is not None and self.wide_kernel.n_changed >= 0:
+            # the kernel named the vertices whose stars changed
+            for i in range(self.wide_kernel.n_changed):
+                self.recost_around(self.wide_kernel.changed[i], self.recost_counter)
+            return
         while True:
             self.recost_around(he_dest(self.m, y), self.recost_counter)
             ny = he_ring_next(self.m, y)

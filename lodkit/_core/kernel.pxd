@@ -25,7 +25,10 @@ half-edge arrays (``ctx.input_vertex[slot]`` is the input vertex).
 A kernel whose cost of edge (a, b) depends on the stars of a and b (not only on the two
 ends, as a quadric's does) sets ``self.wide = True`` in ``__cinit__`` or ``prepare``: after
 each collapse the driver then re-ranks the edges around every neighbour of the kept vertex,
-not only the edges at the kept vertex.
+not only the edges at the kept vertex.  If it knows better, its ``commit`` points
+``self.changed`` at ``self.n_changed`` vertex slots (memory the kernel owns) whose edges are
+to be re-ranked, besides the kept vertex's; ``n_changed = -1`` (the default) means all
+the kept vertex's neighbours.
 
 Versioning: ``KERNEL_API_VERSION`` changes whenever this file changes in a way that breaks
 compiled plugins.  A kernel class states the version it was compiled against by setting
@@ -96,6 +99,9 @@ cdef class Kernel:
     cdef readonly bint places             # True: the driver calls place()
     cdef readonly bint wide               # True: a collapse changes the cost of every edge
                                           # around the kept vertex's neighbours (2-ring re-rank)
+    cdef const int* changed               # wide kernels, set by commit(): the vertices whose
+    cdef int n_changed                    # edges to re-rank (besides the kept one's); -1: all
+                                          # the kept vertex's neighbours
     cdef readonly bint failed
     cdef char _message[KERNEL_MESSAGE_SIZE]
 

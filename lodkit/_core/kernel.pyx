@@ -17,6 +17,8 @@ cdef class Kernel:
         self._next = None
         self.places = False
         self.wide = False
+        self.changed = NULL
+        self.n_changed = -1
         self.failed = False
         self._message[0] = 0
 

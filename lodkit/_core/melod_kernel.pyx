@@ -115,6 +115,7 @@ cdef class MELODKernel(Kernel):
     cdef double[:, ::1] fn           # per face: (b - a) x (c - a) (twice the area times the normal), |.|
     cdef int ring[RING_MAX]          # neighbours of the removed end of the last placed collapse
     cdef int ring_len                # -1: too many, commit() uses the kept vertex's 1-ring
+    cdef int changed_buf[RING_MAX]   # the vertices commit() names to the driver (place() reuses ring)
     cdef bint scale_boundary
     cdef double weight
     # the last key computed by place(): cost() and commit() reuse it
@@ -382,9 +383,14 @@ cdef class MELODKernel(Kernel):
             self.ring_len = -1             # another kernel moved k: every star around k changed
         if self.ring_len >= 0:
             for i in range(self.ring_len):
+                self.changed_buf[i] = self.ring[i]
                 if self.ring[i] != k:
                     self.touch(m, self.ring[i], acc)
+            # the driver re-ranks the edges around these (a copy: re-ranking calls place())
+            self.changed = &self.changed_buf[0]
+            self.n_changed = self.ring_len
             return KERNEL_OK
+        self.n_changed = -1
         start = a.v_he[k]
         y = start
         while True:
