@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from conftest import shared_mesh
 from hypothesis import given, strategies as st
-from test_simplify import SETTINGS, check_result, grid, manifold_meshes, torus_or_sphere
+from test_simplify import SETTINGS, check_real_result, check_result, grid, manifold_meshes, torus_or_sphere
 
 import lodkit
 from lodkit import OptionError
@@ -296,9 +296,6 @@ def test_real_meshes(name):
     m = lodkit.load(shared_mesh(name))
     target = int(round(0.02 * m.n_faces))
     r = lodkit.simplify(m, target_faces=target, metric="melod", record=True)
-    assert r.stop_reason == "target_faces"
-    before, after = lodkit.topology(m), lodkit.topology(r.mesh)
-    assert after.genus == before.genus and after.n_boundary_loops == before.n_boundary_loops
-    assert after.is_oriented and after.n_degenerate_faces == 0
+    check_real_result(m, r, target, max_error=0.1)     # 2%: coarse on the cow
     assert np.array_equal(r.mesh.vertices, m.vertices[r.vertex_map])
     assert len(r.collapses["removed"]) == r.n_collapses

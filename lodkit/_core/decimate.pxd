@@ -176,5 +176,6 @@ cdef class EdgeCollapser:
     cdef void rescan(self) noexcept nogil
     cdef void perform(self, int h, int r, const double* p, double cost, double err) noexcept nogil
     cdef void touch_ring(self, int w, int stamp) noexcept nogil
+    cdef void mark_touched(self, int k, int stamp) noexcept nogil
     cdef int collapse_pass_c(self, const int* E, int n_cand, const double* PO, int target_faces) noexcept nogil
     cdef int run_c(self, int target_faces, int max_steps) noexcept nogil

@@ -1581,24 +1581,8 @@ cdef class EdgeCollapser:
                 if self.failed:
                     return -1
                 done += 1
-                for side in range(2):
-                    k = ks if side else k
-                    self.touched[k] = stamp
-                    start = self.m.v_he[k]
-                    y = start
-                    while True:
-                        if self.wide_recost:
-                            self.touch_ring(he_dest(self.m, y), stamp)
-                        self.touched[he_dest(self.m, y)] = stamp
-                        ny = he_ring_next(self.m, y)
-                        if ny < 0:
-                            if self.wide_recost:
-                                self.touch_ring(self.m.corner[he_prev(y)], stamp)
-                            self.touched[self.m.corner[he_prev(y)]] = stamp
-                            break
-                        if ny == start:
-                            break
-                        y = ny
+                self.mark_touched(k, stamp)
+                self.mark_touched(ks, stamp)
                 continue
             if PO != NULL and self.SP != NULL and (self.SP[u] != SEAM_NONE or self.SP[v] != SEAM_NONE):
                 pass            # a seam vertex stays where it is, whatever a batch metric says
@@ -1633,23 +1617,29 @@ cdef class EdgeCollapser:
             if self.failed:
                 return -1
             done += 1
-            self.touched[k] = stamp
-            start = self.m.v_he[k]
-            y = start
-            while True:
-                if self.wide_recost:
-                    self.touch_ring(he_dest(self.m, y), stamp)
-                self.touched[he_dest(self.m, y)] = stamp
-                ny = he_ring_next(self.m, y)
-                if ny < 0:
-                    if self.wide_recost:
-                        self.touch_ring(self.m.corner[he_prev(y)], stamp)
-                    self.touched[self.m.corner[he_prev(y)]] = stamp
-                    break
-                if ny == start:
-                    break
-                y = ny
+            self.mark_touched(k, stamp)
         return done
+
+    cdef void mark_touched(self, int k, int stamp) noexcept nogil:
+        """Pass driver: mark the kept vertex k and its 1-ring (2-ring for wide kernels) as
+        touched in this pass, so no later collapse of the pass sees stale costs there."""
+        cdef int start = self.m.v_he[k]
+        cdef int y = start
+        cdef int ny
+        self.touched[k] = stamp
+        while True:
+            if self.wide_recost:
+                self.touch_ring(he_dest(self.m, y), stamp)
+            self.touched[he_dest(self.m, y)] = stamp
+            ny = he_ring_next(self.m, y)
+            if ny < 0:
+                if self.wide_recost:
+                    self.touch_ring(self.m.corner[he_prev(y)], stamp)
+                self.touched[self.m.corner[he_prev(y)]] = stamp
+                return
+            if ny == start:
+                return
+            y = ny
 
     cdef void touch_ring(self, int w, int stamp) noexcept nogil:
         """Mark w's neighbours touched in this pass (wide kernels: their costs changed)."""
