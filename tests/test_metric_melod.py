@@ -275,6 +275,8 @@ def test_options_are_validated_and_reported():
             lodkit.simplify(m, target_ratio=0.5, metric=("melod", bad))
     r = lodkit.simplify(m, target_ratio=0.5, metric="melod")
     assert r.report["settings"]["placement"] == {"value": "endpoint", "from": "metric melod"}
+    assert r.report["settings"]["min_quality"] == {"value": 0.0, "from": "metric melod"}
+    assert r.report["settings"]["max_normal_angle"] == {"value": 90.0, "from": "lodkit"}
     r = lodkit.simplify(m, target_ratio=0.5, metric="melod", placement="optimal")
     assert r.report["settings"]["placement"]["from"] == "caller"
 

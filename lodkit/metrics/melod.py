@@ -32,5 +32,6 @@ class MELOD(KernelMetric):
                                      "bending its boundary)"),
     }
     # half-edge collapse: the kept vertex stays where it is; the core's own placement is not
-    # needed (endpoint is the cheap one)
-    defaults = {"placement": "endpoint"}
+    # needed (endpoint is the cheap one).  The paper checks no triangle quality (its only
+    # rules are the boundary ones); lodkit's flip check (90 degrees) stays on.
+    defaults = {"placement": "endpoint", "min_quality": 0.0}
