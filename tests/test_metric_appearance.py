@@ -319,7 +319,8 @@ def seam_intact(src, res, closed=False):
     return int(seam.sum())
 
 
-@pytest.mark.parametrize("metric", ["qem", "appearance"])
+@pytest.mark.parametrize("metric", ["qem", "appearance", "melod", "curvature",
+                                    ("normal_qem", {"normals": "estimate"})])
 @pytest.mark.parametrize("placement", ["optimal", "endpoint"])
 def test_hand_made_seam_collapses_in_pairs(metric, placement):
     mesh, copy = seam_grid(8, 6, 4)
@@ -327,7 +328,9 @@ def test_hand_made_seam_collapses_in_pairs(metric, placement):
     assert res.stop_reason == "target_faces"
     assert res.report["seams"]["paired_vertices"] == 2 * 5 and res.report["seams"]["fixed_vertices"] == 4
     pairs = res.report["seams"]["pair_collapses"]
-    assert pairs > 0
+    # melod's boundary penalty (lambda * phi * length) keeps seam vertices, which are boundary
+    # vertices of the split mesh, until nothing else is left
+    assert pairs > 0 or metric == "melod"
     seam_intact(mesh, res)
     # the records list both collapses of a pair, one after the other: same removed and
     # kept positions, one on each side
@@ -439,7 +442,8 @@ class Gate(QuadricMetric):
 
 
 @pytest.mark.parametrize("ratio", [0.1, 0.02])
-@pytest.mark.parametrize("metric", ["qem", "appearance", ("appearance", {"formulation": "hoppe99"})])
+@pytest.mark.parametrize("metric", ["qem", "appearance", ("appearance", {"formulation": "hoppe99"}), "melod",
+                                    ("normal_qem", {"normals": "estimate"})])
 def test_spot_keeps_its_uv_seams(metric, ratio):
     spot = lodkit.load(shared_mesh("spot_triangulated.obj"))
     assert spot.n_vertices == 3225
@@ -447,7 +451,8 @@ def test_spot_keeps_its_uv_seams(metric, ratio):
     assert res.stop_reason == "target_faces"
     assert res.mesh.n_faces <= round(ratio * spot.n_faces)
     seams = res.report["seams"]
-    assert seams["paired_vertices"] == 518 and seams["fixed_vertices"] == 58 and seams["pair_collapses"] > 100
+    assert seams["paired_vertices"] == 518 and seams["fixed_vertices"] == 58
+    assert seams["pair_collapses"] > (20 if metric == "melod" else 100)
     assert seam_intact(spot, res, closed=True) >= 100
 
 

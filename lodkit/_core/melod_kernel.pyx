@@ -373,7 +373,10 @@ cdef class MELODKernel(Kernel):
         cdef int start, y, ny, w, i
         cdef double acc = self.cache_key if self.accumulate == ACC_KEY else self.cache_acc
         if c.edge != self.cache_edge or c.removed != self.cache_removed:
-            return self.fail(b"melod: commit() for a collapse that place() did not rank last")
+            # a collapse the driver did along with the one ranked last (the other side of a
+            # seam): it costs what that one cost; every star around k may have changed
+            acc = self.cache_acc if self.accumulate != ACC_KEY else self.cache_key
+            self.ring_len = -1
         self.cache_edge = -1
         self.update_faces(m, k)
         # the stars of the removed vertex's neighbours (k among them) changed: new
