@@ -148,16 +148,9 @@ def render(doc: dict) -> str:
 
 def splice(report: Path, section: str) -> None:
     """Put ``section`` into the report, replacing an earlier one (or appending)."""
-    text = report.read_text() if report.exists() else "# Benchmarks\n"
-    if BEGIN in text and END in text:
-        head, rest = text.split(BEGIN, 1)
-        tail = rest.split(END, 1)[1].lstrip("\n")
-        text = head + section + tail
-    else:
-        text = text.rstrip("\n") + "\n\n" + section
-    tmp = report.with_suffix(report.suffix + ".tmp")
-    tmp.write_text(text)
-    tmp.replace(report)
+    from report import splice_section
+
+    splice_section(report, section, BEGIN, END)
 
 
 def main(argv=None) -> int:

@@ -24,6 +24,21 @@ METHOD_ORDER = ["lodkit", "lodkit-endpoint", "open3d", "fast_simplification", "p
 FLIP_AREA_FLAG = 0.001  # flag flipped faces only when they cover >= 0.1% of the output's area
 
 
+def splice_section(report: Path, section: str, begin: str, end: str) -> None:
+    """Put ``section`` (which starts with ``begin`` and ends with ``end``) into the report,
+    replacing the one between those markers (or appending it); written atomically."""
+    text = report.read_text() if report.exists() else "# Benchmarks\n"
+    if begin in text and end in text:
+        head, rest = text.split(begin, 1)
+        tail = rest.split(end, 1)[1].lstrip("\n")
+        text = head + section + ("\n" + tail if tail else "")
+    else:
+        text = text.rstrip("\n") + "\n\n" + section
+    tmp = report.with_suffix(report.suffix + ".tmp")
+    tmp.write_text(text)
+    tmp.replace(report)
+
+
 def _order(m: str) -> int:
     return METHOD_ORDER.index(m) if m in METHOD_ORDER else len(METHOD_ORDER)
 
