@@ -676,7 +676,8 @@ def render(doc: dict) -> str:
                      f"{_f(r.get('max'), '.1f')} | {_e(r.get('hausdorff'))} |")
         L.append("")
         for v in c["verdicts"]:
-            L.append(f"- {v['ratio']:g}: {_verdict(v)} — {_esc(v['detail'])}")
+            L.append(f"- {v['ratio']:g}{'' if v.get('claimed', True) else ' (a variant, not the claim)'}: "
+                     f"{_verdict(v)} — {_esc(v['detail'])}")
         L.append("")
 
     if "seams" in C:
@@ -705,7 +706,8 @@ def render(doc: dict) -> str:
                      f"{r['new_open_edges']} | {r['max_gap']:.2g} | {r.get('uv_changed', '–')} |")
         L.append("")
         for v in s["verdicts"]:
-            L.append(f"- {v['ratio']:g}: {_verdict(v)} — {_esc(v['detail'])}")
+            L.append(f"- {v['ratio']:g}{'' if v.get('claimed', True) else ' (a variant, not the claim)'}: "
+                     f"{_verdict(v)} — {_esc(v['detail'])}")
         L.append("")
 
     if "creases" in C:
@@ -727,7 +729,8 @@ def render(doc: dict) -> str:
                      f"{_e(r.get('hausdorff'))} |")
         L.append("")
         for v in k["verdicts"]:
-            L.append(f"- {v['ratio']:g}: {_verdict(v)} — {_esc(v['detail'])}")
+            L.append(f"- {v['ratio']:g}{'' if v.get('claimed', True) else ' (a variant, not the claim)'}: "
+                     f"{_verdict(v)} — {_esc(v['detail'])}")
         L.append("")
 
     if "speed" in C:

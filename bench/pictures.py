@@ -565,8 +565,10 @@ def main(argv=None) -> int:
         info = make_picture(sc, {m: results.get((m, sc.name)) for m in (sc.metric, "qem")}, Path(args.out),
                             args.panel_width, args.samples)
         infos.append(info)
+        panels = "; ".join(info[m].get("label", info[m].get("error", "")).replace("\n", ", ")
+                           for m in (sc.metric, "qem") if m in info)
         print(f"{info['file']}: {info['size'][0]}x{info['size'][1]}, {info['bytes'] / 1024:.0f} KB, "
-              f"{time.perf_counter() - t0:.1f} s — {info['caption']}", flush=True)
+              f"{time.perf_counter() - t0:.1f} s — {info['caption']} [{panels}]", flush=True)
     return 0
 
 
