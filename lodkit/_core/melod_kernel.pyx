@@ -23,9 +23,12 @@ half-edge along a boundary edge pays lambda * phi * |o - h|.  See docs/metrics/m
 phi and the other readings of the paper.
 """
 import numpy as np
+
+from ..metrics.base import face_vectors, vertex_sums
 from libc.math cimport sqrt, INFINITY
 
 from .halfedge cimport HEArrays, he_next, he_prev, he_dest, he_ring_next
+from .vec3 cimport sub3, cross3, dot3, norm3, same_point
 from .kernel cimport (Kernel, Candidate, KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_API_VERSION,
                       VERTEX_FIXED, VERTEX_BOUNDARY)
 
@@ -42,43 +45,6 @@ cdef enum:
     PHI_ORIGIN = 1    # phi_oh = 1 + u_op . u_oh (turn at the removed vertex)
 
 
-cdef inline void sub3(const double* a, const double* b, double* out) noexcept nogil:
-    out[0] = a[0] - b[0]
-    out[1] = a[1] - b[1]
-    out[2] = a[2] - b[2]
-
-
-cdef inline void cross3(const double* a, const double* b, double* out) noexcept nogil:
-    out[0] = a[1] * b[2] - a[2] * b[1]
-    out[1] = a[2] * b[0] - a[0] * b[2]
-    out[2] = a[0] * b[1] - a[1] * b[0]
-
-
-cdef inline bint same_point(const double* a, const double* b) noexcept nogil:
-    return a[0] == b[0] and a[1] == b[1] and a[2] == b[2]
-
-
-cdef inline double norm3(const double* a) noexcept nogil:
-    return sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
-
-
-cdef inline double face_area_normal(const double* a, const double* b, const double* c,
-                                    double* n) noexcept nogil:
-    """Twice the area of triangle abc; n gets its unit normal (0 if degenerate)."""
-    cdef double e1[3]
-    cdef double e2[3]
-    cdef double l
-    sub3(b, a, e1)
-    sub3(c, a, e2)
-    cross3(e1, e2, n)
-    l = norm3(n)
-    if l > 0.0:
-        n[0] /= l
-        n[1] /= l
-        n[2] /= l
-    return l
-
-
 cdef inline double unit_dot(const double* o, const double* a, const double* b) noexcept nogil:
     """(a - o)/|a - o| . (b - o)/|b - o| (0 if either has zero length)."""
     cdef double x[3]
@@ -90,7 +56,7 @@ cdef inline double unit_dot(const double* o, const double* a, const double* b) n
     ly = norm3(y)
     if lx == 0.0 or ly == 0.0:
         return 0.0
-    return (x[0] * y[0] + x[1] * y[1] + x[2] * y[2]) / (lx * ly)
+    return dot3(x, y) / (lx * ly)
 
 
 cdef class MELODKernel(Kernel):
@@ -138,13 +104,11 @@ cdef class MELODKernel(Kernel):
         self.scale_boundary = bool(options["scale_boundary"])
         self.weight = float(options.get("weight", 1.0))
         self.acc = np.zeros(n, dtype=np.float64)
-        self.wv = np.ascontiguousarray(visual_importance(ctx.positions, ctx.faces, n), dtype=np.float64)
-        P = np.asarray(ctx.positions, dtype=np.float64)
-        F = np.asarray(ctx.halfedge.corners).reshape(-1, 3)
-        cr = np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]])
-        fn = np.empty((F.shape[0], 4))
+        cr = ctx.face_vectors()                       # (b - a) x (c - a) per face slot
+        fn = np.empty((cr.shape[0], 4))
         fn[:, :3] = cr
         fn[:, 3] = np.linalg.norm(cr, axis=1)
+        self.wv = np.ascontiguousarray(_importance(cr, fn[:, 3], ctx.faces, n), dtype=np.float64)
         self.fn = fn
         self.cache_edge = -1
         nh = 3 * ctx.halfedge.n_faces
@@ -177,20 +141,24 @@ cdef class MELODKernel(Kernel):
         return w if w > 0.0 else 0.0
 
     cdef void update_faces(self, const KernelMesh* m, int v) noexcept nogil:
-        """Recompute the cached normals of the faces around v."""
+        """Recompute the cached (b - a) x (c - a) and its length of the faces around v."""
         cdef const HEArrays* a = m.he
         cdef int start = a.v_he[v]
         cdef int y = start
         cdef int f
+        cdef double e1[3]
+        cdef double e2[3]
         cdef double n[3]
+        cdef const double* p0 = &m.positions[m.stride * v]
         while True:
             f = y // 3
-            self.fn[f, 3] = face_area_normal(&m.positions[m.stride * v],
-                                             &m.positions[m.stride * he_dest(a, y)],
-                                             &m.positions[m.stride * a.corner[he_prev(y)]], n)
-            self.fn[f, 0] = n[0] * self.fn[f, 3]
-            self.fn[f, 1] = n[1] * self.fn[f, 3]
-            self.fn[f, 2] = n[2] * self.fn[f, 3]
+            sub3(&m.positions[m.stride * he_dest(a, y)], p0, e1)
+            sub3(&m.positions[m.stride * a.corner[he_prev(y)]], p0, e2)
+            cross3(e1, e2, n)
+            self.fn[f, 0] = n[0]
+            self.fn[f, 1] = n[1]
+            self.fn[f, 2] = n[2]
+            self.fn[f, 3] = norm3(n)
             y = he_ring_next(a, y)
             if y < 0 or y == start:
                 break
@@ -428,13 +396,14 @@ cdef class MELODKernel(Kernel):
 def visual_importance(positions, faces, int n):
     """w_v = 1 - |sum A_i n_i / sum A_i| over the faces around each vertex (numpy; 0 for a
     vertex without faces of positive area)."""
-    P = np.asarray(positions, dtype=np.float64)
     F = np.asarray(faces)
-    cr = np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]])     # 2 A n
-    area = np.linalg.norm(cr, axis=1)
-    idx = F.reshape(-1)
-    s = np.stack([np.bincount(idx, np.repeat(cr[:, j], 3), minlength=n) for j in range(3)], axis=1)
-    tot = np.bincount(idx, np.repeat(area, 3), minlength=n)
+    cr = face_vectors(positions, F)                  # 2 A n
+    return _importance(cr, np.linalg.norm(cr, axis=1), F, n)
+
+
+def _importance(cr, length, faces, int n):
+    s = vertex_sums(faces, cr, n)
+    tot = vertex_sums(faces, length, n)
     w = np.zeros(n)
     ok = tot > 0.0
     w[ok] = 1.0 - np.linalg.norm(s[ok], axis=1) / tot[ok]

@@ -308,6 +308,23 @@ class BatchMetric(Metric):
         raise NotImplementedError
 
 
+def face_vectors(positions, faces) -> np.ndarray:
+    """(m, 3) (b - a) x (c - a) of each face (a, b, c): twice its area times its unit normal."""
+    P = np.asarray(positions, dtype=np.float64)
+    F = np.asarray(faces)
+    return np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]])
+
+
+def vertex_sums(faces, values, n: int) -> np.ndarray:
+    """Per vertex, the sum over the faces around it of a per-face value: (m,) -> (n,),
+    (m, k) -> (n, k)."""
+    idx = np.asarray(faces).reshape(-1)
+    vals = np.asarray(values, dtype=np.float64)
+    if vals.ndim == 1:
+        return np.bincount(idx, np.repeat(vals, 3), minlength=n)
+    return np.stack([np.bincount(idx, np.repeat(vals[:, j], 3), minlength=n) for j in range(vals.shape[1])], axis=1)
+
+
 class MetricContext:
     """What a metric sees at set-up.  Positions are normalised (bbox centred on the origin,
     unit diagonal): multiply by ``scale`` and add ``center`` for input units.
@@ -347,6 +364,15 @@ class MetricContext:
     @property
     def faces(self) -> np.ndarray:
         return self.halfedge.corners
+
+    def face_vectors(self) -> np.ndarray:
+        """(m, 3) (b - a) x (c - a) of each face slot at the current positions (twice the
+        area times the unit normal)."""
+        return face_vectors(self.positions, self.faces)
+
+    def vertex_sums(self, values) -> np.ndarray:
+        """Per vertex slot, the sum over its faces of a per-face value ((m,) or (m, k))."""
+        return vertex_sums(self.faces, values, self.n_vertices)
 
     @property
     def edges(self) -> np.ndarray:

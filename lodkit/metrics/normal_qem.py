@@ -131,32 +131,20 @@ class NormalQEM(QuadricMetric):
         return normals / length[:, None]
 
 
-def _face_vectors(ctx: MetricContext) -> np.ndarray:
-    """(m, 3) (b - a) x (c - a) of each face slot: twice its area times its unit normal,
-    computed as the core computes its face quadrics."""
-    corners = np.ascontiguousarray(ctx.positions)[ctx.faces]          # (m, 3, 3)
-    return np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-
-
-def _scatter(ctx: MetricContext, values: np.ndarray) -> np.ndarray:
-    """(n,) sum over the faces around each vertex slot of a per-face value."""
-    return np.bincount(ctx.faces.reshape(-1), weights=np.repeat(values, 3), minlength=ctx.n_vertices)
-
-
 def _face_counts(ctx: MetricContext) -> np.ndarray:
     """(n,) number of faces of non-zero area around each vertex slot (the faces that enter
     its face quadric)."""
-    v = _face_vectors(ctx)
+    v = ctx.face_vectors()
     live = np.einsum("ij,ij->i", v, v) > 0.0
-    return _scatter(ctx, live.astype(np.float64))
+    return ctx.vertex_sums(live.astype(np.float64))
 
 
 def _estimated_normals(ctx: MetricContext) -> np.ndarray:
     """Area-weighted vertex normals (sum of the faces' area vectors, normalised); zero rows
     where they cancel (the vertex then gets no virtual plane)."""
-    nrm = _face_vectors(ctx)                      # |nrm| = 2 * area: area-weighted already
-    acc = np.stack([_scatter(ctx, nrm[:, c]) for c in range(3)], axis=1)
-    scale = _scatter(ctx, np.linalg.norm(nrm, axis=1))
+    nrm = ctx.face_vectors()                      # |nrm| = 2 * area: area-weighted already
+    acc = ctx.vertex_sums(nrm)
+    scale = ctx.vertex_sums(np.linalg.norm(nrm, axis=1))
     length = np.linalg.norm(acc, axis=1)
     # cancelled: shorter than 1e-12 of the summed lengths it came from (scale-free)
     ok = length > _MIN_NORMAL_LENGTH * scale
