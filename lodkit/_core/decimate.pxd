@@ -161,7 +161,7 @@ cdef class EdgeCollapser:
     cdef int plan_seam(self, int h, int hs, int* h_out, int* r_out, double* p, double* cost,
                        double* err) noexcept nogil
     cdef bint ring_has(self, int v, int a, int b) noexcept nogil
-    cdef int pair_ok(self, int h, int r, int k, int hs, int rs, int ks, const double* p,
+    cdef bint pair_ok(self, int h, int r, int k, int hs, int rs, int ks, const double* p,
                      double* dvol) noexcept nogil
     cdef void perform_pair(self, int h, int r, int hs, int rs, const double* p, double cost,
                            double err, const double* dvol) noexcept nogil
@@ -171,6 +171,7 @@ cdef class EdgeCollapser:
     cdef void merge_fields(self, int r, int k, const int* dead, const int* merged_into) noexcept nogil
     cdef void recost_ring(self, int v) noexcept nogil
     cdef void recost_wide(self, int v) noexcept nogil
+    cdef void rerank(self, int k) noexcept nogil
     cdef void recost_around(self, int w, int stamp) noexcept nogil
     cdef void retry_refused(self, int w) noexcept nogil
     cdef void rescan(self) noexcept nogil

@@ -18,6 +18,7 @@ from libc.math cimport sqrt, fabs, cos, M_PI, INFINITY
 
 from .halfedge cimport HalfEdgeMesh, HEArrays, he_next, he_prev, he_dest, he_ring_next, he_is_boundary
 from .heap cimport IndexedHeap
+from .vec3 cimport cross3, dot3, same_point
 from .kernel cimport (Kernel, KernelMesh, Candidate, chain_place, chain_cost, chain_commit,
                       fill_candidate, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR)
 
@@ -37,10 +38,6 @@ cdef double SQRT3 = 1.7320508075688772
 
 cdef inline double sq(double x) noexcept nogil:
     return x * x
-
-
-cdef inline bint same_point(const double* a, const double* b) noexcept nogil:
-    return a[0] == b[0] and a[1] == b[1] and a[2] == b[2]
 
 
 cdef inline double collapse_error(double value, double area, double scale) noexcept nogil:
@@ -302,16 +299,6 @@ cdef inline void add_plane(double* q, double nx, double ny, double nz, double d,
     q[7] += w * ny * d
     q[8] += w * nz * d
     q[9] += w * d * d
-
-
-cdef inline void cross3(const double* a, const double* b, double* out) noexcept nogil:
-    out[0] = a[1] * b[2] - a[2] * b[1]
-    out[1] = a[2] * b[0] - a[0] * b[2]
-    out[2] = a[0] * b[1] - a[1] * b[0]
-
-
-cdef inline double dot3(const double* a, const double* b) noexcept nogil:
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
 cdef inline double face_cross(double[:, ::1] P, int a, int b, int c, double* nrm) noexcept nogil:
@@ -1183,24 +1170,26 @@ cdef class EdgeCollapser:
                 return False
             y = ny
 
-    cdef int pair_ok(self, int h, int r, int k, int hs, int rs, int ks, const double* p,
-                     double* dvol) noexcept nogil:
+    cdef bint pair_ok(self, int h, int r, int k, int hs, int rs, int ks, const double* p,
+                      double* dvol) noexcept nogil:
         """May seam edge h (r -> k) and its partner hs (rs -> ks) collapse together?
-        0 yes (``dvol[0..1]``: each side's volume change), 1 the topology says no, 2 the
-        geometry says no.  The two sides must not touch (no edge from one side's ends to
-        the other's): then the first collapse changes nothing the second one's checks
+        If so ``dvol[0..1]`` get each side's volume change; if not, the refusal is counted
+        (topology or geometry).  The two sides must not touch (no edge from one side's ends
+        to the other's): then the first collapse changes nothing the second one's checks
         look at, and both can be checked before either is done."""
-        if not self.hm.link_ok(h) or not self.hm.link_ok(hs):
-            return 1
-        if self.ring_has(r, rs, ks) or self.ring_has(k, rs, ks):
-            return 1
+        if (not self.hm.link_ok(h) or not self.hm.link_ok(hs)
+                or self.ring_has(r, rs, ks) or self.ring_has(k, rs, ks)):
+            self.n_rejected_topology += 1
+            return False
         if not self.geometry_ok(h, r, k, p):
-            return 2
+            self.n_rejected_geometry += 1
+            return False
         dvol[0] = self.pending_dvol
         if not self.geometry_ok(hs, rs, ks, p):
-            return 2
+            self.n_rejected_geometry += 1
+            return False
         dvol[1] = self.pending_dvol
-        return 0
+        return True
 
     cdef void perform_pair(self, int h, int r, int hs, int rs, const double* p, double cost,
                            double err, const double* dvol) noexcept nogil:
@@ -1219,13 +1208,8 @@ cdef class EdgeCollapser:
         if self.failed:
             return
         self.n_seam_pairs += 1
-        if self.use_heap:
-            if self.wide_recost:
-                self.recost_wide(k)
-                self.recost_wide(ks)
-            else:
-                self.recost_ring(k)
-                self.recost_ring(ks)
+        self.rerank(k)
+        self.rerank(ks)
 
     cdef double face_volume(self, int f) noexcept nogil:
         """Six times the signed volume of the cone from the origin over face ``f``."""
@@ -1422,11 +1406,18 @@ cdef class EdgeCollapser:
             if chain_commit(self.kernel, &cand) == KERNEL_ERROR:
                 self.failed = True
                 return
-        if self.use_heap and not self.defer_recost:
-            if self.wide_recost:
-                self.recost_wide(k)
-            else:
-                self.recost_ring(k)
+        if not self.defer_recost:
+            self.rerank(k)
+
+    cdef void rerank(self, int k) noexcept nogil:
+        """Heap driver, after a collapse kept ``k``: re-rank the edges whose cost changed
+        (around k, or around its neighbours too for wide kernels)."""
+        if not self.use_heap:
+            return
+        if self.wide_recost:
+            self.recost_wide(k)
+        else:
+            self.recost_ring(k)
 
     cdef void general_commit(self, int r, int k, const double* p) noexcept nogil:
         """Add the attribute quadric of r to k's and give k the attribute values that
@@ -1470,7 +1461,7 @@ cdef class EdgeCollapser:
                 self.EF[ne * es + j] = merge_value(self.EF[ne * es + j], self.EF[ne * ed + j], <int>self.erules[j, RULE_MERGE])
 
     cdef int run_c(self, int target_faces, int max_steps) noexcept nogil:
-        cdef int e, h, r, k, hs, rs, ks, rc, steps = 0
+        cdef int e, h, r, k, hs, rs, ks, steps = 0
         cdef double key, cost, err
         cdef double p[3]
         cdef double dvol[2]
@@ -1495,12 +1486,7 @@ cdef class EdgeCollapser:
                 hs = self.seam_h
                 rs = self.SP[r]
                 ks = self.SP[k]
-                rc = self.pair_ok(h, r, k, hs, rs, ks, p, dvol)
-                if rc != 0:
-                    if rc == 1:
-                        self.n_rejected_topology += 1
-                    else:
-                        self.n_rejected_geometry += 1
+                if not self.pair_ok(h, r, k, hs, rs, ks, p, dvol):
                     self.refused[r] = 1
                     self.refused[k] = 1
                     self.refused[rs] = 1
@@ -1532,7 +1518,7 @@ cdef class EdgeCollapser:
         with an end that an earlier collapse of this pass touched (the kept vertex and its
         1-ring), so every collapse sees the costs it was ranked with.  Returns the number of
         collapses, or -1 if a kernel failed."""
-        cdef int i, e, h, r, k, u, v, y, start, ny, hs, rs, ks, side, done = 0
+        cdef int i, e, h, r, k, u, v, hs, rs, ks, done = 0
         cdef double cost, err
         cdef double p[3]
         cdef double q[QSIZE]
@@ -1570,12 +1556,7 @@ cdef class EdgeCollapser:
                 if err > self.max_error:
                     self.n_rejected_error += 1
                     continue
-                rc = self.pair_ok(h, r, k, hs, rs, ks, p, dvol)
-                if rc != 0:
-                    if rc == 1:
-                        self.n_rejected_topology += 1
-                    else:
-                        self.n_rejected_geometry += 1
+                if not self.pair_ok(h, r, k, hs, rs, ks, p, dvol):
                     continue
                 self.perform_pair(h, r, hs, rs, p, cost, err, dvol)
                 if self.failed:
