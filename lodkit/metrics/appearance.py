@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import MetricError, OptionError
-from .base import ATTRIBUTE_WIDTHS, MetricContext, Option, QuadricMetric, pack_quadrics
+from .base import ATTRIBUTE_WIDTHS, MetricContext, Option, QuadricMetric, face_vectors, pack_quadrics
 
 __all__ = ["Appearance", "gh98_face_quadrics", "hoppe99_face_quadrics"]
 
@@ -237,8 +237,7 @@ class Appearance(QuadricMetric):
         faces = faces[alive]
         X = self.points(ctx, weighted=False)
         corners = X[faces]                                          # (m, 3, D)
-        P = corners[:, :, :3]
-        area = 0.5 * np.linalg.norm(np.cross(P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]), axis=1)
+        area = 0.5 * np.linalg.norm(face_vectors(X[:, :3], faces), axis=1)
         # built over the weighted coordinates y = S x; the core solves for the attributes in
         # their own units, so it gets Q(S x): A -> S A S, b -> S b
         s = self.scales()
