@@ -1,9 +1,16 @@
 """Build the Cython extensions. Everything else lives in pyproject.toml."""
+import os
+
 import numpy
 from Cython.Build import cythonize
 from setuptools import Extension, setup
 
-MODULES = ["heap", "halfedge", "kernel", "decimate", "qem_kernel", "melod_kernel", "curvature_kernel", "testkernels"]
+MODULES = ["heap", "halfedge", "kernel", "decimate", "qem_kernel", "melod_kernel", "curvature_kernel", "testkernels",
+           "removal", "retriangulate", "vremove", "schroeder_kernel", "volume_kernel"]
+# LODKIT_BUILD_ONLY=a,b builds only those modules (development: others may be mid-edit)
+_only = [m for m in os.environ.get("LODKIT_BUILD_ONLY", "").split(",") if m]
+if _only:
+    MODULES = [m for m in MODULES if m in _only]
 
 extensions = [
     Extension(

@@ -335,7 +335,8 @@ def metrics_table(out: str) -> dict:
 
 
 BUILTIN_KINDS = {"appearance": "quadric", "curvature": "kernel", "importance": "field", "melod": "kernel",
-                 "normal_qem": "quadric", "qem": "quadric", "qem_native": "kernel"}
+                 "normal_qem": "quadric", "qem": "quadric", "qem_native": "kernel",
+                 "schroeder": "removal", "volume": "removal"}
 
 
 def test_metrics_table(builtin_metrics_only, capsys):

@@ -306,7 +306,8 @@ def test_builtins_are_available_without_discovery():
     assert names == BUILTIN_NAMES
     kinds = {i.name: i.kind for i in M.available(load=True)}
     assert kinds == {"qem": "quadric", "qem_native": "kernel", "importance": "field", "melod": "kernel",
-                     "normal_qem": "quadric", "curvature": "kernel", "appearance": "quadric"}
+                     "normal_qem": "quadric", "curvature": "kernel", "appearance": "quadric",
+                     "schroeder": "removal", "volume": "removal"}
     for info in M.available(load=True):
         assert info.package == "lodkit" and info.version == lodkit.__version__
         assert info.loaded is True and info.error is None and info.description

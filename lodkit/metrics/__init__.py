@@ -26,13 +26,13 @@ from typing import Any, Callable, Iterable, Optional
 
 from ..errors import MetricError, OptionError, UnknownMetricError
 from .base import (ATTRIBUTE_WIDTHS, KINDS, Batch, BatchMetric, FieldMetric, KernelMetric, Metric,
-                   MetricContext, Option, QuadricMetric, check_metric_class, pack_quadrics,
+                   MetricContext, Option, QuadricMetric, RemovalMetric, check_metric_class, pack_quadrics,
                    packed_size, unpack_quadrics)
 
 __all__ = [
     "GROUP", "DISCOVERY_ENV", "MetricInfo", "available", "get", "create", "register",
     "unregister", "refresh", "Metric", "QuadricMetric", "FieldMetric", "KernelMetric",
-    "BatchMetric", "Option", "MetricContext", "Batch", "KINDS", "ATTRIBUTE_WIDTHS",
+    "BatchMetric", "RemovalMetric", "Option", "MetricContext", "Batch", "KINDS", "ATTRIBUTE_WIDTHS",
     "pack_quadrics", "unpack_quadrics", "packed_size",
 ]
 
@@ -51,6 +51,8 @@ BUILTINS = {
     "normal_qem": "lodkit.metrics.normal_qem:NormalQEM",
     "curvature": "lodkit.metrics.curvature:Curvature",
     "appearance": "lodkit.metrics.appearance:Appearance",
+    "schroeder": "lodkit.metrics.schroeder:Schroeder",
+    "volume": "lodkit.metrics.volume:Volume",
 }
 
 

@@ -25,7 +25,7 @@ __all__ = [
     "packed_size",
 ]
 
-KINDS = ("quadric", "field", "kernel", "batch")
+KINDS = ("quadric", "field", "kernel", "batch", "removal")
 
 _MISSING = object()
 
@@ -290,6 +290,21 @@ class KernelMetric(Metric):
         return k
 
 
+class RemovalMetric(Metric):
+    """A vertex-removal metric: ``kernel`` is a ``cdef class`` subclassing
+    ``lodkit._core.removal.RemovalKernel`` that costs removing a vertex and re-triangulates
+    its hole (removal.pxd).  It runs on the vertex-removal driver, alone: it cannot be
+    combined with edge-collapse metrics."""
+
+    kind = "removal"
+    kernel: ClassVar[Any] = None
+
+    def make_kernel(self, ctx: "MetricContext"):
+        k = self.kernel()
+        k.prepare(ctx, dict(self.params))
+        return k
+
+
 class BatchMetric(Metric):
     """A vectorised cost over many candidates: ``costs(batch)`` returns (k,) costs, or
     ``(costs, positions)`` with (k, 3) positions for the kept vertex.
@@ -440,7 +455,8 @@ def check_metric_class(obj: Any) -> Optional[str]:
     if not isinstance(obj, type) or not issubclass(obj, Metric):
         return f"gives {obj!r}, not a subclass of lodkit.metrics.Metric"
     if obj.kind not in KINDS:
-        return f"has kind {obj.kind!r}; subclass QuadricMetric, FieldMetric, KernelMetric or BatchMetric"
+        return (f"has kind {obj.kind!r}; subclass QuadricMetric, FieldMetric, KernelMetric, BatchMetric "
+                "or RemovalMetric")
     for key, opt in obj.all_options().items():
         if not isinstance(opt, Option):
             return f"option {key!r} is {opt!r}, not a lodkit.metrics.Option"

@@ -1,0 +1,27 @@
+# cython: language_level=3
+"""Hole re-triangulation for vertex removal (cimported by removal kernels).
+
+A hole is a polygon given as vertex slots ``loop[0..k-1]`` in order (oriented as the
+surface: see removal.pxd).  Triangles are written as indices into ``loop``, three ints
+each, oriented as the surface; a triangulation of a k-gon has k - 2 triangles.  Positions
+are read at ``P[stride * slot + 0..2]``.  Nothing here allocates or touches Python.
+"""
+
+# Schroeder et al. 1992: split the loop recursively by a diagonal whose split plane
+# (through the diagonal, orthogonal to the average plane with normal ``normal``) separates
+# the two sub-loops; of the valid splits take the one with the best aspect ratio.
+# ``force_a``/``force_b`` (indices into loop, or -1) name a diagonal that must be the first
+# split (a feature edge through an interior-edge vertex).  Returns k - 2, or -1 when no valid
+# triangulation exists (the vertex is then kept).  ``work`` is scratch of >= 4*k*k ints.
+cdef int split_loop(const double* P, int stride, const int* loop, int k,
+                    const double* normal, int force_a, int force_b,
+                    int* tri, int* work) noexcept nogil
+
+# The fan from loop index ``apex``: triangles (apex, j, j+1) over every polygon edge not at
+# apex.  Returns k - 2.
+cdef int fan_from(int apex, int k, int* tri) noexcept nogil
+
+# Chuon & Guha: of the lines through two distinct loop vertices, the one closest to point
+# ``x``; its end nearer to ``x`` (index into loop) is returned, or -1 if k < 3.
+cdef int closest_line_apex(const double* P, int stride, const int* loop, int k,
+                           const double* x) noexcept nogil
