@@ -1,22 +1,26 @@
-"""Metro-style geometric error and output validity, independent of lodkit.
+"""Metro-style geometric error and output validity, for the bench scripts.
 
-Importable by any bench script::
+The distances are lodkit's own (:mod:`lodkit.evaluate`, one implementation for the
+library and the benchmarks); this module keeps the dict interface the bench scripts use
+and adds what only they need (validity counts, flipped faces, crease and seam checks)::
 
     from metro import Reference, compare
-    ref = Reference(V0, F0)                 # builds the raycasting scene and samples once
+    ref = Reference(V0, F0)                 # prepares the original once (samples, raycasting scene)
     report = ref.compare(V1, F1)            # dict, see below
     # or one-off: compare(V0, F0, V1, F1)
 
 Definitions (all distances are unsigned point-to-surface distances and are divided by
-the bounding-box diagonal of the original's *referenced* vertices):
+the bounding-box diagonal of the original's *referenced* vertices; docs/evaluation.md):
 
 * Sampling: ``n_samples`` points on each surface (default 200 000), area-weighted
   (face chosen with probability proportional to its area, then a uniform point in the
-  triangle), from ``numpy.random.default_rng(seed)``; the same seed for every mesh, so
-  results are reproducible. Zero-area faces are never sampled.
+  triangle), from ``numpy.random.default_rng(seed)`` for the original and ``seed + 1`` for
+  the simplified mesh (:func:`lodkit.evaluate.sample_surface`), so results are
+  reproducible. Zero-area faces are never sampled.
 * ``d_fwd``: for each sample on the original, distance to the simplified surface;
   ``d_bwd``: for each sample on the simplified surface, distance to the original
-  (``open3d.t.geometry.RaycastingScene.compute_distance``, exact point-triangle distance).
+  (closest triangle from ``open3d.t.geometry.RaycastingScene``, the distance to it in
+  double precision; a sample on a triangle both meshes have is at distance 0).
 * ``hausdorff`` = max(max d_fwd, max d_bwd)  (symmetric, sampled Hausdorff);
 * ``mean`` = mean of the union of d_fwd and d_bwd (2 * n_samples values);
 * ``rms`` = sqrt(mean of squares) of the same union;
@@ -29,8 +33,7 @@ Validity of the simplified mesh:
 * ``boundary_edges``: edges with exactly one incident face (compare with the input's);
 * ``degenerate_faces``: faces with a repeated vertex index or zero area;
 * ``flipped_faces``: output faces whose unit normal has a negative dot product with the
-  normal of the original face closest to the output face's centroid
-  (``RaycastingScene.compute_closest_points`` -> ``primitive_ids``);
+  normal of the original face closest to the output face's centroid;
 * ``flipped_faces_near``: the subset of those whose centroid lies within
   ``near_factor`` (default 0.1) x the face's longest edge of the original -- i.e. the
   face sits on the original surface, so the disagreement cannot come from the closest
@@ -50,6 +53,7 @@ Attribute fidelity (used by bench/fidelity.py and bench/pictures.py; see each do
 from __future__ import annotations
 
 import numpy as np
+from lodkit.evaluate import Evaluator, closest_points, face_normals, sample_surface as _sample_surface
 
 __all__ = ["Reference", "compare", "sample_surface", "sample_surface_bary", "edge_counts", "validity", "face_normals",
            "closest_points", "color_error", "crease_edges", "segment_distance", "crease_vertices", "seam_check"]
@@ -58,63 +62,18 @@ DEFAULT_SAMPLES = 200_000
 DEFAULT_SEED = 20240521
 
 
-def _o3d():
-    import open3d as o3d  # lazy: import takes 1-2 s
-
-    return o3d
-
-
-def face_normals(V: np.ndarray, F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(unit normals (m,3) -- zero rows for degenerate faces, areas (m,))."""
-    a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
-    n = np.cross(b - a, c - a)
-    ln = np.linalg.norm(n, axis=1)
-    area = 0.5 * ln
-    with np.errstate(invalid="ignore", divide="ignore"):
-        unit = np.where(ln[:, None] > 0, n / np.where(ln > 0, ln, 1.0)[:, None], 0.0)
-    return unit, area
-
-
 def sample_surface_bary(V: np.ndarray, F: np.ndarray, n: int,
                         seed: int = DEFAULT_SEED) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``n`` area-weighted uniform samples: (points (n,3), face index (n,), barycentric weights (n,3)).
 
-    ``points[i] = sum_k bary[i, k] * V[F[face[i], k]]``. Same random draws as
-    :func:`sample_surface`, so both give the same points for the same seed.
+    ``points[i] = sum_k bary[i, k] * V[F[face[i], k]]`` (:func:`lodkit.evaluate.sample_surface`).
     """
-    rng = np.random.default_rng(seed)
-    _, area = face_normals(V, F)
-    total = area.sum()
-    if not np.isfinite(total) or total <= 0:
-        raise ValueError("surface has zero area")
-    cdf = np.cumsum(area)
-    idx = np.searchsorted(cdf, rng.random(n) * cdf[-1], side="right")
-    idx = np.minimum(idx, len(F) - 1)
-    r1 = np.sqrt(rng.random(n))
-    r2 = rng.random(n)
-    bary = np.stack([1.0 - r1, r1 * (1.0 - r2), r1 * r2], axis=1)
-    P = np.einsum("nk,nkj->nj", bary, V[F[idx]])
-    return P, idx, bary
+    return _sample_surface(V, F, n, seed)
 
 
 def sample_surface(V: np.ndarray, F: np.ndarray, n: int, seed: int = DEFAULT_SEED) -> np.ndarray:
     """``n`` area-weighted uniform samples on the triangle surface (float64 (n,3))."""
-    return sample_surface_bary(V, F, n, seed)[0]
-
-
-def _scene(V: np.ndarray, F: np.ndarray):
-    o3d = _o3d()
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(
-        o3d.core.Tensor(np.ascontiguousarray(V, dtype=np.float32)),
-        o3d.core.Tensor(np.ascontiguousarray(F, dtype=np.uint32)),
-    )
-    return scene
-
-
-def _distance(scene, P: np.ndarray) -> np.ndarray:
-    o3d = _o3d()
-    return scene.compute_distance(o3d.core.Tensor(np.ascontiguousarray(P, dtype=np.float32))).numpy().astype(np.float64)
+    return _sample_surface(V, F, n, seed)[0]
 
 
 def edge_counts(F: np.ndarray) -> np.ndarray:
@@ -148,7 +107,8 @@ def validity(V: np.ndarray, F: np.ndarray) -> dict:
 
 
 class Reference:
-    """The original mesh, prepared once: raycasting scene, samples, normals, scale."""
+    """The original mesh, prepared once: samples, raycasting scene, normals, scale
+    (a :class:`lodkit.evaluate.Evaluator`)."""
 
     def __init__(self, V: np.ndarray, F: np.ndarray, n_samples: int = DEFAULT_SAMPLES,
                  seed: int = DEFAULT_SEED):
@@ -156,11 +116,9 @@ class Reference:
         self.F = np.asarray(F, dtype=np.int64)
         self.n_samples = int(n_samples)
         self.seed = int(seed)
-        used = self.V[np.unique(self.F)]
-        self.diag = float(np.linalg.norm(used.max(axis=0) - used.min(axis=0)))
+        self.evaluator = Evaluator((self.V, self.F), self.n_samples, self.seed)
+        self.diag = self.evaluator.diagonal
         self.normals, _ = face_normals(self.V, self.F)
-        self.scene = _scene(self.V, self.F)
-        self.samples = sample_surface(self.V, self.F, self.n_samples, self.seed)
         self.validity = validity(self.V, self.F)
 
     def compare(self, V: np.ndarray, F: np.ndarray, near_factor: float = 0.1) -> dict:
@@ -179,34 +137,15 @@ class Reference:
         if area.sum() <= 0:
             out["error"] = "output has zero area"
             return out
-        # forward: original samples -> simplified surface
-        d_fwd = _distance(_scene(V, F), self.samples) / self.diag
-        # backward: simplified samples -> original surface
-        P = sample_surface(V, F, self.n_samples, self.seed + 1)
-        d_bwd = _distance(self.scene, P) / self.diag
-        d = np.concatenate([d_fwd, d_bwd])
-        out.update(
-            hausdorff=float(max(d_fwd.max(), d_bwd.max())),
-            mean=float(d.mean()),
-            rms=float(np.sqrt(np.mean(d * d))),
-            hausdorff_fwd=float(d_fwd.max()),
-            hausdorff_bwd=float(d_bwd.max()),
-            mean_fwd=float(d_fwd.mean()),
-            mean_bwd=float(d_bwd.mean()),
-            rms_fwd=float(np.sqrt(np.mean(d_fwd ** 2))),
-            rms_bwd=float(np.sqrt(np.mean(d_bwd ** 2))),
-        )
+        out.update(self.evaluator.distances((V, F)).as_dict())
         out.update(self.flipped(V, F, near_factor))
         return out
 
     def flipped(self, V: np.ndarray, F: np.ndarray, near_factor: float = 0.1) -> dict:
-        o3d = _o3d()
         n_out, area = face_normals(V, F)
         ok = area > 0
         cent = V[F].mean(axis=1)
-        res = self.scene.compute_closest_points(o3d.core.Tensor(cent.astype(np.float32)))
-        prim = res["primitive_ids"].numpy().astype(np.int64)
-        closest = res["points"].numpy().astype(np.float64)
+        closest, prim, _ = closest_points(self.V, self.F, cent)
         dist = np.linalg.norm(closest - cent, axis=1)
         dots = np.einsum("ij,ij->i", n_out, self.normals[prim])
         flipped = ok & (dots < 0)
@@ -230,22 +169,6 @@ def compare(V0, F0, V1, F1, n_samples: int = DEFAULT_SAMPLES, seed: int = DEFAUL
 # attribute fidelity: colour error, crease vertices, UV seams (bench/fidelity.py)
 # --------------------------------------------------------------------------------------
 
-def closest_points(V: np.ndarray, F: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Closest point on the surface (V, F) to each query point.
-
-    Returns (points (n,3), face index (n,), barycentric weights (n,3)) with
-    ``points = sum_k w[:, k] * V[F[face, k]]``
-    (``RaycastingScene.compute_closest_points``; its ``primitive_uvs`` (u, v) are the weights
-    of corners 1 and 2, corner 0 gets 1 - u - v).
-    """
-    o3d = _o3d()
-    res = _scene(V, F).compute_closest_points(o3d.core.Tensor(np.ascontiguousarray(P, dtype=np.float32)))
-    face = res["primitive_ids"].numpy().astype(np.int64)
-    uv = res["primitive_uvs"].numpy().astype(np.float64)
-    w = np.column_stack([1.0 - uv[:, 0] - uv[:, 1], uv[:, 0], uv[:, 1]])
-    return res["points"].numpy().astype(np.float64), face, w
-
-
 def color_error(V0: np.ndarray, F0: np.ndarray, C0: np.ndarray, V1: np.ndarray, F1: np.ndarray,
                 C1: np.ndarray, n_samples: int = DEFAULT_SAMPLES, seed: int = DEFAULT_SEED,
                 scale: float = 255.0) -> dict:
@@ -254,8 +177,9 @@ def color_error(V0: np.ndarray, F0: np.ndarray, C0: np.ndarray, V1: np.ndarray, 
     ``n_samples`` area-weighted points on the original (seeded, as for the geometric error);
     the original's colour there is the barycentric interpolation of its per-vertex colours
     ``C0``; the simplified colour is the interpolation of ``C1`` at the closest point of the
-    simplified surface. Colours are compared per channel (RGB; an alpha column is ignored),
-    in units of ``scale`` (255: 8-bit RGB units for colours in [0, 1]).
+    simplified surface (:func:`lodkit.evaluate.closest_points`). Colours are compared per
+    channel (RGB; an alpha column is ignored), in units of ``scale`` (255: 8-bit RGB units
+    for colours in [0, 1]).
 
     Returns ``rms`` (sqrt of the mean over samples and channels of the squared difference),
     ``mean_abs`` (mean absolute difference over samples and channels), ``p99`` (99th
@@ -473,7 +397,7 @@ if __name__ == "__main__":
     ap.add_argument("--samples", type=int, default=DEFAULT_SAMPLES)
     ap.add_argument("--seed", type=int, default=DEFAULT_SEED)
     args = ap.parse_args()
-    o3d = _o3d()
+    import open3d as o3d
     m0 = o3d.io.read_triangle_mesh(args.original)
     m1 = o3d.io.read_triangle_mesh(args.simplified)
     r = compare(np.asarray(m0.vertices), np.asarray(m0.triangles), np.asarray(m1.vertices),

@@ -248,10 +248,11 @@ def write(results: Path, out: Path) -> None:
     doc = json.loads(Path(results).read_text())
     text = render(doc)
     out = Path(out)
-    # keep the sections that bench/metrics.py and bench/fidelity.py write (between their markers)
+    # keep the sections that bench/metrics.py, bench/fidelity.py and bench/removal.py write
+    # (between their markers)
     if out.exists():
         old = out.read_text()
-        for name in ("metrics", "fidelity"):
+        for name in ("metrics", "fidelity", "removal", "progressive"):
             begin, end = f"<!-- {name}:begin -->", f"<!-- {name}:end -->"
             if begin in old and end in old:
                 text = text.rstrip("\n") + "\n\n" + begin + old.split(begin, 1)[1].split(end, 1)[0] + end + "\n"

@@ -8,25 +8,38 @@ from .errors import LodkitError, MeshError, MeshIOError, MetricError, OptionErro
 from .mesh import Mesh
 from .io import load, save
 from .api import SimplifyResult, simplify
+from .cluster import ClusterResult, cluster
 from .curvature import point_curvature
 from .topology import TopologyReport, topology
+from .progressive import ProgressiveMesh, progressive
+from .evaluate import Evaluation, Evaluator, evaluate
+from .compare import Comparison, compare
 from . import metrics
 
 __version__ = "0.1.0"
 
 __all__ = [
+    "ClusterResult",
+    "Comparison",
+    "Evaluation",
+    "Evaluator",
     "LodkitError",
     "Mesh",
     "MeshError",
     "MeshIOError",
     "MetricError",
     "OptionError",
+    "ProgressiveMesh",
     "SimplifyResult",
     "TopologyReport",
     "UnknownMetricError",
+    "cluster",
+    "compare",
+    "evaluate",
     "load",
     "metrics",
     "point_curvature",
+    "progressive",
     "save",
     "simplify",
     "topology",

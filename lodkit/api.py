@@ -14,6 +14,7 @@ from .mesh import Mesh
 __all__ = ["SimplifyResult", "simplify", "prepare"]
 
 PLACEMENTS = {"optimal": 0, "endpoint": 1}
+OPERATORS = {"edge": 0, "triangle": 1}      # simplify(operator=): the collapse driver's candidates
 BOUNDARY_POLICIES = {"lock": 0, "preserve": 1, "free": 2}
 
 #: Stop reasons, as found in :attr:`SimplifyResult.stop_reason`.
@@ -36,7 +37,7 @@ class SimplifyResult:
                   units when ``absolute=True``): sqrt(quadric error / summed face area), the
                   area-weighted RMS distance of the new vertex to the planes it stands for
     stop_reason : "target_faces", "max_error" or "no_valid_collapse"
-    n_collapses : number of edge collapses done
+    n_collapses : number of edge collapses done (vertex removals for a "removal" metric)
     """
 
     mesh: Any
@@ -160,6 +161,8 @@ def simplify(
     min_quality: Optional[float] = None,
     progress: bool = False,
     record: bool = False,
+    pair_threshold: Optional[float] = None,
+    operator: str = "edge",
 ) -> SimplifyResult:
     """Simplify a triangle mesh by greedy edge collapse with quadric error metrics.
 
@@ -192,6 +195,15 @@ def simplify(
     ``result.report["settings"]`` says what was used and where it came from.
     progress         : draw a progress bar on stderr
     record           : keep the collapse sequence in ``result.collapses``
+    pair_threshold   : pair contraction (off when None): before the collapses, vertices closer
+                       than this (a fraction of the bbox diagonal unless ``absolute=True``)
+                       that share no edge merge in quadric-cost order, so separate parts join
+                       and gaps close (topology changes; docs/clustering.md, "Pair
+                       contraction"); ``report["pair_contraction"]`` counts the merges
+    operator         : "edge" (default: edge collapse) or "triangle" (triangle collapse: the
+                       cheapest face goes to one point, the face and its three neighbours
+                       die; done and recorded as two edge collapses, ``n_collapses`` counts
+                       those; quadric metrics only -- docs/algorithms.md, "Triangle collapse")
 
     An open3d.geometry.TriangleMesh in gives one out.  Per-vertex normals, colours and uvs
     are carried along (interpolated on the collapsed edge at the new position).  Attribute
@@ -205,6 +217,14 @@ def simplify(
     t0 = time.perf_counter()
     src, was_o3d = _as_mesh(mesh)
     metrics = create_metrics(metric)
+    if not isinstance(operator, str) or operator not in OPERATORS:
+        raise OptionError(f"operator must be one of {', '.join(OPERATORS)}, got {operator!r}")
+    if operator == "triangle":
+        other = [m for m in metrics if m.kind != "quadric"]
+        if other:
+            raise OptionError(f"operator='triangle' takes quadric metrics only; {other[0].name!r} is a "
+                              f"{other[0].kind} metric, whose values are defined per edge or vertex "
+                              f"pair (use operator='edge')")
     settings = resolve_settings(metrics, placement=placement, boundary=boundary,
                                 boundary_weight=boundary_weight,
                                 max_normal_angle=max_normal_angle, min_quality=min_quality)
@@ -224,7 +244,20 @@ def simplify(
     if max_error is not None and not (float(max_error) >= 0.0):
         raise OptionError(f"max_error must be >= 0, got {max_error!r}")
     target = _resolve_target(src.n_faces, target_faces, target_ratio, max_error)
+    if any(m.kind == "removal" for m in metrics):
+        # vertex removal (a "removal" metric runs alone, on its own driver: lodkit/_vremove.py)
+        if pair_threshold is not None:
+            raise OptionError("pair_threshold works with edge collapse; a vertex-removal metric takes none")
+        from ._vremove import simplify_removal
+        return simplify_removal(src, was_o3d, metrics, settings, target=target, max_error=max_error,
+                                absolute=absolute, locked=locked, progress=progress, record=record, t0=t0)
 
+    input_faces, pair_report = src.n_faces, None
+    if pair_threshold is not None:
+        from .pairs import contract_pairs
+        src, welded_faces, pair_report = contract_pairs(
+            src, pair_threshold, absolute=absolute,
+            locked=None if locked is None else _locked_mask(locked, src.n_vertices))
     prep = prepare(src)
     hm = prep.hm
     fixed = hm.locked_vertices.copy()
@@ -267,7 +300,7 @@ def simplify(
         max_normal_angle=float(max_normal_angle), min_quality=float(min_quality),
         max_error=err_limit, record=bool(record),
         closed_connected=_closed_connected(hm),
-        use_heap=not setup.batch, seam_partners=seams, **setup.core,
+        use_heap=not setup.batch, seam_partners=seams, operator=OPERATORS[operator], **setup.core,
     )
     _raise_if_failed(collapser, setup)
 
@@ -301,6 +334,8 @@ def simplify(
 
     collapser.release()          # the heap and quadrics are not needed to build the output
     out_mesh, vertex_map, face_map = _extract(src, prep, collapser, names)
+    if pair_report is not None:
+        face_map = welded_faces[face_map]        # faces of the welded mesh -> input faces
     scale = prep.scale if absolute else 1.0
     records = None
     if record:
@@ -321,7 +356,8 @@ def simplify(
         n_collapses=int(collapser.n_collapses),
         elapsed=time.perf_counter() - t0,
         report={
-            "input_faces": src.n_faces,
+            "input_faces": input_faces,
+            "pair_contraction": pair_report,
             "degenerate_faces_removed": prep.n_degenerate_faces,
             "unreferenced_vertices_removed": prep.n_unreferenced_vertices,
             "nonmanifold_edges_cut": hm.n_nonmanifold_edges,
@@ -330,6 +366,9 @@ def simplify(
             "metrics": [m.name for m in metrics],
             "vetoed": int(collapser.n_vetoed),
             "passes": n_passes,
+            "operator": operator + "_collapse",
+            "triangle_collapses": int(collapser.n_tri_collapses),
+            "refused_at_second_collapse": int(collapser.n_tri_refused_second),
             "stop_detail": detail,
             "seams": {"paired_vertices": 0 if seams is None else int(np.count_nonzero(seams >= 0)),
                       "fixed_vertices": 0 if seams is None else int(np.count_nonzero(seams == -2)),

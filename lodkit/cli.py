@@ -1,4 +1,4 @@
-"""The ``lodkit`` command: ``simplify``, ``info``, ``metrics`` and ``demo``.
+"""The ``lodkit`` command: ``simplify``, ``info``, ``metrics``, ``demo``, ``evaluate``, ``compare``, ``lods`` and ``cluster``.
 
 Every failure the user can cause (a missing or unreadable file, a bad option, a mesh
 lodkit cannot use) prints one line ``lodkit: error: ...`` on standard error and exits
@@ -98,6 +98,10 @@ def _build_parser() -> argparse.ArgumentParser:
                    help="reject collapses that turn a face normal by more than DEG degrees")
     p.add_argument("--min-quality", type=float, metavar="Q",
                    help="reject collapses that make a triangle of quality below Q (0..1)")
+    p.add_argument("--pair-threshold", type=_non_negative, metavar="T",
+                   help="pair contraction: first merge vertices closer than T that share no edge, "
+                        "joining parts and closing gaps (a fraction of the bbox diagonal, model "
+                        "units with --absolute; off by default)")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no summary line")
     p.set_defaults(run=_run_simplify)
 
@@ -122,6 +126,79 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="lodkit-demo", metavar="DIR", help="output directory (default: lodkit-demo)")
     p.add_argument("--faces", type=_count, default=100_000, metavar="N", help="faces of the demo surface (default: 100000)")
     p.set_defaults(run=_run_demo)
+
+    p = sub.add_parser("lods", help="write a chain of levels of detail from one simplification run",
+                       description="Simplify IN once into a progressive mesh, extract one level per "
+                                   "ratio (each equal to 'lodkit simplify --ratio R') and write them "
+                                   "to DIR as <name>_lod<i>.<format>, with summary.json and "
+                                   "summary.csv (level, ratio, faces, vertices, error, file).")
+    p.add_argument("input", metavar="IN", help="input mesh file")
+    p.add_argument("--ratios", type=_ratio_list, required=True, metavar="R1,R2,...",
+                   help="fractions of the faces to keep, each 0 < R <= 1, e.g. 0.5,0.1,0.02")
+    p.add_argument("--out-dir", required=True, metavar="DIR", help="output directory (made if missing)")
+    p.add_argument("--format", choices=("ply", "obj", "glb"), default="ply", help="file format of the levels (default: ply)")
+    p.add_argument("--metric", type=_metric_option, action="append", metavar="NAME[:OPT=VAL,...]",
+                   help="cost metric, as for 'lodkit simplify' (repeat to combine; default: qem)")
+    p.add_argument("--placement", choices=("optimal", "endpoint"), help="where the merged vertex goes (default: optimal)")
+    p.add_argument("--boundary", choices=("lock", "preserve", "free"), help="how boundaries are treated (default: preserve)")
+    p.add_argument("--absolute", action="store_true", help="report errors in model units")
+    p.add_argument("--quiet", "-q", action="store_true", help="no summary lines")
+    p.set_defaults(run=_run_lods)
+
+    p = sub.add_parser("evaluate", help="measure how far a simplified mesh is from the original",
+                       description="Metro-style distances (Hausdorff, mean, RMS; both one-sided and "
+                                   "symmetric) from area-weighted samples, normal deviation, triangle "
+                                   "quality, topology changes and, when both have vertex colours, the "
+                                   "colour error of SIMPLIFIED against ORIGINAL (docs/evaluation.md).")
+    p.add_argument("original", metavar="ORIGINAL", help="original mesh file")
+    p.add_argument("simplified", metavar="SIMPLIFIED", help="simplified mesh file")
+    p.add_argument("--samples", type=_count, default=200_000, metavar="N",
+                   help="random points on each surface (default: 200000)")
+    p.add_argument("--seed", type=_seed, default=0, metavar="S", help="sampling seed (default: 0)")
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    p.set_defaults(run=_run_evaluate)
+
+    p = sub.add_parser("compare", help="compare simplifiers on a mesh: curves, table, contact sheet, report",
+                       description="Simplify IN with each metric and peer library to each ratio, time and "
+                                   "evaluate every result, and write error-versus-face-count plots, a table "
+                                   "(CSV, JSON), a contact sheet of the LODs and a Markdown and HTML report "
+                                   "into DIR. The plots need matplotlib: pip install 'lodkit[plot]'.")
+    p.add_argument("input", metavar="IN", help="input mesh file")
+    p.add_argument("--metrics", default="qem", metavar="NAMES",
+                   help="comma-separated lodkit metrics (default: qem); 'lodkit metrics' lists them")
+    p.add_argument("--peers", default="", metavar="NAMES",
+                   help="comma-separated peer libraries: open3d, fast_simplification, pyfqmr, pymeshlab")
+    p.add_argument("--ratios", default="0.5,0.1,0.02", type=_ratio_list, metavar="R,R,...",
+                   help="fractions of the faces to keep (default: 0.5,0.1,0.02)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory (created if missing)")
+    p.add_argument("--samples", type=_count, default=200_000, metavar="N",
+                   help="random points on each surface per evaluation (default: 200000)")
+    p.add_argument("--seed", type=_seed, default=0, metavar="S", help="sampling seed (default: 0)")
+    p.add_argument("--size", type=_image_size, default=(320, 240), metavar="WxH",
+                   help="size of each picture in the contact sheet (default: 320x240)")
+    p.add_argument("--render-backend", choices=("open3d", "numpy"),
+                   help="renderer for the contact sheet (default: Open3D's if it works here)")
+    p.add_argument("--no-contact-sheet", action="store_true", help="do not render the LODs")
+    p.add_argument("--quiet", "-q", action="store_true", help="no progress lines")
+    p.set_defaults(run=_run_compare)
+
+    p = sub.add_parser("cluster", help="simplify a mesh file by vertex clustering on a uniform grid",
+                       description="Merge the vertices in each cell of a uniform grid (Rossignac-Borrel "
+                                   "vertex clustering; docs/clustering.md) and write the result to OUT. "
+                                   "Fast and works on any triangle soup, but the output need not be "
+                                   "manifold. Give exactly one of --cell-size, --faces, --vertices.")
+    p.add_argument("input", metavar="IN", help="input mesh file")
+    p.add_argument("output", metavar="OUT", help="output mesh file")
+    size = p.add_mutually_exclusive_group(required=True)
+    size.add_argument("--cell-size", type=_positive, metavar="H",
+                      help="cell side, a fraction of the bounding-box diagonal (model units with --absolute)")
+    size.add_argument("--faces", type=_count, metavar="N", help="search the cell size for about N faces")
+    size.add_argument("--vertices", type=_count, metavar="N", help="search the cell size for about N vertices")
+    p.add_argument("--representative", choices=("quadric", "importance", "mean"), default="quadric",
+                   help="the vertex of a cell: quadric minimiser (default), most important input vertex, or centroid")
+    p.add_argument("--absolute", action="store_true", help="--cell-size and the reported error are in model units")
+    p.add_argument("--quiet", "-q", action="store_true", help="no summary line")
+    p.set_defaults(run=_run_cluster)
     return parser
 
 
@@ -149,6 +226,30 @@ def _count(text: str) -> int:
         raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1, got {text}")
+    return value
+
+
+def _ratio_list(text: str) -> list:
+    values = [_ratio(part.strip()) for part in text.split(",") if part.strip()]
+    if not values:
+        raise argparse.ArgumentTypeError(f"expected ratios like 0.5,0.1, got {text!r}")
+    return values
+
+
+def _image_size(text: str) -> tuple:
+    w, sep, h = text.lower().partition("x")
+    if not sep:
+        raise argparse.ArgumentTypeError(f"expected WIDTHxHEIGHT, got {text!r}")
+    return _count(w.strip()), _count(h.strip())
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {text}")
     return value
 
 
@@ -224,6 +325,7 @@ def _run_simplify(args) -> int:
         "boundary": args.boundary,
         "max_normal_angle": args.max_normal_angle,
         "min_quality": args.min_quality,
+        "pair_threshold": args.pair_threshold,
     }
     # leave out what the user did not give, so simplify()'s own defaults apply
     options = {k: v for k, v in options.items() if v is not None}
@@ -241,6 +343,31 @@ def _run_simplify(args) -> int:
               f"{mesh.n_vertices} -> {out.n_vertices} vertices, error {result.error:.3g} {unit}, "
               f"stop: {result.stop_reason}, {seconds:.2f} s -> {args.output}")
     return EXIT_OK
+
+
+def _run_cluster(args) -> int:
+    from . import cluster, load, save
+
+    _check_output(args.output)
+    mesh = load(args.input)
+    result = cluster(mesh, cell_size=args.cell_size, target_faces=args.faces, target_vertices=args.vertices,
+                     representative=args.representative, absolute=args.absolute)
+    save(result.mesh, args.output)
+    if not args.quiet:
+        out = result.mesh
+        unit = "model units" if args.absolute else "of bbox diagonal"
+        print(f"{args.input}: {mesh.n_faces} -> {out.n_faces} faces ({_percent(out.n_faces, mesh.n_faces)}), "
+              f"{mesh.n_vertices} -> {out.n_vertices} vertices, cell {result.cell_size:.3g} {unit}, "
+              f"grid {'x'.join(map(str, result.report['grid']))}, error {result.error:.3g} {unit}, "
+              f"{result.elapsed:.2f} s -> {args.output}")
+    return EXIT_OK
+
+
+def _positive(text: str) -> float:
+    value = _number(text)
+    if not value > 0.0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    return value
 
 
 def _run_info(args) -> int:
@@ -320,10 +447,93 @@ def _run_metrics(args) -> int:
     return EXIT_OK
 
 
+def _ratio_list(text: str) -> list:
+    items = [t.strip() for t in text.split(",")]
+    if not items or any(not t for t in items):
+        raise argparse.ArgumentTypeError(f"expected comma-separated ratios like 0.5,0.1, got {text!r}")
+    return [_ratio(t) for t in items]
+
+
+def _run_lods(args) -> int:
+    import csv
+    import io as _io
+
+    from . import load, save
+    from .progressive import atomic_write, progressive
+
+    metric = _metric_spec(args.metric)
+    if metric is not None:
+        from .metrics import create
+
+        create(metric)                       # unknown names fail before the mesh is loaded
+    out_dir = os.path.abspath(args.out_dir)
+    if os.path.exists(out_dir) and not os.path.isdir(out_dir):
+        raise MeshIOError(f"cannot write to {args.out_dir}: it is not a directory")
+    parent = os.path.dirname(out_dir)
+    if not os.path.isdir(parent):
+        raise MeshIOError(f"cannot write to {args.out_dir}: directory {parent} does not exist")
+    mesh = load(args.input)
+    options = {"metric": metric, "placement": args.placement, "boundary": args.boundary}
+    options = {k: v for k, v in options.items() if v is not None}
+    t0 = time.perf_counter()
+    pm = progressive(mesh, absolute=args.absolute, **options)
+    seconds = time.perf_counter() - t0
+    os.makedirs(out_dir, exist_ok=True)
+    stem = os.path.splitext(os.path.basename(args.input))[0] or "mesh"
+    rows = []
+    for i, ratio in enumerate(args.ratios):
+        level = pm.level(ratio=ratio)
+        name = f"{stem}_lod{i}.{args.format}"
+        save(level.mesh, os.path.join(out_dir, name))
+        rows.append({"level": i, "ratio": ratio, "faces": level.n_faces, "vertices": level.n_vertices,
+                     "error": level.error, "file": name})
+    summary = {"input": str(args.input), "input_faces": mesh.n_faces, "input_vertices": mesh.n_vertices,
+               "metrics": pm.info["metrics"], "error_unit": "model units" if args.absolute else "bbox diagonal",
+               "levels": rows}
+    text = _io.StringIO()
+    writer = csv.DictWriter(text, fieldnames=["level", "ratio", "faces", "vertices", "error", "file"],
+                            lineterminator="\n")
+    writer.writeheader()
+    writer.writerows({**r, "error": repr(r["error"])} for r in rows)
+    for fname, content in (("summary.json", json.dumps(summary, indent=2) + "\n"), ("summary.csv", text.getvalue())):
+        atomic_write(os.path.join(out_dir, fname), lambda fh, c=content: fh.write(c))
+    if not args.quiet:
+        print(f"{args.input}: {mesh.n_faces} faces, one run of {pm.n_steps} collapses in {seconds:.2f} s")
+        for r in rows:
+            print(f"  lod{r['level']}: ratio {r['ratio']:g}, {r['faces']} faces, {r['vertices']} vertices, "
+                  f"error {r['error']:.3g} -> {os.path.join(args.out_dir, r['file'])}")
+    return EXIT_OK
+
+
 def _run_demo(args) -> int:
     from .demo import run_demo
 
     run_demo(args.out, n_faces=args.faces, stream=sys.stdout)
+    return EXIT_OK
+
+
+def _run_evaluate(args) -> int:
+    from .evaluate import evaluate
+
+    ev = evaluate(args.original, args.simplified, samples=args.samples, seed=args.seed)
+    if args.json:
+        print(json.dumps({"original": str(args.original), "simplified": str(args.simplified), **ev.as_dict()},
+                         indent=2))
+        return EXIT_OK
+    print(f"{args.simplified} against {args.original}")
+    print(ev.table())
+    return EXIT_OK
+
+
+def _run_compare(args) -> int:
+    from .compare import compare
+
+    log = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
+    result = compare(args.input, metrics=args.metrics, peers=args.peers, ratios=args.ratios, out=args.out,
+                     samples=args.samples, seed=args.seed, contact_sheet=not args.no_contact_sheet,
+                     image_size=args.size, render_backend=args.render_backend, log=log)
+    failed = sum(1 for r in result.runs if r.error)
+    print(f"{len(result.runs)} runs ({failed} failed) -> {result.files['report.html']}, {result.files['report.md']}")
     return EXIT_OK
 
 

@@ -12,6 +12,10 @@ cdef enum Placement:
     PLACE_OPTIMAL = 0
     PLACE_ENDPOINT = 1
 
+cdef enum Operator:
+    OP_EDGE = 0          # candidates are edges: one edge collapse per step
+    OP_TRIANGLE = 1      # candidates are faces: a face collapses to one point (two edge collapses)
+
 cdef enum RunStatus:
     RUN_TARGET = 0       # face target reached
     RUN_CHUNK = 1        # max_steps collapses done, call again
@@ -98,6 +102,9 @@ cdef class EdgeCollapser:
     cdef double[::1] rec_cost
     cdef double[::1] rec_error
     cdef unsigned char[::1] rec_moved
+    cdef int[:, ::1] rec_faces         # the (up to two) faces each collapse removed, -1: none
+    cdef unsigned char[::1] rec_open   # 1: the first half of a seam pair (the pair is one step)
+    cdef double[:, ::1] rec_attr       # the kept vertex's attributes after each collapse
     cdef readonly int n_collapses
     cdef readonly double max_error_done
     cdef readonly int n_rejected_error
@@ -146,6 +153,28 @@ cdef class EdgeCollapser:
                                     # edge (-1 if the edge is not one)
     cdef bint defer_recost          # perform(): leave the re-ranking to perform_pair
     cdef readonly int n_seam_pairs  # seam edges collapsed together with their partner
+    # triangle collapse (operator OP_TRIANGLE): the heap ranks faces; a face collapses to one
+    # point as two edge collapses, both checked before either is done
+    cdef bint tri
+    cdef double forced_t            # perform(): the kept end's attribute weight (< 0: from p)
+    cdef int skip_c                 # fan_ok(): faces whose shape is not checked (-1: none):
+    cdef int skip_d                 # they die in a triangle collapse's second step
+    cdef readonly int n_tri_collapses
+    cdef readonly int n_tri_refused_second   # refused at the second collapse's checks
+
+    cdef int plan_tri(self, int f, int* h_out, int* r_out, int* r2_out, double* p, double* cost,
+                      double* err) noexcept nogil
+    cdef void general_marginal3(self, int a, int b, int c, double* q) noexcept nogil
+    cdef int find_he(self, int k, int w) noexcept nogil
+    cdef bint tri_ok(self, int h1, int r1, int k, int r2, const double* p, int* h2_out,
+                     int* dead_faces, double* dvol) noexcept nogil
+    cdef void perform_tri(self, int h1, int r1, int h2, int r2, const double* p, double cost,
+                          double err, const int* dead_faces, const double* dvol) noexcept nogil
+    cdef void recost_face(self, int f) noexcept nogil
+    cdef void rerank_tri(self, int k) noexcept nogil
+    cdef void retry_refused_tri(self, int w) noexcept nogil
+    cdef void rescan_tri(self) noexcept nogil
+    cdef int run_tri_c(self, int target_faces, int max_steps) noexcept nogil
 
     cdef int plan(self, int e, int* h_out, int* r_out, double* p, double* cost, double* err) noexcept nogil
     cdef bint geometry_ok(self, int h, int r, int k, const double* p) noexcept nogil

@@ -58,6 +58,10 @@ class EdgeCollapser:
     """A kernel returned KERNEL_ERROR: see ``error_message``."""
     n_seam_pairs: int
     """Seam edges collapsed together with their partner edge (two collapses each)."""
+    n_tri_collapses: int
+    """Triangle collapses done (operator=1; two edge collapses each)."""
+    n_tri_refused_second: int
+    """Triangle candidates that passed the first collapse's checks and failed the second's."""
     def __init__(
         self,
         hm: HalfEdgeMesh,
@@ -84,6 +88,7 @@ class EdgeCollapser:
         attribute_columns: Optional[ArrayLike] = ...,
         steps: Optional[ArrayLike] = ...,
         seam_partners: Optional[ArrayLike] = ...,
+        operator: int = ...,
     ) -> None:
         """quadric_weight: factor of the quadric in the cost (0: the quadric only places);
         error_scale: error = sqrt(error_scale * Q(p) / area); vertex_fields (n, k) and
@@ -94,7 +99,8 @@ class EdgeCollapser:
         D - 3 columns of ``attributes`` they range over (placement by their marginal);
         steps: (k, 3) rows (kind, first, end) ordering fields and kernels; seam_partners
         (n,) int: each seam vertex's partner slot, -1 off the seams, -2 a seam copy that
-        stays (see lodkit.api._seam_partners)."""
+        stays (see lodkit.api._seam_partners); operator: 0 edge collapse, 1 triangle
+        collapse (faces are the candidates; quadric metrics only)."""
     def _setup_seams(self, partners: Optional[ArrayLike]) -> None: ...
     def _setup_attribute_quadrics(self, gq: Optional[ArrayLike], columns: Optional[ArrayLike]) -> None: ...
     def run(self, target_faces: int, max_steps: int = ...) -> int:
@@ -117,6 +123,12 @@ class EdgeCollapser:
         """Free the heap, quadrics and input normals after the run."""
     def plan_edge(self, u: int, v: int) -> Optional[tuple[int, int, NDArray[np.float64], float, float]]:
         """(removed, kept, position, cost, error) for edge (u, v), or None."""
+    def plan_face(self, f: int) -> Optional[tuple[int, int, int, NDArray[np.float64], float, float]]:
+        """Triangle collapse: (kept, first removed, second removed, position, cost, error)
+        for face f, or None."""
+    def check_face(self, f: int) -> bool:
+        """Triangle collapse: would face f collapse now (all checks of both collapses)?
+        Changes nothing."""
     @property
     def n_alive_faces(self) -> int: ...
     @property

@@ -73,3 +73,17 @@ cdef class HalfEdgeMesh:
     cdef bint _faces_would_coincide(self, int u, int v) noexcept nogil
     cdef bint link_ok(self, int h) noexcept nogil
     cdef int collapse(self, int h, int removed, int* dead_edges, int* merged_into) noexcept nogil
+
+
+# Vertex removal (the vertex-removal driver, vremove.pyx): replace the star of ``v`` -- its
+# k link vertices ``link`` and its faces ``face`` (face[i] = (v, link[i], link[i+1]); k faces
+# when ``closed``, k - 1 for a boundary vertex) -- by ``n_tris`` = k - 2 triangles ``tri``
+# (link-index triples, oriented as the surface; see removal.pxd).  The caller has validated
+# the triangulation.  The new triangles reuse old face slots: ``slot_of[t]`` is the slot of
+# triangle t -- given by the caller (distinct slots of the old faces), or, when slot_of[0] is
+# -1 on entry, chosen here (the slot of the old face whose outer link edge it inherits, else a
+# leftover one) and written back.  The new diagonals (and an open star's new boundary edge) reuse dead spoke edge ids,
+# twins and v_he are rewired, counts updated.  ``dead_edges`` receives the ids of the edges
+# that die; returns their number.
+cdef int replace_star(HalfEdgeMesh hm, int v, const int* link, const int* face, int k, bint closed,
+                      const int* tri, int n_tris, int* slot_of, int* dead_edges) noexcept nogil

@@ -49,11 +49,18 @@ class HalfEdgeMesh:
         """ValueError unless ``v`` is a live vertex."""
     def _find_halfedge(self, u: int, v: int) -> int:
         """A half-edge running u -> v, or -1 if (u, v) is not an edge (ValueError for a dead vertex)."""
+    def star(self, v: int) -> tuple[list[int], list[int], bool]:
+        """(link, face slots, closed) of vertex v: face i is (v, link[i], link[i+1])."""
+    def remove_vertex(self, v: int, triangles: ArrayLike) -> NDArray[np.intc]:
+        """Remove v and fill its hole with (k - 2, 3) link-index triangles (topology only);
+        returns their face slots."""
     def check(self) -> bool:
         """Verify all invariants; AssertionError naming the first broken one."""
 
 def build(faces: ArrayLike, n_vertices: int) -> HalfEdgeMesh:
     """Half-edge arrays for (m, 3) faces in O(m + n); non-manifold parts are cut and locked."""
 
+def triangulation_ok(triangles: ArrayLike, k: int, closed: bool) -> bool:
+    """Is ``triangles`` an oriented triangulation of a k-gon hole (link indices)?"""
 def count_face_components(hm: HalfEdgeMesh) -> int:
     """Number of components of the live faces (joined across twin half-edges)."""

@@ -392,6 +392,49 @@ cdef class HalfEdgeMesh:
             if h == start:
                 return -1
 
+    def star(self, int v):
+        """``(link, faces, closed)`` of vertex ``v``: its link vertices in order, its face
+        slots (face i is (v, link[i], link[i+1])) and whether the link is a cycle."""
+        self._check_vertex(v)
+        link, faces = [], []
+        cdef int start = self.v_he[v]
+        cdef int h = start
+        cdef int nh
+        while True:
+            link.append(self.dest(h))
+            faces.append(h // 3)
+            nh = self.ring_next(h)
+            if nh < 0:
+                link.append(self.corner[he_prev(h)])
+                return link, faces, False
+            h = nh
+            if h == start:
+                return link, faces, True
+
+    def remove_vertex(self, int v, triangles):
+        """Remove ``v`` and fill its hole with ``triangles`` ((k - 2, 3) indices into the
+        link as :meth:`star` gives it, oriented as the surface).  Topology only, and only
+        the combinatorial validity of the triangulation is checked (ValueError); the
+        vertex-removal driver checks the rest.  Returns the face slots of the triangles."""
+        link, faces, closed = self.star(v)
+        cdef int k = len(link)
+        tri_arr = np.ascontiguousarray(triangles, dtype=np.intc).reshape(-1, 3)
+        if k > 64:
+            raise ValueError(f"vertex {v} has {k} neighbours (at most 64)")
+        if tri_arr.shape[0] != k - 2:
+            raise ValueError(f"a hole of {k} link vertices takes {k - 2} triangles, got {tri_arr.shape[0]}")
+        if not triangulation_ok(tri_arr, k, closed):
+            raise ValueError("the triangles are no oriented triangulation of the hole")
+        if not closed and k == 2 and self.twin[self._find_halfedge(link[0], link[1])] < 0:
+            raise ValueError(f"vertex {v} is a corner of an isolated triangle")
+        cdef int[::1] L = np.asarray(link, dtype=np.intc)
+        cdef int[::1] Fs = np.asarray(faces + [0], dtype=np.intc)
+        cdef int[::1] tri = np.ascontiguousarray(tri_arr.reshape(-1)) if tri_arr.size else np.zeros(1, dtype=np.intc)
+        cdef int[::1] slots = np.full(max(k - 2, 1), -1, dtype=np.intc)
+        cdef int[::1] dead = np.zeros(64, dtype=np.intc)
+        replace_star(self, v, &L[0], &Fs[0], k, closed, &tri[0], k - 2, &slots[0], &dead[0])
+        return np.asarray(slots)[:k - 2].copy()
+
     def check(self):
         """Verify every invariant of the structure; raises AssertionError naming the first
         broken one.  O(size); for tests."""
@@ -441,6 +484,127 @@ cdef class HalfEdgeMesh:
             if n_out != out_count[v]:
                 raise AssertionError(f"vertex {v} has {out_count[v]} faces but its fan has {n_out}")
         return True
+
+
+cdef int replace_star(HalfEdgeMesh hm, int v, const int* link, const int* face, int k, bint closed,
+                      const int* tri, int n_tris, int* slot_of, int* dead_edges) noexcept nogil:
+    """See halfedge.pxd.  O(k^2) for the diagonals' pairing (k <= 64), plus the fans of the
+    link vertices to re-anchor their v_he."""
+    cdef HEArrays* m = &hm.c
+    cdef int nf = k if closed else k - 1
+    cdef int T[64]          # outer twin of link edge i (-1 on a boundary)
+    cdef int E[64]          # edge id of link edge i
+    cdef int S[64]          # spoke edge ids (all die; reused for the new edges)
+    cdef int used[64]
+    cdef int dh[192]        # new half-edges that are no link edge, with their ends
+    cdef int da[192]
+    cdef int db[192]
+    cdef int nd = 0, pool = 0, i, j, t, c, f, h, a, b, x, nxt, n_dead = 0, hv = -1
+    for i in range(nf):
+        f = face[i]
+        h = 3 * f
+        if m.corner[h] != v:
+            h = 3 * f + 1 if m.corner[3 * f + 1] == v else 3 * f + 2
+        x = he_next(h)
+        T[i] = m.twin[x]
+        E[i] = m.edge[x]
+        S[i] = m.edge[h]
+        used[i] = 0
+        hv = h
+    if not closed:
+        S[k - 1] = m.edge[he_prev(hv)]          # link[k-1] -> v, the last spoke
+    if n_tris > 0 and slot_of[0] >= 0:
+        # the caller's slots (distinct slots of the old faces)
+        for t in range(n_tris):
+            for i in range(nf):
+                if face[i] == slot_of[t]:
+                    used[i] = 1
+    else:
+        # a triangle takes the slot of the old face whose link edge it inherits
+        for t in range(n_tris):
+            slot_of[t] = -1
+            for c in range(3):
+                a = tri[3 * t + c]
+                b = tri[3 * t + (c + 1) % 3]
+                if b == (a + 1) % k and (closed or a != k - 1):
+                    slot_of[t] = face[a]
+                    used[a] = 1
+                    break
+        j = 0
+        for t in range(n_tris):
+            if slot_of[t] < 0:
+                while used[j]:
+                    j += 1
+                slot_of[t] = face[j]
+                used[j] = 1
+    # corners, then twins and edge ids
+    for t in range(n_tris):
+        f = slot_of[t]
+        for c in range(3):
+            m.corner[3 * f + c] = link[tri[3 * t + c]]
+    for t in range(n_tris):
+        f = slot_of[t]
+        for c in range(3):
+            h = 3 * f + c
+            a = tri[3 * t + c]
+            b = tri[3 * t + (c + 1) % 3]
+            if b == (a + 1) % k and (closed or a != k - 1):
+                m.twin[h] = T[a]
+                if T[a] >= 0:
+                    m.twin[T[a]] = h
+                m.edge[h] = E[a]
+                m.edge_he[E[a]] = h
+            elif not closed and a == k - 1 and b == 0:
+                m.twin[h] = -1                   # the open star's new boundary edge
+                m.edge[h] = S[pool]
+                m.edge_he[S[pool]] = h
+                pool += 1
+            else:
+                dh[nd] = h
+                da[nd] = a
+                db[nd] = b
+                nd += 1
+    for i in range(nd):
+        if da[i] < 0:
+            continue
+        for j in range(i + 1, nd):
+            if da[j] == db[i] and db[j] == da[i]:
+                m.twin[dh[i]] = dh[j]
+                m.twin[dh[j]] = dh[i]
+                m.edge[dh[i]] = S[pool]
+                m.edge[dh[j]] = S[pool]
+                m.edge_he[S[pool]] = dh[i]
+                pool += 1
+                da[j] = -1
+                break
+    for i in range(nf):
+        if not used[i]:
+            m.face_alive[face[i]] = 0
+            hm.n_alive_faces -= 1
+    for i in range(pool, k):
+        m.edge_alive[S[i]] = 0
+        dead_edges[n_dead] = S[i]
+        n_dead += 1
+    m.vertex_alive[v] = 0
+    m.v_he[v] = -1
+    hm.n_alive_vertices -= 1
+    # v_he of the link vertices: an outgoing half-edge of a live face, then the fan start
+    # (a boundary vertex's fan starts at its outgoing boundary half-edge)
+    if n_tris == 0:
+        # an open star of one face: its link edge link[0] -> link[1] keeps the outer face
+        x = T[0]                                 # link[1] -> link[0]: now a boundary edge
+        m.twin[x] = -1
+        m.edge_he[E[0]] = x
+        m.v_he[link[1]] = hm.find_fan_start(x)
+        m.v_he[link[0]] = hm.find_fan_start(he_next(x))
+        return n_dead
+    for t in range(n_tris):
+        f = slot_of[t]
+        for c in range(3):
+            m.v_he[m.corner[3 * f + c]] = 3 * f + c
+    for i in range(k):
+        m.v_he[link[i]] = hm.find_fan_start(m.v_he[link[i]])
+    return n_dead
 
 
 def build(faces, int n_vertices):
@@ -635,6 +799,30 @@ def build(faces, int n_vertices):
     hm.stamp_counter = 0
     hm._bind()
     return hm
+
+
+def triangulation_ok(triangles, int k, bint closed):
+    """Is ``triangles`` ((k - 2, 3) link indices) an oriented triangulation of a k-gon hole:
+    every link edge i -> i+1 (and an open star's closing edge k-1 -> 0) used once in that
+    direction, every other edge used once each way, each index in 0..k-1?"""
+    tri = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    if tri.shape[0] != k - 2 or (tri.size and (tri.min() < 0 or tri.max() >= k)):
+        return False
+    if k == 2:
+        return not closed
+    a = tri.reshape(-1)
+    b = np.roll(tri, -1, axis=1).reshape(-1)
+    if ((a == b)).any():
+        return False
+    directed = a * k + b
+    if np.unique(directed).size != directed.size:
+        return False
+    ring = (np.arange(k) * k + (np.arange(k) + 1) % k)
+    ds = set(directed.tolist())
+    if not set(ring.tolist()) <= ds:
+        return False
+    rest = ds - set(ring.tolist())
+    return all((x % k) * k + x // k in rest for x in rest)
 
 
 def count_face_components(HalfEdgeMesh hm):

@@ -20,6 +20,23 @@ an open star's ``k - 2`` as well (its new boundary edge is ``link[k-1] -> link[0
 
 The nogil methods return KERNEL_OK, KERNEL_VETO (keep the vertex until its star changes)
 or KERNEL_ERROR (after ``self.fail(b"...")``), as for edge kernels (kernel.pxd).
+
+Driver details (vremove.pyx; docs/algorithms.md, "Vertex removal"):
+* ``evaluate`` is called for every vertex at the start, for every vertex of the old link
+  after a removal, again when a vertex is popped (a dearer answer is re-ranked), and for all
+  vertices when the heap runs dry.  Fixed vertices (``VERTEX_FIXED``) and stars with more
+  than MAX_VALENCE link vertices are never handed to it.  Positions are the driver's:
+  ``s.mesh.positions`` with ``s.mesh.stride`` (3).  ``Removal`` is not cleared between
+  calls except n_tris, cost, error and gate (set to 0).
+* The triangles must form an oriented triangulation of the k-gon (every link edge i -> i+1,
+  with an open star's closing edge k-1 -> 0, used once in that direction; every other edge
+  once each way), else the run fails with MetricError.  A removal the driver's checks
+  refuse is not an error: the vertex waits until its star changes.
+* ``commit(s, r)`` is called after the half-edge arrays were updated: ``s`` still holds the
+  old star (``s.v`` is dead now, its face slots hold the new triangles or are dead).
+* Gated kernels: the candidates whose gate is >= the (lower) median gate of all candidates
+  compete; a candidate whose gate is NaN is outside the median and does not compete (veto a
+  vertex to keep it out of both).
 """
 from .kernel cimport KernelMesh
 

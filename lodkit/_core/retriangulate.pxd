@@ -17,6 +17,12 @@ cdef int split_loop(const double* P, int stride, const int* loop, int k,
                     const double* normal, int force_a, int force_b,
                     int* tri, int* work) noexcept nogil
 
+# split_loop with the smallest accepted aspect ratio of a split as a parameter (split_loop
+# uses 0.04, vtkDecimate's 1/25); a forced pair that is a polygon edge is a one-sided split.
+cdef int split_loop_aspect(const double* P, int stride, const int* loop, int k,
+                           const double* normal, int force_a, int force_b, double min_aspect,
+                           int* tri, int* work) noexcept nogil
+
 # The fan from loop index ``apex``: triangles (apex, j, j+1) over every polygon edge not at
 # apex.  Returns k - 2.
 cdef int fan_from(int apex, int k, int* tri) noexcept nogil

@@ -1,12 +1,230 @@
 # cython: language_level=3
 """Hole re-triangulation (placeholder: being written; see retriangulate.pxd)."""
 
+# ---- split_loop: Schroeder et al. 1992 recursive loop splitting (NAME=schroeder) ----------
+#
+# A split of a (sub-)loop cur[0..m-1] by the diagonal (i, j), i < j, has
+#   d = p_j - p_i, the split line;
+#   s = (d x n) / |d x n|, the normal of the split plane (it contains d and is orthogonal
+#     to the average plane, whose normal is n);
+# and is valid when every vertex strictly between i and j (sub-loop A = i..j) has
+# (p - p_i).s > 0 and every vertex after j or before i (sub-loop B = j..m-1, 0..i) has
+# (p - p_i).s < 0.  The sign, not only "opposite sides" as the paper words it, is what keeps
+# the triangles oriented as the surface: A's vertices lie to the right of i -> j for a loop
+# that turns counter-clockwise about n, so every leaf triangle (a, b, c) of A or B has
+# ((p_b - p_a) x (p_c - p_a)).n > 0.  Two sub-loops on opposite sides of a line cannot
+# overlap, so by induction the triangles never overlap in the projection on the average
+# plane and they cover the loop.
+# Its aspect ratio is min |(p - p_i).s| over the loop's other vertices, divided by |d|;
+# the valid split with the largest one is taken (ties within a relative 1e-9: the first
+# in the order i = 0, 1, ...; j = i + 2, ...), and the loop is not triangulated at all
+# when that best value is below ``min_aspect``.
+# A forced (i, j) that is a polygon edge (adjacent in the loop) is the degenerate split
+# with one empty side: every other vertex must lie on the loop's side of the plane through
+# that edge (Schroeder's own vtkDecimate does this for the new boundary edge of a boundary
+# vertex); the loop is then triangulated without constraint.
+from libc.math cimport sqrt, fabs
+
+# Schroeder's vtkDecimate: AspectRatio = 25, a split is refused when
+# (min distance / split length)^2 < 1 / 25^2, i.e. below 1 / 25 = 0.04.
+SPLIT_MIN_ASPECT = 0.04
+cdef double _min_aspect_default = 0.04
+
+cdef double _split_aspect(const double* P, int stride, const int* loop, const int* cur, int m,
+                          const double* n, int i, int j) noexcept nogil:
+    """Aspect ratio of the split of ``cur`` (indices into ``loop``) at local i < j, or -1
+    if the split is invalid (a vertex on the wrong side of, or on, the split plane)."""
+    cdef const double* a = &P[stride * loop[cur[i]]]
+    cdef const double* b = &P[stride * loop[cur[j]]]
+    cdef const double* q
+    cdef double d0 = b[0] - a[0], d1 = b[1] - a[1], d2 = b[2] - a[2]
+    cdef double L = sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    cdef double s0, s1, s2, sl, h, eps, mind = 1e300
+    cdef int t
+    if not L > 0.0:
+        return -1.0
+    s0 = d1 * n[2] - d2 * n[1]
+    s1 = d2 * n[0] - d0 * n[2]
+    s2 = d0 * n[1] - d1 * n[0]
+    sl = sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+    if not sl > 1e-12 * L * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]):
+        return -1.0                     # split line along the normal: no split plane
+    s0 /= sl
+    s1 /= sl
+    s2 /= sl
+    eps = 1e-12 * L
+    for t in range(m):
+        if t == i or t == j:
+            continue
+        q = &P[stride * loop[cur[t]]]
+        h = (q[0] - a[0]) * s0 + (q[1] - a[1]) * s1 + (q[2] - a[2]) * s2
+        if i < t < j:
+            if not h > eps:
+                return -1.0
+        else:
+            if not h < -eps:
+                return -1.0
+            h = -h
+        if h < mind:
+            mind = h
+    if mind == 1e300:
+        return -1.0                     # nothing to separate (m == 2)
+    return mind / L
+
+
+cdef int split_loop_aspect(const double* P, int stride, const int* loop, int k,
+                           const double* normal, int force_a, int force_b, double min_aspect,
+                           int* tri, int* work) noexcept nogil:
+    """split_loop with the minimum aspect ratio of a split as a parameter (see above)."""
+    cdef int* store            # sub-loops waiting to be split, back to back: <= 3k ints
+    cdef int* cur              # the sub-loop being split: k ints
+    cdef int* stack            # (offset, size) of each waiting sub-loop: <= 2k ints
+    cdef int nst = 0, top = 0, n_tri = 0, off, m, i, j, bi, bj, t, sa, sb, a, b, c, tmp
+    cdef bint forced = force_a >= 0 and force_b >= 0
+    cdef double ar, best
+    cdef const double* p0
+    cdef const double* p1
+    cdef const double* p2
+    cdef double e0, e1, e2, f0, f1, f2
+    if k < 3 or k > 1 << 14:
+        return -1
+    if forced:
+        if force_a >= k or force_b >= k or force_a == force_b:
+            return -1
+        if force_a > force_b:
+            force_a, force_b = force_b, force_a
+    store = work
+    cur = work + 3 * k
+    stack = work + 4 * k
+    for t in range(k):
+        store[t] = t
+    stack[0] = 0
+    stack[1] = k
+    nst = 1
+    top = k
+    while nst > 0:
+        nst -= 1
+        off = stack[2 * nst]
+        m = stack[2 * nst + 1]
+        for t in range(m):
+            cur[t] = store[off + t]
+        top = off
+        if forced:
+            # the first loop is the whole loop in order: local index == loop index
+            bi = force_a
+            bj = force_b
+            best = _split_aspect(P, stride, loop, cur, m, normal, bi, bj)
+            forced = False
+            if best < 0.0 or best < min_aspect:
+                return -1
+        elif m == 3:
+            p0 = &P[stride * loop[cur[0]]]
+            p1 = &P[stride * loop[cur[1]]]
+            p2 = &P[stride * loop[cur[2]]]
+            e0 = p1[0] - p0[0]; e1 = p1[1] - p0[1]; e2 = p1[2] - p0[2]
+            f0 = p2[0] - p0[0]; f1 = p2[1] - p0[1]; f2 = p2[2] - p0[2]
+            if not ((e1 * f2 - e2 * f1) * normal[0] + (e2 * f0 - e0 * f2) * normal[1]
+                    + (e0 * f1 - e1 * f0) * normal[2]) > 0.0:
+                return -1               # a flat or inverted triangle (only a k = 3 loop)
+            a = cur[0]
+            b = cur[1]
+            c = cur[2]
+            # rotate so the smallest index comes first: i < j < l, same cyclic order
+            while a > b or a > c:
+                tmp = a
+                a = b
+                b = c
+                c = tmp
+            tri[3 * n_tri] = a
+            tri[3 * n_tri + 1] = b
+            tri[3 * n_tri + 2] = c
+            n_tri += 1
+            continue
+        else:
+            best = -1.0
+            bi = bj = -1
+            for i in range(m - 2):
+                for j in range(i + 2, m):
+                    if i == 0 and j == m - 1:
+                        continue        # a polygon edge, not a diagonal
+                    ar = _split_aspect(P, stride, loop, cur, m, normal, i, j)
+                    if ar > best * (1.0 + 1e-9):
+                        best = ar
+                        bi = i
+                        bj = j
+            if bi < 0 or best < min_aspect:
+                return -1
+        # split cur at (bi, bj): A = bi..bj, B = bj..m-1, 0..bi; B is pushed first so that
+        # A is split first (the order of the output triangles)
+        sb = m - bj + bi + 1
+        sa = bj - bi + 1
+        if sb >= 3:
+            for t in range(m - bj):
+                store[top + t] = cur[bj + t]
+            for t in range(bi + 1):
+                store[top + m - bj + t] = cur[t]
+            stack[2 * nst] = top
+            stack[2 * nst + 1] = sb
+            nst += 1
+            top += sb
+        if sa >= 3:
+            for t in range(sa):
+                store[top + t] = cur[bi + t]
+            stack[2 * nst] = top
+            stack[2 * nst + 1] = sa
+            nst += 1
+            top += sa
+    if n_tri != k - 2:
+        return -1                       # cannot happen: every split keeps a + b = m + 2
+    return n_tri
+
+
 cdef int split_loop(const double* P, int stride, const int* loop, int k,
                     const double* normal, int force_a, int force_b,
                     int* tri, int* work) noexcept nogil:
-    return -1
+    return split_loop_aspect(P, stride, loop, k, normal, force_a, force_b, _min_aspect_default,
+                             tri, work)
+
+
+def py_split_loop(points, normal=None, force=None, min_aspect=None):
+    """Test wrapper of ``split_loop``: triangulate the loop ``points`` (k, 3) (in order,
+    turning counter-clockwise about ``normal``; default: the loop's Newell normal).
+    ``force`` = (a, b) names the first split (or a polygon edge: see above);
+    ``min_aspect`` defaults to SPLIT_MIN_ASPECT.  Returns (k - 2, 3) int32 triangles as
+    indices into the loop, each i < j < l, or None when no valid triangulation exists."""
+    import numpy as np
+
+    P = np.ascontiguousarray(points, dtype=np.float64)
+    if P.ndim != 2 or P.shape[1] != 3 or P.shape[0] < 3:
+        raise ValueError(f"points must have shape (k, 3) with k >= 3, got {P.shape}")
+    k = P.shape[0]
+    if normal is None:
+        nx = P[:, 1] * np.roll(P[:, 2], -1) - P[:, 2] * np.roll(P[:, 1], -1)
+        ny = P[:, 2] * np.roll(P[:, 0], -1) - P[:, 0] * np.roll(P[:, 2], -1)
+        nz = P[:, 0] * np.roll(P[:, 1], -1) - P[:, 1] * np.roll(P[:, 0], -1)
+        normal = [nx.sum(), ny.sum(), nz.sum()]
+    N = np.ascontiguousarray(normal, dtype=np.float64).reshape(3)
+    fa, fb = (-1, -1) if force is None else (int(force[0]), int(force[1]))
+    ma = SPLIT_MIN_ASPECT if min_aspect is None else float(min_aspect)
+    cdef const double[:, ::1] Pv = P
+    cdef const double[::1] Nv = N
+    cdef int[::1] loop = np.arange(k, dtype=np.int32)
+    cdef int[::1] tri = np.zeros(3 * k, dtype=np.int32)
+    cdef int[::1] work = np.zeros(4 * k * k, dtype=np.int32)
+    cdef int kk = k, n, a = fa, b = fb
+    cdef double mm = ma
+    with nogil:
+        n = split_loop_aspect(&Pv[0, 0], 3, &loop[0], kk, &Nv[0], a, b, mm, &tri[0], &work[0])
+    if n < 0:
+        return None
+    return np.asarray(tri)[:3 * n].reshape(n, 3).copy()
+# ---- end split_loop --------------------------------------------------------------------
+
+# ---- fan_from, closest_line_apex (NAME=vremove) ------------------------------------------
 
 cdef int fan_from(int apex, int k, int* tri) noexcept nogil:
+    """The fan from loop index ``apex``: (apex, j, j+1) over every polygon edge not at apex
+    (the closing edge k-1 -> 0 included), oriented as the loop.  Returns k - 2."""
     cdef int n = 0, j, a
     for j in range(k):
         a = (j + 1) % k
@@ -18,6 +236,80 @@ cdef int fan_from(int apex, int k, int* tri) noexcept nogil:
         n += 1
     return n
 
+
 cdef int closest_line_apex(const double* P, int stride, const int* loop, int k,
                            const double* x) noexcept nogil:
-    return -1
+    """Chuon & Guha (paper 004, section III.D): of the O(k^2) lines through two loop
+    vertices at distinct positions, the one closest to ``x``; returns its end nearer to
+    ``x`` (index into ``loop``).  Distance to a line through a, b: |(x - a) x (b - a)| /
+    |b - a|, compared squared and cross-multiplied (no division).  Ties keep the first pair
+    in the order (i, j), i < j, and the lower index between equally near ends.  Pairs at
+    coincident positions span no line and are skipped; if every loop vertex coincides, 0.
+    -1 if k < 3."""
+    cdef int i, j, best_i = -1, best_j = -1
+    cdef const double* a
+    cdef const double* b
+    cdef double d0, d1, d2, w0, w1, w2, c0, c1, c2, len2, num, best_num = 0.0, best_len2 = 1.0
+    cdef double da, db
+    if k < 3:
+        return -1
+    for i in range(k):
+        a = &P[stride * loop[i]]
+        w0 = x[0] - a[0]
+        w1 = x[1] - a[1]
+        w2 = x[2] - a[2]
+        for j in range(i + 1, k):
+            b = &P[stride * loop[j]]
+            d0 = b[0] - a[0]
+            d1 = b[1] - a[1]
+            d2 = b[2] - a[2]
+            len2 = d0 * d0 + d1 * d1 + d2 * d2
+            if not len2 > 0.0:
+                continue                     # coincident vertices: no line
+            c0 = w1 * d2 - w2 * d1
+            c1 = w2 * d0 - w0 * d2
+            c2 = w0 * d1 - w1 * d0
+            num = c0 * c0 + c1 * c1 + c2 * c2
+            # num / len2 < best_num / best_len2, without dividing
+            if best_i < 0 or num * best_len2 < best_num * len2:
+                best_i = i
+                best_j = j
+                best_num = num
+                best_len2 = len2
+    if best_i < 0:
+        return 0
+    a = &P[stride * loop[best_i]]
+    b = &P[stride * loop[best_j]]
+    da = (x[0] - a[0]) ** 2 + (x[1] - a[1]) ** 2 + (x[2] - a[2]) ** 2
+    db = (x[0] - b[0]) ** 2 + (x[1] - b[1]) ** 2 + (x[2] - b[2]) ** 2
+    return best_j if db < da else best_i
+
+
+def py_fan_from(int apex, int k):
+    """Test wrapper of ``fan_from``: (k - 2, 3) int32 triangles of the fan from ``apex``."""
+    import numpy as np
+
+    if k < 3 or not 0 <= apex < k:
+        raise ValueError(f"need k >= 3 and 0 <= apex < k, got apex={apex}, k={k}")
+    out = np.zeros(3 * k, dtype=np.int32)
+    cdef int[::1] tri = out
+    cdef int n = fan_from(apex, k, &tri[0])
+    return out[:3 * n].reshape(n, 3).copy()
+
+
+def py_closest_line_apex(points, x):
+    """Test wrapper of ``closest_line_apex``: ``points`` (k, 3) the loop, ``x`` (3,) the
+    point.  Returns the loop index of the apex (-1 if k < 3)."""
+    import numpy as np
+
+    P = np.ascontiguousarray(points, dtype=np.float64)
+    if P.ndim != 2 or P.shape[1] != 3:
+        raise ValueError(f"points must have shape (k, 3), got {P.shape}")
+    X = np.ascontiguousarray(x, dtype=np.float64).reshape(3)
+    k = P.shape[0]
+    if k == 0:
+        return -1
+    cdef double[:, ::1] Pv = P
+    cdef double[::1] Xv = X
+    cdef int[::1] loop = np.arange(k, dtype=np.int32)
+    return closest_line_apex(&Pv[0, 0], 3, &loop[0], k, &Xv[0])

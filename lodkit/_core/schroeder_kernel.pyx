@@ -1,2 +1,282 @@
 # cython: language_level=3
-"""Placeholder: being written."""
+"""The native kernel of the ``schroeder`` metric (Schroeder, Zarge & Lorensen 1992).
+
+For a vertex v with link l_0 .. l_{k-1} (removal.pxd: face i is (v, l_i, l_{i+1})):
+
+1. **Classify** the star.  Face i has the area vector a_i = (l_i - v) x (l_{i+1} - v) (twice
+   its area times its unit normal n_i).  The edge (v, l_i) between faces i - 1 and i is a
+   *feature edge* when the angle between n_{i-1} and n_i is more than ``feature_angle``
+   (n_{i-1}.n_i < cos(feature_angle)); edges touching a face of zero area are not feature
+   edges (their angle is undefined).  Then
+
+   =============  =====================================================================
+   SIMPLE         closed star, no feature edge
+   INTERIOR_EDGE  closed star, exactly two feature edges (v lies on a crease)
+   CORNER         closed star with one or more than two feature edges, or an open star
+                  with any feature edge
+   BOUNDARY       open star (v on a boundary loop), no feature edge
+   COMPLEX        anything the driver did not already exclude that has no well-defined
+                  average plane or loop: a repeated link vertex, fewer than 3 link
+                  vertices (an open star of one face), zero total area or zero average
+                  normal
+   =============  =====================================================================
+
+2. **Average plane** (Schroeder's area-weighted one): normal N = sum a_i / |sum a_i|,
+   point x_0 = sum A_i c_i / sum A_i with A_i = |a_i| / 2 and c_i the centroid of face i.
+
+3. **Decimation criterion** d, the vertex's error and cost:
+   SIMPLE (and a closed-star CORNER with ``remove_corners``): d = |N . (v - x_0)|;
+   BOUNDARY (and an open-star CORNER with ``remove_corners``): the distance of v to the
+   line through l_0 and l_{k-1} (the new boundary edge);
+   INTERIOR_EDGE: the distance of v to the line through its two feature neighbours (the
+   new feature edge).  COMPLEX and (by default) CORNER vertices are vetoed.
+
+4. **Hole**: the loop l_0 .. l_{k-1} is triangulated by recursive loop splitting with split
+   planes orthogonal to the average plane (retriangulate.split_loop_aspect, smallest split
+   aspect ratio ``min_aspect``).  INTERIOR_EDGE: the first split is forced along the
+   feature edge, so the crease survives as an edge.  BOUNDARY: the first "split" is the new
+   boundary edge l_{k-1} -> l_0 itself, one-sided: every other link vertex must lie on the
+   surface's side of its split plane, with the same aspect-ratio bound (what Schroeder's
+   vtkDecimate checks).  No valid triangulation: KERNEL_VETO (the vertex stays until its
+   star changes).
+
+The kernel keeps no state between removals (commit does nothing): the error is local, as
+in the paper.
+"""
+import math as _math
+
+import numpy as np
+
+from libc.math cimport sqrt, NAN
+
+from .kernel cimport KernelMesh, KERNEL_OK, KERNEL_VETO
+from .removal cimport RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION
+from .retriangulate cimport split_loop_aspect
+
+cdef enum:
+    C_SIMPLE = 0
+    C_COMPLEX = 1
+    C_BOUNDARY = 2
+    C_INTERIOR_EDGE = 3
+    C_CORNER = 4
+
+SIMPLE = C_SIMPLE
+COMPLEX = C_COMPLEX
+BOUNDARY = C_BOUNDARY
+INTERIOR_EDGE = C_INTERIOR_EDGE
+CORNER = C_CORNER
+#: class code -> name
+CLASS_NAMES = ("simple", "complex", "boundary", "interior_edge", "corner")
+
+#: defaults of the options (docs/metrics/schroeder.md gives their sources)
+DEFAULT_FEATURE_ANGLE = 30.0     # degrees: vtkDecimate's InitialFeatureAngle
+DEFAULT_MIN_ASPECT = 0.04        # vtkDecimate's AspectRatio 25: a split is refused below 1/25
+
+
+cdef class SchroederKernel(RemovalKernel):
+    api_version = REMOVAL_API_VERSION
+
+    cdef readonly double feature_angle       # degrees
+    cdef readonly double cos_feature
+    cdef readonly double min_aspect
+    cdef readonly bint remove_corners
+    cdef int[::1] _work                      # split_loop scratch: 4 * MAX_VALENCE^2 ints
+    cdef int* work
+    # what the last evaluate() found (for evaluate_star and tests)
+    cdef int last_class
+    cdef int last_fa
+    cdef int last_fb
+
+    def __cinit__(self):
+        self._work = np.zeros(4 * MAX_VALENCE * MAX_VALENCE, dtype=np.int32)
+        self.work = &self._work[0]
+        self.feature_angle = DEFAULT_FEATURE_ANGLE
+        self.cos_feature = _math.cos(_math.radians(DEFAULT_FEATURE_ANGLE))
+        self.min_aspect = DEFAULT_MIN_ASPECT
+        self.remove_corners = False
+        self.last_class = C_COMPLEX
+        self.last_fa = self.last_fb = -1
+
+    def prepare(self, ctx, options):
+        """Take ``feature_angle`` (degrees, in [0, 180]), ``min_aspect`` (>= 0) and
+        ``remove_corners`` from ``options`` (missing ones keep their defaults)."""
+        fa = float(options.get("feature_angle", DEFAULT_FEATURE_ANGLE))
+        ma = float(options.get("min_aspect", DEFAULT_MIN_ASPECT))
+        if not (0.0 <= fa <= 180.0):
+            raise ValueError(f"feature_angle must be in [0, 180] degrees, got {fa!r}")
+        if not (ma >= 0.0 and _math.isfinite(ma)):
+            raise ValueError(f"min_aspect must be a finite number >= 0, got {ma!r}")
+        self.feature_angle = fa
+        self.cos_feature = _math.cos(_math.radians(fa))
+        self.min_aspect = ma
+        self.remove_corners = bool(options.get("remove_corners", False))
+
+    cdef int evaluate(self, const Star* s, Removal* r) noexcept nogil:
+        cdef const KernelMesh* m = s.mesh
+        cdef const double* P = m.positions
+        cdef int stride = m.stride
+        cdef int k = s.k, nf, i, j, ia, ib, cls, nfeat, fa = -1, fb = -1, n
+        cdef const double* x = &P[stride * s.v]
+        cdef const double* b
+        cdef const double* c
+        cdef double un[3 * MAX_VALENCE]          # unit normal of each face (0 if degenerate)
+        cdef double N[3]
+        cdef double C[3]
+        cdef double e[3]
+        cdef double f[3]
+        cdef double g[3]
+        cdef double area, A = 0.0, nl, d, t, ll
+        cdef int force_a, force_b
+        r.gate = NAN
+        self.last_class = C_COMPLEX
+        self.last_fa = self.last_fb = -1
+        if k < 3 or k > MAX_VALENCE:
+            return KERNEL_VETO
+        for i in range(k):
+            for j in range(i):
+                if s.link[i] == s.link[j]:
+                    return KERNEL_VETO          # a repeated link vertex: not a disc
+        nf = k if s.closed else k - 1
+        N[0] = N[1] = N[2] = 0.0
+        C[0] = C[1] = C[2] = 0.0
+        for i in range(nf):
+            b = &P[stride * s.link[i]]
+            c = &P[stride * s.link[(i + 1) % k]]
+            for j in range(3):
+                e[j] = b[j] - x[j]
+                f[j] = c[j] - x[j]
+            g[0] = e[1] * f[2] - e[2] * f[1]
+            g[1] = e[2] * f[0] - e[0] * f[2]
+            g[2] = e[0] * f[1] - e[1] * f[0]
+            nl = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
+            area = 0.5 * nl
+            for j in range(3):
+                N[j] += g[j]
+                C[j] += area * (x[j] + b[j] + c[j]) / 3.0
+                un[3 * i + j] = g[j] / nl if nl > 0.0 else 0.0
+            A += area
+        nl = sqrt(N[0] * N[0] + N[1] * N[1] + N[2] * N[2])
+        if not (A > 0.0 and nl > 1e-12 * A):
+            return KERNEL_VETO                  # no average plane (VTK's zero-area / -normal)
+        for j in range(3):
+            N[j] /= nl
+            C[j] /= A
+
+        # feature edges: edge (v, l_i) lies between faces i - 1 and i
+        nfeat = 0
+        for i in range(k):
+            if s.closed:
+                ia = (i + k - 1) % k
+            elif i == 0 or i == k - 1:
+                continue                        # the two boundary edges
+            else:
+                ia = i - 1
+            ib = i
+            t = un[3 * ia] * un[3 * ib] + un[3 * ia + 1] * un[3 * ib + 1] + un[3 * ia + 2] * un[3 * ib + 2]
+            if (un[3 * ia] == 0.0 and un[3 * ia + 1] == 0.0 and un[3 * ia + 2] == 0.0) or \
+               (un[3 * ib] == 0.0 and un[3 * ib + 1] == 0.0 and un[3 * ib + 2] == 0.0):
+                continue                        # a face of zero area: no angle
+            if t < self.cos_feature:
+                if nfeat == 0:
+                    fa = i
+                elif nfeat == 1:
+                    fb = i
+                nfeat += 1
+        if s.closed:
+            cls = C_SIMPLE if nfeat == 0 else (C_INTERIOR_EDGE if nfeat == 2 else C_CORNER)
+        else:
+            cls = C_BOUNDARY if nfeat == 0 else C_CORNER
+        if not s.closed and (cls == C_BOUNDARY or self.remove_corners):
+            fa = 0                              # the new boundary edge's ends
+            fb = k - 1
+        self.last_class = cls
+        self.last_fa = fa if cls == C_INTERIOR_EDGE or cls == C_BOUNDARY else -1
+        self.last_fb = fb if cls == C_INTERIOR_EDGE or cls == C_BOUNDARY else -1
+
+        force_a = force_b = -1
+        if cls == C_SIMPLE or (cls == C_CORNER and self.remove_corners and s.closed):
+            d = (x[0] - C[0]) * N[0] + (x[1] - C[1]) * N[1] + (x[2] - C[2]) * N[2]
+            if d < 0.0:
+                d = -d
+        elif cls == C_INTERIOR_EDGE or cls == C_BOUNDARY or (cls == C_CORNER and self.remove_corners):
+            b = &P[stride * s.link[fa]]
+            c = &P[stride * s.link[fb]]
+            for j in range(3):
+                e[j] = c[j] - b[j]
+                f[j] = x[j] - b[j]
+            ll = e[0] * e[0] + e[1] * e[1] + e[2] * e[2]
+            if not ll > 0.0:
+                return KERNEL_VETO
+            g[0] = e[1] * f[2] - e[2] * f[1]
+            g[1] = e[2] * f[0] - e[0] * f[2]
+            g[2] = e[0] * f[1] - e[1] * f[0]
+            d = sqrt((g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) / ll)
+            force_a = fa
+            force_b = fb
+        else:
+            return KERNEL_VETO                  # corner (kept, as Schroeder) or complex
+        n = split_loop_aspect(P, stride, s.link, k, N, force_a, force_b, self.min_aspect,
+                              r.tri, self.work)
+        if n < 0:
+            return KERNEL_VETO                  # no valid triangulation: the vertex stays
+        r.n_tris = n
+        r.cost = d
+        r.error = d
+        return KERNEL_OK
+
+    cdef int commit(self, const Star* s, const Removal* r) noexcept nogil:
+        return KERNEL_OK
+
+    def evaluate_star(self, positions, int v, link, bint closed):
+        """Evaluate removing vertex ``v`` of ``positions`` (n, 3) whose link is ``link``
+        (in order, see removal.pxd) and star closed or open, with this kernel's options.
+
+        Returns a dict: ``cls`` (class code), ``name`` (class name), ``features`` (the two
+        link indices whose line is the criterion's, for boundary and interior-edge
+        vertices, else None), ``vetoed`` (bool), ``error`` and ``cost`` (None when
+        vetoed) and ``triangles`` ((k - 2, 3) int32 indices into ``link``, or None)."""
+        cdef const double[:, ::1] Pv = np.ascontiguousarray(positions, dtype=np.float64)
+        L = np.ascontiguousarray(link, dtype=np.int32).reshape(-1)
+        if Pv.shape[1] != 3:
+            raise ValueError("positions must have shape (n, 3)")
+        if L.shape[0] > MAX_VALENCE:
+            raise ValueError(f"at most {MAX_VALENCE} link vertices")
+        if not (0 <= v < Pv.shape[0]) or (L.shape[0] and (L.min() < 0 or L.max() >= Pv.shape[0])):
+            raise ValueError("vertex index out of range")
+        cdef KernelMesh mesh
+        cdef Star star
+        cdef Removal rem
+        cdef int i, rc
+        mesh.he = NULL
+        mesh.positions = &Pv[0, 0]
+        mesh.stride = 3
+        mesh.flags = NULL
+        mesh.n_vertices = Pv.shape[0]
+        mesh.n_faces = 0
+        star.mesh = &mesh
+        star.v = v
+        star.k = L.shape[0]
+        star.closed = 1 if closed else 0
+        for i in range(star.k):
+            star.link[i] = L[i]
+            star.face[i] = -1
+        rem.n_tris = 0
+        with nogil:
+            rc = self.evaluate(&star, &rem)
+        out = {"cls": self.last_class, "name": CLASS_NAMES[self.last_class],
+               "features": (self.last_fa, self.last_fb) if self.last_fa >= 0 else None,
+               "vetoed": rc != KERNEL_OK, "error": None, "cost": None, "triangles": None}
+        if rc == KERNEL_OK:
+            out["error"] = rem.error
+            out["cost"] = rem.cost
+            out["triangles"] = np.array([rem.tri[i] for i in range(3 * rem.n_tris)],
+                                        dtype=np.int32).reshape(rem.n_tris, 3)
+        return out
+
+
+def evaluate_star(positions, int v, link, bint closed, **options):
+    """:meth:`SchroederKernel.evaluate_star` with a kernel prepared from ``options``
+    (feature_angle, min_aspect, remove_corners)."""
+    k = SchroederKernel()
+    k.prepare(None, options)
+    return k.evaluate_star(positions, v, link, closed)

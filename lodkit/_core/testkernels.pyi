@@ -2,6 +2,7 @@
 from typing import Any, ClassVar
 
 from .kernel import Kernel
+from .removal import RemovalKernel
 
 class VetoAll(Kernel):
     """Refuses every collapse (``cost`` returns VETO)."""
@@ -38,3 +39,18 @@ class CommitVeto(Kernel):
     """Wrongly answers KERNEL_VETO from ``commit`` (a contract error: the run fails)."""
 
     api_version: ClassVar[int]
+
+class PlaneFan(RemovalKernel):
+    """Vertex removal: cost = error = distance to the star's average plane (boundary vertex:
+    to the new boundary edge's line); the hole filled
+    by the fan from the closest-line apex.  Options gate ((n,) floats: gated), veto ((n,)
+    bools), fail_after (int)."""
+
+    @property
+    def n_evaluate(self) -> int:
+        """Calls of ``evaluate`` since ``prepare``."""
+    @property
+    def n_commit(self) -> int:
+        """Calls of ``commit`` since ``prepare``."""
+    def prepare(self, ctx: Any, options: dict[str, Any]) -> None:
+        """Reads gate, veto and fail_after."""

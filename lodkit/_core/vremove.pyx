@@ -1,2 +1,946 @@
 # cython: language_level=3
-"""Placeholder: being written."""
+"""Greedy vertex-removal driver (Schroeder et al. 1992; Chuon & Guha), the second operator
+family of the papers: remove a vertex with its star and re-triangulate the hole.
+
+The loop (``VertexRemover.run_c``), without the GIL and without allocation:
+
+    pop the cheapest vertex -> re-evaluate its star with the kernel (cost, error, the hole's
+    triangulation) -> check the triangulation (topology, flips, quality, volume) -> replace
+    the star in the half-edge arrays -> kernel.commit -> re-evaluate every vertex of the old
+    link (their stars changed).
+
+One candidate per vertex slot lives in an indexed heap keyed by the kernel's
+``Removal.cost``.  A removal the checks refuse takes the vertex out of the heap until its
+star changes (or a rescan, when the heap runs dry).  Gated kernels (``kernel.gated``,
+Chuon & Guha's median filter) only let the candidates whose gate is >= the median gate of
+all candidates compete; the median is kept by :class:`MedianFilter` (two indexed heaps).
+
+Checks and their exact meaning: docs/algorithms.md, "Vertex removal".
+"""
+import numpy as np
+cimport numpy as cnp
+from libc.math cimport sqrt, cos, M_PI, INFINITY
+
+from .halfedge cimport HalfEdgeMesh, HEArrays, he_next, he_prev, he_dest, he_ring_next, replace_star
+from .heap cimport IndexedHeap
+from .vec3 cimport cross3, dot3
+from .kernel cimport KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VERTEX_FIXED, VERTEX_BOUNDARY
+from .removal cimport RemovalKernel, Star, Removal, MAX_VALENCE
+
+cnp.import_array()
+
+# statuses of run() (as EdgeCollapser's, plus R_GROW)
+cdef enum:
+    R_TARGET = 0
+    R_CHUNK = 1
+    R_EXHAUSTED = 2
+    R_ERROR = 3
+    R_GROW = 4          # record=True: the record buffers are full; run() grows them and goes on
+
+RUN_TARGET = R_TARGET
+RUN_CHUNK = R_CHUNK
+RUN_EXHAUSTED = R_EXHAUSTED
+RUN_ERROR = R_ERROR
+
+# per-vertex state (VertexRemover.states): why a vertex is not removed (yet)
+cdef enum:
+    ST_NONE = 0         # dead, fixed, or not evaluated
+    ST_CANDIDATE = 1    # a valid evaluation: in the heap (or, gated, below the median)
+    ST_KERNEL = 2       # the kernel vetoed its removal
+    ST_ERROR = 3        # its error exceeds max_error
+    ST_TOPOLOGY = 4     # the triangulation would break the manifold / topology / welding rules
+    ST_GEOMETRY = 5     # a new face would flip, fold or degenerate
+    ST_QUALITY = 6      # a new face would be a sliver (min_quality)
+    ST_VOLUME = 7       # a closed surface would turn inside out
+    ST_VALENCE = 8      # more than MAX_VALENCE link vertices
+    ST_FIXED = 9        # locked, split copy, 'lock' boundary or attribute-seam vertex
+    N_STATES = 10
+
+STATE_NAMES = ("none", "candidate", "kernel", "max_error", "topology", "geometry", "quality",
+               "volume", "valence", "fixed")
+
+# A new face whose normal makes more than ~120 degrees with a neighbour's (and more than the
+# old face did) folds the surface back on itself (the collapse driver's FOLD_COS).
+cdef double FOLD_COS = -0.5
+cdef double SQRT3 = 1.7320508075688772
+
+
+cdef class MedianFilter:
+    """The median of a changing set of (id, value) pairs, without re-sorting: the smaller
+    half in a max-heap (``lo``, keys negated), the larger half in a min-heap (``hi``),
+    ``len(lo) == ceil(n / 2)``.  The median is the largest value of ``lo`` (the lower
+    median: the ceil(n/2)-th smallest value).  Insert, update and remove are O(log n);
+    :meth:`band` lists the ids whose value lies in [a, b) in O(answer) by walking both heaps
+    from their roots."""
+
+    cdef IndexedHeap lo
+    cdef IndexedHeap hi
+    cdef double[::1] val
+    cdef int[::1] stack
+    cdef readonly int capacity
+
+    def __cinit__(self, int capacity):
+        if capacity < 0:
+            raise ValueError(f"capacity must be >= 0, got {capacity}")
+        self.capacity = capacity
+        self.lo = IndexedHeap(capacity)
+        self.hi = IndexedHeap(capacity)
+        self.val = np.full(max(capacity, 1), np.nan)
+        self.stack = np.zeros(max(capacity, 1), dtype=np.intc)
+
+    cdef inline int count(self) noexcept nogil:
+        return self.lo.size + self.hi.size
+
+    cdef void _rebalance(self) noexcept nogil:
+        cdef int cid
+        cdef double key
+        while self.lo.size > self.hi.size + 1:
+            self.lo.pop_fast(&cid, &key)
+            self.hi.push_fast(cid, -key)
+        while self.hi.size > self.lo.size:
+            self.hi.pop_fast(&cid, &key)
+            self.lo.push_fast(cid, -key)
+
+    cdef void remove_fast(self, int cid) noexcept nogil:
+        if self.lo.contains_fast(cid):
+            self.lo.remove_fast(cid)
+        elif self.hi.contains_fast(cid):
+            self.hi.remove_fast(cid)
+        else:
+            return
+        self.val[cid] = INFINITY
+        self._rebalance()
+
+    cdef void set_fast(self, int cid, double value) noexcept nogil:
+        """Insert ``cid`` with ``value`` or change its value; NaN removes it.  ``cid`` must
+        be in range (the driver's vertex slots are)."""
+        if self.lo.contains_fast(cid) or self.hi.contains_fast(cid):
+            if value == self.val[cid]:
+                return
+            self.remove_fast(cid)
+        if value != value:
+            return
+        self.val[cid] = value
+        if self.lo.size == 0 or value <= -self.lo.hkey[0]:
+            self.lo.push_fast(cid, -value)
+        else:
+            self.hi.push_fast(cid, value)
+        self._rebalance()
+
+    cdef double median_fast(self) noexcept nogil:
+        """The lower median, +inf when empty."""
+        if self.lo.size == 0:
+            return INFINITY
+        return -self.lo.hkey[0]
+
+    cdef int band_fast(self, double a, double b, int* out) noexcept nogil:
+        """Write the ids whose value v has a <= v < b to ``out``; returns their number."""
+        cdef int n = 0, top, s, c, last
+        cdef double v
+        # lo holds keys -v: the ids with v >= a form a subtree at the root (key <= -a)
+        if self.lo.size and self.lo.hkey[0] <= -a:
+            self.stack[0] = 0
+            top = 1
+            while top > 0:
+                top -= 1
+                s = self.stack[top]
+                v = -self.lo.hkey[s]
+                if v < b:
+                    out[n] = self.lo.hid[s]
+                    n += 1
+                c = 4 * s + 1
+                last = c + 4 if c + 4 < self.lo.size else self.lo.size
+                while c < last:
+                    if self.lo.hkey[c] <= -a:
+                        self.stack[top] = c
+                        top += 1
+                    c += 1
+        # hi holds keys v: the ids with v < b form a subtree at the root
+        if self.hi.size and self.hi.hkey[0] < b:
+            self.stack[0] = 0
+            top = 1
+            while top > 0:
+                top -= 1
+                s = self.stack[top]
+                v = self.hi.hkey[s]
+                if v >= a:
+                    out[n] = self.hi.hid[s]
+                    n += 1
+                c = 4 * s + 1
+                last = c + 4 if c + 4 < self.hi.size else self.hi.size
+                while c < last:
+                    if self.hi.hkey[c] < b:
+                        self.stack[top] = c
+                        top += 1
+                    c += 1
+        return n
+
+    # ------------------------------------------------------------- Python API (tests)
+    def _check_id(self, int cid):
+        if not 0 <= cid < self.capacity:
+            raise ValueError(f"id {cid} outside 0..{self.capacity - 1}")
+
+    def set(self, int cid, double value):
+        """Insert ``cid`` with ``value``, or change its value; NaN removes it."""
+        self._check_id(cid)
+        self.set_fast(cid, value)
+
+    def remove(self, int cid):
+        """Remove ``cid`` (absent ids are ignored)."""
+        self._check_id(cid)
+        self.remove_fast(cid)
+
+    def median(self):
+        """The lower median of the values (the ceil(n/2)-th smallest), None when empty."""
+        return None if self.count() == 0 else self.median_fast()
+
+    def band(self, double a, double b):
+        """Sorted int32 array of the ids whose value v has a <= v < b."""
+        out = np.zeros(max(self.count(), 1), dtype=np.intc)
+        cdef int[::1] o = out
+        cdef int n = self.band_fast(a, b, &o[0])
+        return np.sort(out[:n])
+
+    def __len__(self):
+        return self.count()
+
+    def __contains__(self, cid):
+        return self.lo.contains_fast(<int>cid) or self.hi.contains_fast(<int>cid)
+
+    def check(self):
+        """Verify the halves' sizes and order (for tests); raises AssertionError."""
+        self.lo.check()
+        self.hi.check()
+        if not (self.hi.size <= self.lo.size <= self.hi.size + 1):
+            raise AssertionError(f"halves of sizes {self.lo.size}, {self.hi.size}")
+        if self.lo.size and self.hi.size and -self.lo.hkey[0] > self.hi.hkey[0]:
+            raise AssertionError("the lower half holds a value above the upper half's least")
+        return True
+
+
+cdef inline double face_volume(const double* a, const double* b, const double* c) noexcept nogil:
+    """Six times the signed volume of the cone from the origin over triangle a b c."""
+    return (a[0] * (b[1] * c[2] - b[2] * c[1]) + a[1] * (b[2] * c[0] - b[0] * c[2])
+            + a[2] * (b[0] * c[1] - b[1] * c[0]))
+
+
+cdef inline double tri_normal(const double* a, const double* b, const double* c, double* n,
+                              double* sumsq) noexcept nogil:
+    """(b - a) x (c - a) into ``n``; returns its length; ``sumsq`` gets the summed squared
+    edge lengths."""
+    cdef double e1[3]
+    cdef double e2[3]
+    cdef int i
+    sumsq[0] = 0.0
+    for i in range(3):
+        e1[i] = b[i] - a[i]
+        e2[i] = c[i] - a[i]
+        sumsq[0] += e1[i] * e1[i] + e2[i] * e2[i] + (c[i] - b[i]) * (c[i] - b[i])
+    cross3(e1, e2, n)
+    return sqrt(dot3(n, n))
+
+
+cdef class VertexRemover:
+    """Greedy vertex removal over a :class:`HalfEdgeMesh` (modified in place).
+
+    positions : (n, 3) float64 normalised positions (never changed: the output vertices are
+                a subset of the input)
+    kernel    : a prepared :class:`lodkit._core.removal.RemovalKernel`
+    fixed     : (n,) uint8/bool, 1 = never removed (locked, split copies, seam copies)
+    boundary  : 0 lock (boundary vertices are fixed), 1 preserve, 2 free (the same checks:
+                see docs/algorithms.md)
+    max_normal_angle, min_quality, max_error : as for the collapse driver
+    closed_connected : track the signed volume and refuse a removal that changes its sign
+    record    : keep every removal (``records()``)
+    """
+
+    cdef HalfEdgeMesh hm
+    cdef HEArrays* m
+    cdef double[:, ::1] pos
+    cdef double* P
+    cdef unsigned char[::1] vflags
+    cdef RemovalKernel kernel
+    cdef KernelMesh kmesh
+    cdef IndexedHeap heap
+    cdef MedianFilter filt
+    cdef readonly bint gated
+    cdef double med                 # the median the heap's membership agrees with
+    cdef double[::1] vcost
+    cdef double[::1] verr
+    cdef double[::1] vgate
+    cdef unsigned char[::1] state
+    cdef int[::1] band_buf
+    cdef double[::1] n0             # (3 n_faces) unit normal of the input face of each face slot
+    cdef int boundary
+    cdef double cos_max_angle
+    cdef double cos_orig_angle
+    cdef bint check_orig
+    cdef double min_quality
+    cdef double max_error
+    cdef double closed_volume
+    cdef double pending_dvol
+    cdef readonly int n_collapses   # removals done
+    cdef readonly double max_error_done
+    cdef readonly bint failed
+    cdef long[::1] nref             # refusal events by state code
+    cdef int removals_since_rescan
+    cdef int reranks                # re-ranks on pop since the last removal
+    cdef Star star
+    cdef Removal rem
+    cdef int hv[MAX_VALENCE]        # hv[i]: the half-edge v -> link[i] in face[i]
+    cdef int slot_plan[MAX_VALENCE] # geometry_ok: the face slot each new triangle takes
+    # records
+    cdef bint record
+    cdef int[::1] rec_v
+    cdef unsigned char[::1] rec_closed
+    cdef long long[::1] rec_off     # removal i: link entries rec_off[i] .. rec_off[i+1]
+    cdef int[::1] rec_link
+    cdef unsigned char[::1] rec_tri # k - 2 triangles of removal i at 3 * (rec_off[i] - 2 i)
+    cdef double[::1] rec_cost
+    cdef double[::1] rec_err
+    cdef long long rec_cap          # capacity of rec_link
+
+    def __init__(self, HalfEdgeMesh hm, positions, RemovalKernel kernel, fixed,
+                 int boundary=1, double max_normal_angle=90.0, double min_quality=0.0,
+                 double max_error=INFINITY, bint record=False, bint closed_connected=False):
+        cdef int n = hm.n_vertices
+        if kernel is None:
+            raise TypeError("kernel must be a lodkit._core.removal.RemovalKernel")
+        self.hm = hm
+        self.m = &hm.c
+        pos_arr = np.ascontiguousarray(positions, dtype=np.float64)
+        if pos_arr.shape != (n, 3):
+            raise ValueError(f"positions must have shape ({n}, 3)")
+        self.pos = pos_arr
+        self.P = &self.pos[0, 0] if n else NULL
+        fixed_arr = np.asarray(fixed).reshape(-1)
+        if fixed_arr.shape[0] != n:
+            raise ValueError(f"fixed must have {n} entries")
+        if boundary not in (0, 1, 2):
+            raise ValueError(f"unknown boundary policy {boundary}")
+        if not (0.0 < max_normal_angle <= 180.0):
+            raise ValueError("max_normal_angle must be in (0, 180] degrees")
+        self.boundary = boundary
+        flags = (fixed_arr != 0).astype(np.uint8) * VERTEX_FIXED
+        bnd = hm.boundary_vertices
+        flags[bnd] |= VERTEX_BOUNDARY
+        if boundary == 0:
+            flags[bnd] |= VERTEX_FIXED
+        self.vflags = np.ascontiguousarray(flags, dtype=np.uint8)
+        self.kernel = kernel
+        self.gated = kernel.gated
+        self.kmesh.he = self.m
+        self.kmesh.positions = self.P
+        self.kmesh.stride = 3
+        self.kmesh.flags = &self.vflags[0] if n else NULL
+        self.kmesh.n_vertices = n
+        self.kmesh.n_faces = hm.n_faces
+        self.star.mesh = &self.kmesh
+        self.cos_max_angle = cos(max_normal_angle * M_PI / 180.0)
+        self.cos_orig_angle = cos(min(max_normal_angle, 90.0) * M_PI / 180.0)
+        self.check_orig = max_normal_angle < 180.0
+        self.min_quality = min_quality
+        self.max_error = max_error
+        self.heap = IndexedHeap(n)
+        self.filt = MedianFilter(n if self.gated else 0)
+        self.med = INFINITY
+        self.vcost = np.zeros(max(n, 1))
+        self.verr = np.zeros(max(n, 1))
+        self.vgate = np.full(max(n, 1), np.nan)
+        self.state = np.zeros(max(n, 1), dtype=np.uint8)
+        self.band_buf = np.zeros(max(n, 1), dtype=np.intc)
+        self.nref = np.zeros(N_STATES, dtype=np.int_)
+        self.n_collapses = 0
+        self.max_error_done = 0.0
+        self.failed = False
+        # the input face normals: a face slot keeps its input face (face_map) for good
+        P = pos_arr
+        C = hm.corners
+        nrm = np.cross(P[C[:, 1]] - P[C[:, 0]], P[C[:, 2]] - P[C[:, 0]]) if C.shape[0] else np.zeros((0, 3))
+        ln = np.linalg.norm(nrm, axis=1, keepdims=True)
+        self.n0 = np.ascontiguousarray(np.divide(nrm, ln, out=np.zeros_like(nrm), where=ln > 0).reshape(-1)) \
+            if C.shape[0] else np.zeros(3)
+        self.closed_volume = 0.0
+        cdef int f
+        if closed_connected:
+            for f in range(hm.n_faces):
+                if hm.face_alive[f]:
+                    self.closed_volume += face_volume(&self.P[3 * hm.corner[3 * f]], &self.P[3 * hm.corner[3 * f + 1]],
+                                                      &self.P[3 * hm.corner[3 * f + 2]])
+        self.record = record
+        self.rec_cap = 0
+        self._alloc_records(8 * n if record else 0)
+        self.removals_since_rescan = 0
+        self.reranks = 0
+        with nogil:
+            self.rescan()
+
+    def _alloc_records(self, long long cap):
+        cdef int n = self.hm.n_vertices
+        cdef long long used = self.rec_off[self.n_collapses] if self.rec_cap else 0
+        cap = max(cap, 1)
+        if self.rec_cap == 0:
+            nr = n if self.record else 0
+            self.rec_v = np.zeros(max(nr, 1), dtype=np.intc)
+            self.rec_closed = np.zeros(max(nr, 1), dtype=np.uint8)
+            self.rec_off = np.zeros(nr + 1, dtype=np.int64)
+            self.rec_cost = np.zeros(max(nr, 1))
+            self.rec_err = np.zeros(max(nr, 1))
+            self.rec_link = np.zeros(cap, dtype=np.intc)
+            self.rec_tri = np.zeros(3 * cap, dtype=np.uint8)
+        else:
+            link = np.zeros(cap, dtype=np.intc)
+            link[:used] = np.asarray(self.rec_link)[:used]
+            tri = np.zeros(3 * cap, dtype=np.uint8)
+            tri[:3 * used] = np.asarray(self.rec_tri)[:3 * used]
+            self.rec_link = link
+            self.rec_tri = tri
+        self.rec_cap = cap
+
+    # ------------------------------------------------------------- the star
+    cdef int fill_star(self, int v) noexcept nogil:
+        """Fill ``self.star`` (and ``hv``) for vertex ``v``; returns k, or -1 if the star has
+        more than MAX_VALENCE link vertices."""
+        cdef Star* s = &self.star
+        cdef int start = self.m.v_he[v]
+        cdef int h = start
+        cdef int nh, k = 0
+        s.v = v
+        while True:
+            if k >= MAX_VALENCE:
+                return -1
+            s.link[k] = he_dest(self.m, h)
+            s.face[k] = h // 3
+            self.hv[k] = h
+            k += 1
+            nh = he_ring_next(self.m, h)
+            if nh < 0:
+                if k >= MAX_VALENCE:
+                    return -1
+                s.link[k] = self.m.corner[he_prev(h)]
+                k += 1
+                s.closed = 0
+                break
+            h = nh
+            if h == start:
+                s.closed = 1
+                break
+        s.k = k
+        return k
+
+    cdef int evaluate(self, int v) noexcept nogil:
+        """Fill the star of ``v`` and ask the kernel: returns ST_CANDIDATE, ST_ERROR (over
+        max_error), ST_KERNEL, ST_VALENCE or ST_FIXED; -1 if the kernel failed.  On
+        ST_CANDIDATE ``self.rem`` holds the kernel's answer."""
+        cdef int rc
+        if not self.m.vertex_alive[v] or self.m.v_he[v] < 0:
+            return ST_NONE
+        if self.vflags[v] & VERTEX_FIXED:
+            return ST_FIXED
+        if self.fill_star(v) < 0:
+            return ST_VALENCE
+        self.rem.n_tris = 0
+        self.rem.cost = 0.0
+        self.rem.error = 0.0
+        self.rem.gate = 0.0
+        rc = self.kernel.evaluate(&self.star, &self.rem)
+        if rc == KERNEL_VETO:
+            return ST_KERNEL
+        if rc != KERNEL_OK:
+            if not self.kernel.failed:
+                self.kernel.fail(b"evaluate() returned an unknown status (not KERNEL_OK, KERNEL_VETO nor KERNEL_ERROR)")
+            self.failed = True
+            return -1
+        if self.rem.cost != self.rem.cost:
+            self.rem.cost = INFINITY        # a NaN cost ranks last rather than breaking the heap
+        if self.rem.error > self.max_error:
+            return ST_ERROR
+        return ST_CANDIDATE
+
+    cdef void set_state(self, int v, int st) noexcept nogil:
+        """Record the outcome of an evaluation of ``v`` and put it in / out of the heap and
+        the median filter accordingly."""
+        cdef double g
+        if st != ST_CANDIDATE and st != ST_NONE:
+            self.nref[st] += 1
+        self.state[v] = st if st >= 0 else ST_NONE
+        if st != ST_CANDIDATE:
+            self.heap.remove_fast(v)
+            if self.gated:
+                self.filt.remove_fast(v)
+            return
+        self.vcost[v] = self.rem.cost
+        self.verr[v] = self.rem.error
+        if not self.gated:
+            self.heap.push_fast(v, self.rem.cost)
+            return
+        g = self.rem.gate
+        self.vgate[v] = g
+        self.filt.set_fast(v, g)
+        if g == g and g >= self.med:
+            self.heap.push_fast(v, self.rem.cost)
+        else:
+            self.heap.remove_fast(v)
+
+    cdef void refuse(self, int v, int st) noexcept nogil:
+        self.nref[st] += 1
+        self.state[v] = st
+        self.heap.remove_fast(v)
+        if self.gated:
+            self.filt.remove_fast(v)
+
+    cdef void sync_median(self) noexcept nogil:
+        """Bring the heap's membership in line with the current median: the candidates whose
+        gate crossed it enter or leave."""
+        cdef double mnew = self.filt.median_fast()
+        cdef double mold = self.med
+        cdef int n, i, w
+        if mnew == mold:
+            return
+        self.med = mnew
+        if mnew > mold:
+            n = self.filt.band_fast(mold, mnew, &self.band_buf[0])
+            for i in range(n):
+                self.heap.remove_fast(self.band_buf[i])
+        else:
+            n = self.filt.band_fast(mnew, mold, &self.band_buf[0])
+            for i in range(n):
+                w = self.band_buf[i]
+                if self.state[w] == ST_CANDIDATE:
+                    self.heap.push_fast(w, self.vcost[w])
+
+    cdef void rescan(self) noexcept nogil:
+        cdef int v, st
+        self.heap.clear_fast()
+        for v in range(self.hm.n_vertices):
+            st = self.evaluate(v)
+            if st < 0:
+                return
+            if st == ST_NONE and self.state[v] == ST_NONE:
+                continue
+            if st == ST_FIXED:
+                self.state[v] = ST_FIXED
+                continue
+            self.set_state(v, st)
+        if self.gated:
+            self.sync_median()
+        self.removals_since_rescan = 0
+
+    # ------------------------------------------------------------- the checks
+    cdef bint triangulation_valid(self, int k, bint closed) noexcept nogil:
+        """Is ``self.rem`` an oriented triangulation of the k-gon (kernel contract)?  Every
+        link edge i -> i+1 (with an open star's closing edge k-1 -> 0) used once in that
+        direction, every other directed edge used once and its reverse too."""
+        cdef unsigned long long mark[MAX_VALENCE]
+        cdef int t, c, a, b, i
+        if self.rem.n_tris != k - 2:
+            return False
+        for i in range(k):
+            mark[i] = 0
+        for t in range(k - 2):
+            for c in range(3):
+                a = self.rem.tri[3 * t + c]
+                b = self.rem.tri[3 * t + (c + 1) % 3]
+                if a < 0 or a >= k or b < 0 or b >= k or a == b:
+                    return False
+                if mark[a] & (1ULL << b):
+                    return False
+                mark[a] |= 1ULL << b
+        for i in range(k):
+            if k > 2 and not (mark[i] & (1ULL << ((i + 1) % k))):
+                return False
+        for t in range(k - 2):
+            for c in range(3):
+                a = self.rem.tri[3 * t + c]
+                b = self.rem.tri[3 * t + (c + 1) % 3]
+                if b == (a + 1) % k:
+                    continue
+                if not (mark[b] & (1ULL << a)) or a == (b + 1) % k:
+                    return False
+        return True
+
+    cdef inline int source(self, int v) noexcept nogil:
+        return self.hm.vertex_source[v] if self.hm.has_copies else v
+
+    cdef bint adjacent(self, int a, int b) noexcept nogil:
+        """Is there an edge between input vertices source(a) and source(b), over every copy
+        of a?"""
+        cdef int sb = self.source(b)
+        cdef int x = a
+        cdef int start, y, ny
+        while True:
+            start = self.m.v_he[x]
+            y = start
+            while True:
+                if self.source(he_dest(self.m, y)) == sb:
+                    return True
+                ny = he_ring_next(self.m, y)
+                if ny < 0:
+                    if self.source(self.m.corner[he_prev(y)]) == sb:
+                        return True
+                    break
+                if ny == start:
+                    break
+                y = ny
+            if not self.hm.has_copies:
+                return False
+            x = self.hm.next_copy[x]
+            if x < 0 or x == a:
+                return False
+
+    cdef bint face_exists(self, int a, int b, int c) noexcept nogil:
+        """Is there a live face on input vertices {source(a), source(b), source(c)}?"""
+        cdef int sb = self.source(b), sc = self.source(c)
+        cdef int x = a
+        cdef int start, y, ny, p, q
+        while True:
+            start = self.m.v_he[x]
+            y = start
+            while True:
+                p = self.source(he_dest(self.m, y))
+                q = self.source(self.m.corner[he_prev(y)])
+                if (p == sb and q == sc) or (p == sc and q == sb):
+                    return True
+                ny = he_ring_next(self.m, y)
+                if ny < 0 or ny == start:
+                    break
+                y = ny
+            if not self.hm.has_copies:
+                return False
+            x = self.hm.next_copy[x]
+            if x < 0 or x == a:
+                return False
+
+    cdef int topology_ok(self) noexcept nogil:
+        """The manifold / weld rules for the removal in ``self.star`` / ``self.rem``."""
+        cdef Star* s = &self.star
+        cdef int k = s.k, i, j, t, c, a, b
+        if s.closed and k < 3:
+            return False                  # a two-face pillow would vanish
+        if not s.closed and k == 2:
+            # one face: its outer edge must have a face on the other side (else the whole
+            # isolated triangle would go)
+            return self.m.twin[he_next(self.hv[0])] >= 0
+        # link vertices distinct, by input vertex (copies of a split vertex)
+        for i in range(k):
+            for j in range(i + 1, k):
+                if s.link[i] == s.link[j] or self.source(s.link[i]) == self.source(s.link[j]):
+                    return False
+        # every new edge (diagonal, or an open star's closing edge) must not exist yet
+        for t in range(k - 2):
+            for c in range(3):
+                a = self.rem.tri[3 * t + c]
+                b = self.rem.tri[3 * t + (c + 1) % 3]
+                if b == (a + 1) % k and (s.closed or a != k - 1):
+                    continue                  # a link edge: it stays
+                if a > b and b != (a + 1) % k:
+                    continue                  # each diagonal once (its a < b half)
+                if self.adjacent(s.link[a], s.link[b]):
+                    return False
+        if s.closed and k == 3 and self.face_exists(s.link[0], s.link[1], s.link[2]):
+            return False                      # a tetrahedron (or the like) would collapse flat
+        return True
+
+    cdef int geometry_ok(self) noexcept nogil:
+        """Flips, folds, slivers and volume (see docs/algorithms.md, "Vertex removal").
+        Returns ST_CANDIDATE, ST_GEOMETRY, ST_QUALITY or ST_VOLUME.  Sets pending_dvol and
+        slot_plan (the face slot, hence the input face, each new triangle takes)."""
+        cdef Star* s = &self.star
+        cdef int k = s.k, nf = s.k if s.closed else s.k - 1
+        cdef int i, j, t, c, a, b, x3, out, best
+        cdef double nold[3 * MAX_VALENCE]
+        cdef double lold[MAX_VALENCE]
+        cdef double nnew[3 * MAX_VALENCE]
+        cdef double lnew[MAX_VALENCE]
+        cdef int used[MAX_VALENCE]
+        cdef double N[3]
+        cdef double ng[3]
+        cdef double lN, ss, q, qmin_old = INFINITY, qmin_new = INFINITY, lg, dvol = 0.0, d, dbest
+        cdef const double* pv = &self.P[3 * s.v]
+        N[0] = N[1] = N[2] = 0.0
+        for i in range(nf):
+            lold[i] = tri_normal(pv, &self.P[3 * s.link[i]], &self.P[3 * s.link[(i + 1) % k]], &nold[3 * i], &ss)
+            used[i] = 0
+            for j in range(3):
+                N[j] += nold[3 * i + j]
+            q = 2.0 * SQRT3 * lold[i] / ss if ss > 0.0 else 0.0
+            if q < qmin_old:
+                qmin_old = q
+            if self.closed_volume != 0.0:
+                dvol -= face_volume(pv, &self.P[3 * s.link[i]], &self.P[3 * s.link[(i + 1) % k]])
+        lN = sqrt(dot3(N, N))
+        for t in range(k - 2):
+            a = s.link[self.rem.tri[3 * t]]
+            b = s.link[self.rem.tri[3 * t + 1]]
+            c = s.link[self.rem.tri[3 * t + 2]]
+            lnew[t] = tri_normal(&self.P[3 * a], &self.P[3 * b], &self.P[3 * c], &nnew[3 * t], &ss)
+            if not lnew[t] > 1e-12 * ss:
+                return ST_GEOMETRY            # degenerate
+            if lN > 0.0 and dot3(&nnew[3 * t], N) < self.cos_max_angle * lnew[t] * lN:
+                return ST_GEOMETRY            # turned too far from the star's mean normal
+            # the face slot it takes: of the old faces' slots left, the one whose input face
+            # is best aligned with it (greedy, in triangle order); it must stay within
+            # min(max_normal_angle, 90) degrees of that input face (as a moved face must in
+            # the collapse driver)
+            best = -1
+            dbest = -INFINITY
+            for i in range(nf):
+                if used[i]:
+                    continue
+                d = dot3(&nnew[3 * t], &self.n0[3 * s.face[i]])
+                if d > dbest:
+                    dbest = d
+                    best = i
+            used[best] = 1
+            self.slot_plan[t] = s.face[best]
+            if self.check_orig and dbest < self.cos_orig_angle * lnew[t]:
+                return ST_GEOMETRY
+            q = 2.0 * SQRT3 * lnew[t] / ss
+            if q < qmin_new:
+                qmin_new = q
+            if self.closed_volume != 0.0:
+                dvol += face_volume(&self.P[3 * a], &self.P[3 * b], &self.P[3 * c])
+        # each new face against the old face whose link edge it inherits, and against the
+        # outer face across that edge (no new fold)
+        for t in range(k - 2):
+            for c in range(3):
+                a = self.rem.tri[3 * t + c]
+                b = self.rem.tri[3 * t + (c + 1) % 3]
+                if b != (a + 1) % k or (not s.closed and a == k - 1):
+                    continue
+                if lold[a] > 0.0 and dot3(&nnew[3 * t], &nold[3 * a]) < self.cos_max_angle * lnew[t] * lold[a]:
+                    return ST_GEOMETRY
+                if not self.check_orig:
+                    continue
+                out = self.m.twin[he_next(self.hv[a])]        # link[a+1] -> link[a]
+                if out < 0:
+                    continue
+                x3 = self.m.corner[he_prev(out)]
+                lg = tri_normal(&self.P[3 * s.link[b]], &self.P[3 * s.link[a]], &self.P[3 * x3], ng, &ss)
+                if lg > 0.0 and (dot3(&nnew[3 * t], ng) < FOLD_COS * lnew[t] * lg
+                                 and dot3(&nnew[3 * t], ng) * lold[a] < dot3(&nold[3 * a], ng) * lnew[t]):
+                    return ST_GEOMETRY
+        if self.check_orig:
+            # no fold between two new faces across a diagonal
+            for t in range(k - 2):
+                for j in range(t + 1, k - 2):
+                    if self.share_edge(t, j) and dot3(&nnew[3 * t], &nnew[3 * j]) < FOLD_COS * lnew[t] * lnew[j]:
+                        return ST_GEOMETRY
+        if self.min_quality > 0.0 and k > 2 and qmin_new < self.min_quality and qmin_new < qmin_old:
+            return ST_QUALITY
+        if self.closed_volume != 0.0:
+            if (self.closed_volume + dvol) * self.closed_volume <= 0.0:
+                return ST_VOLUME
+        self.pending_dvol = dvol
+        return ST_CANDIDATE
+
+    cdef bint share_edge(self, int t, int u) noexcept nogil:
+        cdef int n = 0, i, j
+        for i in range(3):
+            for j in range(3):
+                if self.rem.tri[3 * t + i] == self.rem.tri[3 * u + j]:
+                    n += 1
+        return n >= 2
+
+    # ------------------------------------------------------------- the removal
+    cdef int perform(self) noexcept nogil:
+        """Replace the star in ``self.star`` by ``self.rem``; commit; re-evaluate the link.
+        Returns 0, or -1 if the kernel failed."""
+        cdef Star* s = &self.star
+        cdef int k = s.k
+        cdef int slot_of[MAX_VALENCE]
+        cdef int dead[MAX_VALENCE]
+        cdef int link[MAX_VALENCE]
+        cdef int i, j, t, v = s.v, st
+        cdef long long off
+        for t in range(k - 2):
+            slot_of[t] = self.slot_plan[t]
+        replace_star(self.hm, v, s.link, s.face, k, s.closed, self.rem.tri, k - 2, slot_of, dead)
+        if self.closed_volume != 0.0:
+            self.closed_volume += self.pending_dvol
+        if self.record:
+            i = self.n_collapses
+            off = self.rec_off[i]
+            self.rec_v[i] = v
+            self.rec_closed[i] = s.closed
+            for j in range(k):
+                self.rec_link[off + j] = s.link[j]
+            for j in range(3 * (k - 2)):
+                self.rec_tri[3 * (off - 2 * i) + j] = <unsigned char>self.rem.tri[j]
+            self.rec_off[i + 1] = off + k
+            self.rec_cost[i] = self.rem.cost
+            self.rec_err[i] = self.rem.error
+        self.n_collapses += 1
+        self.removals_since_rescan += 1
+        self.reranks = 0
+        if self.rem.error > self.max_error_done:
+            self.max_error_done = self.rem.error
+        self.heap.remove_fast(v)
+        self.state[v] = ST_NONE
+        if self.gated:
+            self.filt.remove_fast(v)
+        if self.kernel.commit(&self.star, &self.rem) == KERNEL_ERROR or self.kernel.failed:
+            self.failed = True
+            return -1
+        # the old link's stars changed: evaluate them again (from a copy of the link:
+        # evaluate() overwrites self.star)
+        for i in range(k):
+            link[i] = s.link[i]
+        for i in range(k):
+            st = self.evaluate(link[i])
+            if st < 0:
+                return -1
+            if st == ST_FIXED:
+                continue
+            self.set_state(link[i], st)
+        return 0
+
+    cdef int run_c(self, int target_faces, int max_steps) noexcept nogil:
+        cdef int v, st, steps = 0
+        cdef double key
+        while self.hm.n_alive_faces > target_faces:
+            if self.gated:
+                self.sync_median()
+            if steps >= max_steps:
+                return R_CHUNK
+            if self.record and self.rec_off[self.n_collapses] + MAX_VALENCE > self.rec_cap:
+                return R_GROW
+            if self.heap.pop_fast(&v, &key) < 0:
+                if self.removals_since_rescan == 0:
+                    return R_EXHAUSTED
+                self.rescan()
+                if self.failed:
+                    return R_ERROR
+                continue
+            st = self.evaluate(v)
+            if st < 0:
+                return R_ERROR
+            if st != ST_CANDIDATE:
+                self.set_state(v, st)
+                continue
+            if ((self.rem.cost > key or (self.gated and self.rem.gate != self.vgate[v]))
+                    and self.reranks < self.hm.n_vertices):
+                # the kernel's answer changed (a kernel with global state): re-rank.  A
+                # cheaper answer is still the cheapest; the bound keeps a kernel whose
+                # answers drift on every call from spinning here.
+                self.reranks += 1
+                self.set_state(v, st)
+                continue
+            if not self.triangulation_valid(self.star.k, self.star.closed):
+                self.kernel.fail(b"evaluate() returned triangles that are no oriented triangulation "
+                                 b"of the hole (k - 2 triangles over the link indices; removal.pxd)")
+                self.failed = True
+                return R_ERROR
+            if not self.topology_ok():
+                self.refuse(v, ST_TOPOLOGY)
+                continue
+            st = self.geometry_ok()
+            if st != ST_CANDIDATE:
+                self.refuse(v, st)
+                continue
+            if self.perform() < 0:
+                return R_ERROR
+            steps += 1
+        return R_TARGET
+
+    # ------------------------------------------------------------- Python API
+    def run(self, int target_faces, int max_steps=2**31 - 1):
+        """Remove vertices until ``target_faces`` live faces remain, ``max_steps`` removals
+        are done, or no valid removal is left.  Returns RUN_TARGET, RUN_CHUNK,
+        RUN_EXHAUSTED or RUN_ERROR (the kernel failed: ``error_message``)."""
+        cdef int status
+        cdef int left = max_steps
+        cdef int before
+        while True:
+            before = self.n_collapses
+            with nogil:
+                status = self.run_c(target_faces, left)
+            left -= self.n_collapses - before
+            if status != R_GROW:
+                return status
+            self._alloc_records(2 * self.rec_cap + 64)
+
+    @property
+    def error_message(self):
+        """The message of the kernel if it failed ('' if it did not)."""
+        return self.kernel.message if self.kernel.failed else ""
+
+    @property
+    def n_alive_faces(self):
+        return self.hm.n_alive_faces
+
+    @property
+    def median(self):
+        """Gated kernels: the current median gate of the candidates (None if none / not gated)."""
+        return self.filt.median() if self.gated else None
+
+    @property
+    def states(self):
+        """(n,) uint8 per vertex slot: why it is not removed (yet); STATE_NAMES names the codes."""
+        return np.asarray(self.state)[:self.hm.n_vertices].copy()
+
+    @property
+    def refusals(self):
+        """{reason: events} over the run: every evaluation or check that kept a vertex, by
+        reason (kernel, max_error, topology, geometry, quality, volume, valence)."""
+        arr = np.asarray(self.nref)
+        return {STATE_NAMES[i]: int(arr[i]) for i in range(2, N_STATES - 1)}
+
+    @property
+    def held_back(self):
+        """{reason: vertices} now: the live vertices that are no candidate, by reason."""
+        st = self.states[np.asarray(self.hm.alive_vertices)]
+        counts = np.bincount(st, minlength=N_STATES)
+        return {STATE_NAMES[i]: int(counts[i]) for i in range(2, N_STATES)}
+
+    @property
+    def n_vetoed(self):
+        """Kernel vetoes over the run (evaluation events)."""
+        return int(self.nref[ST_KERNEL])
+
+    @property
+    def n_rejected_error(self):
+        """Live vertices now held back because their error exceeds max_error."""
+        return int(np.count_nonzero(self.states[np.asarray(self.hm.alive_vertices)] == ST_ERROR))
+
+    @property
+    def n_candidates(self):
+        """Vertices in the heap now (competing)."""
+        return self.heap.size
+
+    def records(self):
+        """The removal sequence, in vertex / face slots: dict of ``removed`` (r,), ``closed``
+        (r,) bool, ``offsets`` (r + 1,) into ``link`` (the link of removal i is
+        ``link[offsets[i]:offsets[i+1]]``, k_i entries), ``triangles`` (sum (k_i - 2), 3)
+        link indices (removal i's at rows offsets[i] - 2 i onwards), ``cost``, ``error``.
+        Needs ``record=True``."""
+        if not self.record:
+            raise RuntimeError("this VertexRemover was made with record=False")
+        r = self.n_collapses
+        off = np.asarray(self.rec_off)[:r + 1].copy()
+        total = int(off[r])
+        return {
+            "removed": np.asarray(self.rec_v)[:r].copy(),
+            "closed": np.asarray(self.rec_closed)[:r].astype(bool),
+            "offsets": off,
+            "link": np.asarray(self.rec_link)[:total].copy(),
+            "triangles": np.asarray(self.rec_tri)[:3 * (total - 2 * r)].astype(np.int64).reshape(-1, 3),
+            "cost": np.asarray(self.rec_cost)[:r].copy(),
+            "error": np.asarray(self.rec_err)[:r].copy(),
+        }
+
+    def evaluate_vertex(self, int v):
+        """For tests: ``(state name, cost, error, gate, triangles)`` of the kernel's answer
+        for ``v`` now (triangles as link indices; None unless a candidate).  Does not
+        change the heap."""
+        if not 0 <= v < self.hm.n_vertices:
+            raise ValueError(f"vertex {v} out of range")
+        cdef int st
+        with nogil:
+            st = self.evaluate(v)
+        if st < 0:
+            return ("error", None, None, None, None)
+        tris = None
+        if st == ST_CANDIDATE:
+            tris = np.array([self.rem.tri[i] for i in range(3 * self.rem.n_tris)], dtype=np.int64).reshape(-1, 3)
+        return (STATE_NAMES[st], self.rem.cost, self.rem.error, self.rem.gate, tris)

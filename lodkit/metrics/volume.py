@@ -1,9 +1,42 @@
-"""Chuon and Guha volume-cost vertex decimation (placeholder: being written)."""
-from .base import RemovalMetric
-from .._core.removal import RemovalKernel
+"""Volume-cost vertex decimation (Chuon & Guha, *Volume Cost Based Mesh Simplification*).
+
+A vertex V is *hyperbolic* when it lies inside the convex hull of its neighbours; those are
+never removed.  Every other vertex costs
+
+    vol(V) = angle(V) * ht(V)^3                                          (Definition 4)
+
+with angle(V) the solid angle its link subtends (Van Oosterom-Strackee over the link
+projected onto a plane separating V from the hull; 2 pi when V lies on a flat hull) and
+ht(V) its distance to the least-squares plane of its neighbours.  Only vertices whose angle
+is at least the median angle of the current non-hyperbolic vertices compete (the paper's
+guard for sharp features), the cheapest goes, and its hole is filled by the fan from the
+nearer end of the line through two neighbours closest to V (a half-edge collapse).
+docs/metrics/volume.md gives the formulas as implemented and the readings chosen.
+"""
+from __future__ import annotations
+
+from .._core.volume_kernel import VolumeKernel
+from .base import Option, RemovalMetric
 
 
 class Volume(RemovalMetric):
-    """Chuon and Guha volume-cost vertex decimation."""
+    """Chuon & Guha: remove the non-hyperbolic vertex of least angle * ht^3 among those
+    with angle >= the median; closest-line fan re-triangulation."""
 
-    kernel = RemovalKernel
+    description = "Chuon & Guha: vertex removal by volume cost angle*ht^3, median angle filter"
+    kernel = VolumeKernel
+    options = {
+        "median": Option(True, kind=bool,
+                         doc="the paper's median filter: only vertices whose angle(V) is at least "
+                             "the median angle of the non-hyperbolic vertices compete (False: all "
+                             "non-hyperbolic vertices compete on vol alone)"),
+        "tolerance": Option(1e-9, min=0.0, max=0.01,
+                            doc="angle (radians) within which a neighbour counts as on a plane "
+                                "through V: vertices hyperbolic by less than this are treated as "
+                                "non-hyperbolic (flat)"),
+        "fallback": Option(True, kind=bool,
+                           doc="if the closest-line fan folds over (a new triangle turns 90 degrees "
+                               "or more from the star's mean normal), use the apex of the next-closest "
+                               "line whose fan does not (False: always the paper's closest-line fan, "
+                               "which the driver then refuses)"),
+    }

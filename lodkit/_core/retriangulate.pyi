@@ -1,0 +1,23 @@
+"""Type stubs for lodkit._core.retriangulate (Cython): hole re-triangulation for vertex
+removal.  The nogil routines (split_loop, fan_from, closest_line_apex) are cimported from
+retriangulate.pxd; these are their Python test wrappers."""
+from typing import Optional, Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+#: smallest accepted aspect ratio of a split in split_loop (vtkDecimate's 1/25)
+SPLIT_MIN_ASPECT: float
+
+def py_split_loop(points: ArrayLike, normal: Optional[ArrayLike] = None,
+                  force: Optional[Sequence[int]] = None,
+                  min_aspect: Optional[float] = None) -> Optional[NDArray[np.int32]]:
+    """Schroeder's recursive loop splitting of the loop ``points`` (k, 3): (k - 2, 3)
+    triangles as loop indices, or None when no valid triangulation exists."""
+
+def py_fan_from(apex: int, k: int) -> NDArray[np.int32]:
+    """(k - 2, 3) triangles of the fan from loop index ``apex``."""
+
+def py_closest_line_apex(points: ArrayLike, x: ArrayLike) -> int:
+    """Chuon & Guha: the loop index of the end, nearer to ``x``, of the line through two
+    loop vertices closest to ``x`` (-1 if k < 3)."""

@@ -1,0 +1,58 @@
+"""Type stubs for lodkit._core.volume_kernel (Cython): the native kernel of the ``volume``
+metric (Chuon & Guha: vol(V) = angle(V) * ht(V)^3, hyperbolic vertices kept, closest-line
+fan re-triangulation)."""
+from typing import Any, ClassVar, Optional, Sequence
+
+import numpy as np
+
+from .removal import RemovalKernel
+
+#: classification codes of a star
+DEGENERATE: int
+NON_HYPERBOLIC: int
+HYPERBOLIC: int
+
+class VolumeKernel(RemovalKernel):
+    """Removal cost vol(V) = angle * ht^3, gate angle(V) (the median filter), error ht(V);
+    hyperbolic and degenerate stars are vetoed."""
+
+    api_version: ClassVar[int]
+    @property
+    def tolerance(self) -> float:
+        """Angle (radians) within which a neighbour counts as on a plane through V."""
+    @property
+    def n_hyperbolic(self) -> int:
+        """Live vertex slots that were hyperbolic at their last evaluation."""
+    @property
+    def n_degenerate(self) -> int:
+        """Live vertex slots vetoed at their last evaluation because their star was degenerate
+        (a neighbour at V, or every neighbour on one line through V)."""
+    @property
+    def fallback(self) -> bool:
+        """True: when the closest-line fan folds over, the next-closest lines' apexes are tried."""
+    @property
+    def n_fallbacks(self) -> int:
+        """Evaluations that took another apex than the closest line's (fallback)."""
+    def veto_note(self) -> str:
+        """Why the kernel holds vertices back now, in words (appended to a run's stop_detail)."""
+    def prepare(self, ctx: Any, options: dict[str, Any]) -> None:
+        """Options ``median`` (bool, default True: gated), ``tolerance`` (radians in
+        [0, 0.1), default 1e-9) and ``fallback`` (bool, default True); ``ctx.n_vertices`` (or ``options["n_vertices"]`` without a
+        context) sizes the per-vertex hyperbolic marks."""
+    def hyperbolic_mask(self) -> np.ndarray:
+        """(n,) bool: the vertex slots hyperbolic at their last evaluation (not removed)."""
+
+def solid_angle(a: Sequence[float], b: Sequence[float], c: Sequence[float]) -> float:
+    """Signed solid angle at the origin of the triangle (a, b, c) (Van Oosterom-Strackee
+    with atan2); positive when (a, b, c) runs counter-clockwise seen from the origin."""
+
+def measure(center: Sequence[float], neighbours: Any, closed: bool = True,
+            tolerance: float = 1e-9) -> dict[str, Any]:
+    """Classify and measure a star: ``class``, ``on_hull``, ``angle``, ``height``,
+    ``volume``, ``pole``, ``margin``."""
+
+def evaluate_star(positions: Any, v: int, link: Any, closed: bool = True, fixed: Optional[Any] = None,
+                  median: bool = True, tolerance: float = 1e-9, fallback: bool = True) -> dict[str, Any]:
+    """``VolumeKernel.evaluate`` on one star of a point set: ``status`` ("ok", "veto",
+    "error"), ``cost``, ``error``, ``gate``, ``tris`` ((k-2, 3) indices into ``link``) and
+    ``hyperbolic``."""

@@ -1,0 +1,549 @@
+"""Compare simplifiers on one mesh: error-versus-face-count curves, a table, a contact sheet.
+
+>>> lodkit.compare("bunny.ply", metrics=["qem", "melod"], peers=["open3d"],
+...                ratios=[0.5, 0.1, 0.02], out="bunny-report")
+
+For every method (a lodkit metric, or a peer library) and every ratio the mesh is
+simplified to ``round(ratio * faces)`` faces, the call is timed, and the result is measured
+with :class:`lodkit.evaluate.Evaluator` against the original (one set of samples for all).
+With ``out`` the directory gets
+
+    results.csv, results.json   the table (one row per method and ratio)
+    hausdorff.png, rms.png      error against face count, one line per method (MELOD's Figure 5)
+    contact_sheet.png           the LODs rendered (rows = methods, columns = ratios)
+    report.md, report.html      everything above; the HTML embeds the images (self-contained)
+
+Every file is written to a temporary name in ``out`` and renamed into place, so each is
+either complete or absent. The plots need matplotlib (``pip install lodkit[plot]``); the
+contact sheet uses :mod:`lodkit.render` (Open3D's offscreen renderer).
+"""
+from __future__ import annotations
+
+import base64
+import csv
+import html
+import io
+import json
+import math
+import os
+import secrets
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Optional
+
+import numpy as np
+
+from .errors import LodkitError, OptionError
+from .evaluate import DEFAULT_SAMPLES, Evaluation, Evaluator, as_mesh
+from .mesh import Mesh
+
+__all__ = ["PEERS", "Comparison", "Run", "MissingDependencyError", "compare"]
+
+
+class MissingDependencyError(LodkitError, ImportError):
+    """An optional dependency a feature needs is not installed; the message says what to install."""
+
+
+# ---------------------------------------------------------------------- peers
+# Each peer: (vertices (n, 3) float64, faces (m, 3) int64, vertex colours (n, 3) or None,
+# target faces) -> (vertices, faces, colours or None, seconds of the simplification call
+# alone; conversions are not timed). Colours go through where the library carries them.
+def _peer_open3d(V, F, C, target):
+    import open3d as o3d
+
+    m = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(V), o3d.utility.Vector3iVector(F.astype(np.int32)))
+    if C is not None:
+        m.vertex_colors = o3d.utility.Vector3dVector(C[:, :3])
+    t0 = time.perf_counter()
+    out = m.simplify_quadric_decimation(target_number_of_triangles=int(target))
+    seconds = time.perf_counter() - t0
+    colors = np.asarray(out.vertex_colors, dtype=np.float64) if out.has_vertex_colors() else None
+    return np.asarray(out.vertices, dtype=np.float64), np.asarray(out.triangles, dtype=np.int64), colors, seconds
+
+
+def _peer_fast_simplification(V, F, C, target):
+    import fast_simplification
+
+    t0 = time.perf_counter()
+    v, f = fast_simplification.simplify(V, F.astype(np.int32), target_reduction=1.0 - target / len(F))
+    seconds = time.perf_counter() - t0
+    return np.asarray(v, dtype=np.float64), np.asarray(f, dtype=np.int64), None, seconds
+
+
+def _peer_pyfqmr(V, F, C, target):
+    import pyfqmr
+
+    s = pyfqmr.Simplify()
+    s.setMesh(V, F.astype(np.int32))
+    t0 = time.perf_counter()
+    s.simplify_mesh(target_count=int(target), aggressiveness=7, preserve_border=True, verbose=False)
+    seconds = time.perf_counter() - t0
+    v, f, _ = s.getMesh()
+    return np.asarray(v, dtype=np.float64), np.asarray(f, dtype=np.int64), None, seconds
+
+
+def _peer_pymeshlab(V, F, C, target):
+    import pymeshlab
+
+    ms = pymeshlab.MeshSet()
+    ms.add_mesh(pymeshlab.Mesh(vertex_matrix=V, face_matrix=F.astype(np.int32)))
+    t0 = time.perf_counter()
+    ms.meshing_decimation_quadric_edge_collapse(targetfacenum=int(target))
+    seconds = time.perf_counter() - t0
+    m = ms.current_mesh()
+    return np.asarray(m.vertex_matrix(), dtype=np.float64), np.asarray(m.face_matrix(), dtype=np.int64), None, seconds
+
+
+#: peer name -> (module to import, pip package, adapter, what is called). The adapters are
+#: minimal on purpose (bench/methods.py has the benchmark's fuller ones; the package cannot import bench/).
+PEERS = {
+    "open3d": ("open3d", "open3d", _peer_open3d,
+               "TriangleMesh.simplify_quadric_decimation(target_number_of_triangles=N)"),
+    "fast_simplification": ("fast_simplification", "fast-simplification", _peer_fast_simplification,
+                            "fast_simplification.simplify(V, F, target_reduction=1 - N/m)"),
+    "pyfqmr": ("pyfqmr", "pyfqmr", _peer_pyfqmr,
+               "Simplify.simplify_mesh(target_count=N, aggressiveness=7, preserve_border=True)"),
+    "pymeshlab": ("pymeshlab", "pymeshlab", _peer_pymeshlab,
+                  "MeshSet.meshing_decimation_quadric_edge_collapse(targetfacenum=N)"),
+}
+
+
+# ---------------------------------------------------------------------- results
+@dataclass
+class Run:
+    """One method at one ratio."""
+
+    method: str
+    kind: str                     # "metric" (lodkit.simplify) or "peer"
+    ratio: float
+    target_faces: int
+    faces: int = 0
+    vertices: int = 0
+    seconds: Optional[float] = None   # the simplification call alone
+    evaluation: Optional[Evaluation] = None
+    error: Optional[str] = None   # why the run or its evaluation failed (then no evaluation)
+    mesh: Optional[Mesh] = field(default=None, repr=False)
+
+    def row(self) -> dict:
+        """The table row: plain values (distances as fractions of the bounding-box diagonal)."""
+        out = {"method": self.method, "kind": self.kind, "ratio": self.ratio, "target_faces": self.target_faces,
+               "faces": self.faces, "vertices": self.vertices, "seconds": self.seconds}
+        ev = self.evaluation
+        if ev is None:
+            out.update({k: None for k in _METRIC_COLUMNS})
+        else:
+            d, n, ch = ev.distance, ev.normal_deviation, ev.topology_changes
+            out.update(hausdorff=d.hausdorff, mean=d.mean, rms=d.rms,
+                       hausdorff_model=ev.distance_model.hausdorff, rms_model=ev.distance_model.rms,
+                       normal_mean=n.mean, normal_p95=n.p95, quality_min=ev.quality_simplified.min,
+                       genus_change=ch["genus"], components_change=ch["n_components"],
+                       boundary_loops_change=ch["n_boundary_loops"],
+                       nonmanifold_edges=ev.topology_simplified.n_nonmanifold_edges,
+                       color_rms=None if ev.color is None else ev.color.rms)
+        out["error"] = self.error
+        return out
+
+
+_METRIC_COLUMNS = ("hausdorff", "mean", "rms", "hausdorff_model", "rms_model", "normal_mean", "normal_p95",
+                   "quality_min", "genus_change", "components_change", "boundary_loops_change",
+                   "nonmanifold_edges", "color_rms")
+
+
+@dataclass
+class Comparison:
+    """What :func:`compare` did: the runs in order (method by method, ratios in the order
+    given), the input's size, and the files written (name -> path; empty without ``out``)."""
+
+    source: str
+    n_faces: int
+    n_vertices: int
+    diagonal: float
+    n_samples: int
+    seed: int
+    methods: list
+    ratios: list
+    runs: list
+    files: dict
+
+    def rows(self) -> list[dict]:
+        return [r.row() for r in self.runs]
+
+    def run(self, method: str, ratio: float) -> Run:
+        for r in self.runs:
+            if r.method == method and r.ratio == ratio:
+                return r
+        raise KeyError((method, ratio))
+
+
+# ---------------------------------------------------------------------- checking the options
+def _method_list(items) -> list:
+    if items is None:
+        return []
+    if isinstance(items, str):
+        items = [s for s in (p.strip() for p in items.split(",")) if s]
+    return list(items)
+
+
+def _metric_label(spec) -> str:
+    if isinstance(spec, str):
+        return spec
+    if isinstance(spec, tuple) and len(spec) == 2 and isinstance(spec[0], str) and isinstance(spec[1], dict):
+        opts = ",".join(f"{k}={v}" for k, v in spec[1].items())
+        return f"{spec[0]}:{opts}" if opts else spec[0]
+    raise OptionError(f"a metric is a name or a (name, options) pair, got {spec!r}")
+
+
+def _check_ratios(ratios) -> list[float]:
+    if isinstance(ratios, str):
+        ratios = [p for p in ratios.split(",") if p.strip()]
+    try:
+        values = [float(r) for r in ratios]
+    except (TypeError, ValueError):
+        raise OptionError(f"ratios must be numbers in (0, 1], got {ratios!r}") from None
+    if not values:
+        raise OptionError("give at least one ratio")
+    for r in values:
+        if not (0.0 < r <= 1.0):
+            raise OptionError(f"every ratio must be in (0, 1], got {r}")
+    if len(set(values)) != len(values):
+        raise OptionError(f"ratios repeat: {values}")
+    return values
+
+
+def _check_peer(name: str) -> None:
+    if name not in PEERS:
+        raise OptionError(f"unknown peer {name!r}; peers: {', '.join(PEERS)}")
+    module, package, _, _ = PEERS[name]
+    try:
+        __import__(module)
+    except ImportError as exc:
+        raise MissingDependencyError(f"peer {name!r} needs the package {package!r}, which is not installed "
+                                     f"(pip install {package}): {exc}") from None
+
+
+def _matplotlib():
+    try:
+        import matplotlib
+    except ImportError:
+        raise MissingDependencyError("the comparison plots need matplotlib: pip install 'lodkit[plot]'") from None
+    return matplotlib
+
+
+# ---------------------------------------------------------------------- the comparison
+def compare(mesh, *, metrics=("qem",), peers=(), ratios=(0.5, 0.1, 0.02), out=None,
+            samples: int = DEFAULT_SAMPLES, seed: int = 0, contact_sheet: bool = True,
+            image_size: tuple = (320, 240), render_backend: Optional[str] = None,
+            simplify_options: Optional[dict] = None, log: Optional[Callable[[str], None]] = None) -> Comparison:
+    """Simplify ``mesh`` with several methods to several ratios, time and evaluate each.
+
+    mesh             : anything :func:`lodkit.evaluate` takes (Mesh, Open3D mesh, (V, F), path)
+    metrics          : lodkit metric specs ("qem", ("importance", {"weight": 2}), ...) or a
+                       comma-separated string of names; each runs ``lodkit.simplify``
+    peers            : names from :data:`PEERS` (other libraries; each must be installed)
+    ratios           : fractions of the faces to keep, each in (0, 1]; target faces
+                       ``max(1, round(ratio * faces))``
+    out              : directory for the report (created if missing); None: compute only
+    samples, seed    : for :class:`lodkit.evaluate.Evaluator`
+    contact_sheet    : render the LODs (needs a working Open3D offscreen renderer)
+    image_size       : (width, height) of each rendered LOD, in pixels
+    render_backend   : "open3d" or "numpy" for :func:`lodkit.render.render` (None: its choice)
+    simplify_options : extra keyword arguments for ``lodkit.simplify`` (boundary=, ...)
+    log              : called with a line of text after each run (progress)
+
+    A run that fails (a peer error, an empty result) is kept with its ``error`` and left out
+    of the plots. Raises :class:`lodkit.OptionError` / :class:`lodkit.UnknownMetricError`
+    for bad options before any work, :class:`MissingDependencyError` when matplotlib (with
+    ``out``) or a requested peer is not installed.
+    """
+    from .api import simplify
+    from .metrics import create
+
+    metric_specs = _method_list(metrics)
+    peer_names = _method_list(peers)
+    if not metric_specs and not peer_names:
+        raise OptionError("nothing to compare: give at least one metric or peer")
+    labels = [_metric_label(s) for s in metric_specs]
+    for spec in metric_specs:
+        create(spec)                      # unknown names and bad options fail here
+    for name in peer_names:
+        _check_peer(name)
+    methods = labels + peer_names
+    if len(set(methods)) != len(methods):
+        raise OptionError(f"a method is listed twice: {methods}")
+    ratio_list = _check_ratios(ratios)
+    width, height = _check_size(image_size)
+    if render_backend not in (None, "open3d", "numpy"):
+        raise OptionError(f"render_backend must be 'open3d', 'numpy' or None, got {render_backend!r}")
+    options = dict(simplify_options or {})
+    for key in ("target_faces", "target_ratio", "max_error", "metric"):
+        if key in options:
+            raise OptionError(f"simplify_options may not set {key!r}: compare() sets the targets and metrics")
+    if out is not None:
+        _matplotlib()
+        if contact_sheet:
+            _render_module()
+    source = str(mesh) if isinstance(mesh, (str, os.PathLike)) else type(mesh).__name__
+    original = as_mesh(mesh, "input")
+    evaluator = Evaluator(original, samples, seed)
+    out_dir = None if out is None else _prepare_dir(out)     # only once everything else is known to be fine
+    n_faces = original.n_faces
+    V0, F0 = original.vertices, original.faces.astype(np.int64)
+    runs = []
+    for label, spec in list(zip(labels, metric_specs)) + [(p, None) for p in peer_names]:
+        kind = "metric" if spec is not None else "peer"
+        for ratio in ratio_list:
+            run = Run(method=label, kind=kind, ratio=ratio, target_faces=max(1, int(round(ratio * n_faces))))
+            try:
+                if kind == "metric":
+                    t0 = time.perf_counter()
+                    result = simplify(original, target_faces=run.target_faces, metric=spec, **options)
+                    run.seconds = time.perf_counter() - t0
+                    run.mesh = result.mesh
+                else:
+                    V, F, C, run.seconds = PEERS[label][2](V0, F0, original.colors, run.target_faces)
+                    run.mesh = Mesh(V, F, colors=C)
+                run.faces, run.vertices = run.mesh.n_faces, int(np.unique(run.mesh.faces).size)
+                run.evaluation = evaluator.evaluate(run.mesh)
+            except Exception as exc:  # noqa: BLE001
+                # a peer library's failure (whatever it raises), or a result evaluate() cannot
+                # measure (no faces, no area); lodkit's own bugs are not hidden
+                if kind == "metric" and (isinstance(exc, OptionError)
+                                         or not isinstance(exc, (LodkitError, RuntimeError, ValueError))):
+                    raise           # a bad simplify_options value, or a bug
+                run.error = f"{type(exc).__name__}: {' '.join(str(exc).split())}"
+            runs.append(run)
+            if log is not None:
+                log(_progress_line(run))
+
+    comparison = Comparison(source=source, n_faces=n_faces, n_vertices=original.n_vertices,
+                            diagonal=evaluator.diagonal, n_samples=evaluator.samples, seed=evaluator.seed,
+                            methods=methods, ratios=ratio_list, runs=runs, files={})
+    if out_dir is not None:
+        _write_report(comparison, original, out_dir, contact_sheet, width, height, peer_names, render_backend)
+    return comparison
+
+
+def _progress_line(run: Run) -> str:
+    head = f"{run.method} @ {run.ratio:g}: "
+    if run.error:
+        return head + "failed: " + run.error
+    d = run.evaluation.distance
+    return head + f"{run.faces} faces, {run.seconds:.3f} s, hausdorff {d.hausdorff:.4g}, rms {d.rms:.4g}"
+
+
+def _check_size(size) -> tuple[int, int]:
+    try:
+        w, h = (int(x) for x in size)
+    except (TypeError, ValueError):
+        raise OptionError(f"image_size must be (width, height), got {size!r}") from None
+    if not (16 <= w <= 4096 and 16 <= h <= 4096):
+        raise OptionError(f"image_size must be between 16 and 4096 pixels each way, got {w}x{h}")
+    return w, h
+
+
+def _prepare_dir(out) -> Path:
+    p = Path(os.fspath(out))
+    if p.exists() and not p.is_dir():
+        raise OptionError(f"the output directory {p} exists and is not a directory")
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OptionError(f"cannot create the output directory {p}: {exc.strerror or exc}") from None
+    return p
+
+
+def _render_module():
+    try:
+        from . import render
+    except ImportError as exc:
+        raise MissingDependencyError(f"the contact sheet needs lodkit.render, which cannot be imported ({exc}); "
+                                     "pass contact_sheet=False (--no-contact-sheet) to skip it") from None
+    return render
+
+
+# ---------------------------------------------------------------------- writing
+def _atomic_write(path: Path, data: bytes) -> None:
+    """Write ``data`` to a temporary file next to ``path``, fsync it, rename it into place."""
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}-{secrets.token_hex(4)}")
+    try:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def _curve_png(comparison: Comparison, key: str, title: str) -> bytes:
+    _matplotlib()
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6.4, 4.4), dpi=100, layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(1, 1, 1)
+    all_y = []
+    for method in comparison.methods:
+        pts = sorted((r.faces, r.row()[key]) for r in comparison.runs
+                     if r.method == method and r.evaluation is not None)
+        if not pts:
+            continue
+        x, y = zip(*pts)
+        all_y += y
+        ax.plot(x, y, marker="o", label=method)
+    ax.set_xscale("log")
+    if all_y and min(all_y) > 0:
+        ax.set_yscale("log")      # errors span decades between the ratios
+    ax.set_xlabel("faces")
+    ax.set_ylabel(f"{title.split()[0]} / bbox diagonal")
+    ax.set_title(f"{title} vs face count ({Path(comparison.source).name}, {comparison.n_faces} faces)")
+    ax.grid(True, which="both", alpha=0.3)
+    if all_y:
+        ax.legend()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    return buf.getvalue()
+
+
+def _contact_sheet(comparison: Comparison, original: Mesh, width: int, height: int,
+                   backend: Optional[str]) -> np.ndarray:
+    """Rows = methods, columns = ratios; one camera fitted to the original for every LOD, so
+    they are drawn alike; a failed run leaves its cell empty."""
+    render = _render_module()
+    camera = render.Camera.fit(original, width, height)
+    grid, labels = [], []
+    for method in comparison.methods:
+        row, names = [], []
+        for ratio in comparison.ratios:
+            run = comparison.run(method, ratio)
+            ok = run.mesh is not None and run.mesh.n_faces > 0
+            row.append(render.render(run.mesh, width, height, camera=camera, backend=backend) if ok else None)
+            names.append(f"{method} {100 * ratio:g}% {run.faces}f" if ok else f"{method} {100 * ratio:g}% failed")
+        grid.append(row)
+        labels.append(names)
+    return render.contact_sheet(grid, labels=labels)
+
+
+_CSV_COLUMNS = ("method", "kind", "ratio", "target_faces", "faces", "vertices", "seconds",
+                *_METRIC_COLUMNS, "error")
+
+
+def _csv_text(comparison: Comparison) -> str:
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=_CSV_COLUMNS, lineterminator="\n")
+    w.writeheader()
+    for row in comparison.rows():
+        w.writerow({k: ("" if v is None else repr(v) if isinstance(v, float) else v) for k, v in row.items()})
+    return buf.getvalue()
+
+
+# (column, header, format) of the report table
+_REPORT_COLUMNS = (
+    ("method", "method", "{}"), ("ratio", "ratio", "{:g}"), ("faces", "faces", "{}"),
+    ("seconds", "time (s)", "{:.3f}"), ("hausdorff", "Hausdorff", "{:.4g}"), ("mean", "mean", "{:.4g}"),
+    ("rms", "RMS", "{:.4g}"), ("normal_mean", "normal dev. mean (°)", "{:.3g}"),
+    ("normal_p95", "normal dev. p95 (°)", "{:.3g}"), ("quality_min", "min Q", "{:.3f}"),
+    ("genus_change", "Δ genus", "{:+d}"), ("boundary_loops_change", "Δ boundary loops", "{:+d}"),
+    ("nonmanifold_edges", "non-manifold edges", "{}"), ("color_rms", "colour RMS (0-255)", "{:.3g}"),
+)
+
+
+def _report_cells(comparison: Comparison) -> tuple[list[str], list[list[str]]]:
+    columns = [c for c in _REPORT_COLUMNS
+               if c[0] != "color_rms" or any(r.evaluation is not None and r.evaluation.color for r in comparison.runs)]
+    rows = []
+    for run in comparison.runs:
+        row = run.row()
+        cells = []
+        for key, _, fmt in columns:
+            value = row[key]
+            cells.append("–" if value is None or (isinstance(value, float) and math.isnan(value))
+                         else fmt.format(value))
+        if run.error:
+            cells[-1] = f"failed: {run.error}"
+        rows.append(cells)
+    return [c[1] for c in columns], rows
+
+
+def _intro(comparison: Comparison, peers: list) -> list[str]:
+    c = comparison
+    lines = [f"Input: {c.source} ({c.n_faces} faces, {c.n_vertices} vertices, bounding-box diagonal "
+             f"{c.diagonal:.6g}). Ratios {', '.join(f'{r:g}' for r in c.ratios)}; methods "
+             f"{', '.join(c.methods)}.",
+             f"Distances are Metro-style from {c.n_samples} area-weighted samples on each surface (seed {c.seed}), "
+             "as fractions of the input's bounding-box diagonal: Hausdorff = the larger one-sided maximum, "
+             "mean and RMS over both sample sets (lodkit.evaluate; docs/evaluation.md). Time: the "
+             "simplification call alone. Δ: simplified minus input."]
+    for name in peers:
+        lines.append(f"Peer {name}: {PEERS[name][3]}.")
+    return lines
+
+
+def _write_report(comparison: Comparison, original: Mesh, out: Path, contact_sheet: bool, width: int,
+                  height: int, peers: list, backend: Optional[str]) -> None:
+    files = {}
+    images = {}   # name -> PNG bytes, for the HTML
+    for key, title in (("hausdorff", "Hausdorff distance"), ("rms", "RMS distance")):
+        images[f"{key}.png"] = _curve_png(comparison, key, title)
+    for name, data in images.items():
+        _atomic_write(out / name, data)
+        files[name] = out / name
+    if contact_sheet:
+        # render.write_png writes under a temporary name and renames, as _atomic_write does
+        sheet = _contact_sheet(comparison, original, width, height, backend)
+        written = _render_module().write_png(out / "contact_sheet.png", sheet)
+        images["contact_sheet.png"] = Path(written).read_bytes()
+        files["contact_sheet.png"] = out / "contact_sheet.png"
+    _atomic_write(out / "results.csv", _csv_text(comparison).encode())
+    files["results.csv"] = out / "results.csv"
+    payload = {k: v for k, v in comparison.__dict__.items() if k not in ("runs", "files")}
+    payload["runs"] = [dict(r.row(), evaluation=None if r.evaluation is None else r.evaluation.as_dict())
+                       for r in comparison.runs]
+    _atomic_write(out / "results.json", json.dumps(payload, indent=1).encode())
+    files["results.json"] = out / "results.json"
+
+    header, rows = _report_cells(comparison)
+    intro = _intro(comparison, peers)
+    sheet_caption = (f"Contact sheet: rows = {', '.join(comparison.methods)} (top to bottom); "
+                     f"columns = ratios {', '.join(f'{r:g}' for r in comparison.ratios)} (left to right).")
+
+    md = [f"# Simplification comparison: {Path(comparison.source).name}", "", *intro, "",
+          "| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|",
+          *("| " + " | ".join(c.replace("|", "\\|") for c in r) + " |" for r in rows), "",
+          "![Hausdorff distance against face count](hausdorff.png)", "",
+          "![RMS distance against face count](rms.png)", ""]
+    if contact_sheet:
+        md += [sheet_caption, "", "![contact sheet](contact_sheet.png)", ""]
+    md += ["The table as CSV: [results.csv](results.csv); everything, with the full evaluations: "
+           "[results.json](results.json).", ""]
+    _atomic_write(out / "report.md", "\n".join(md).encode())
+    files["report.md"] = out / "report.md"
+
+    e = html.escape
+
+    def img(name, alt):
+        data = base64.b64encode(images[name]).decode("ascii")
+        return f'<p><img src="data:image/png;base64,{data}" alt="{e(alt)}"></p>'
+
+    page = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
+            f"<title>Simplification comparison: {e(Path(comparison.source).name)}</title>",
+            "<style>body{font-family:sans-serif;margin:2em;max-width:80em}table{border-collapse:collapse}"
+            "td,th{border:1px solid #bbb;padding:.2em .5em;text-align:right}td:first-child{text-align:left}"
+            "img{max-width:100%}</style></head><body>",
+            f"<h1>Simplification comparison: {e(Path(comparison.source).name)}</h1>",
+            *(f"<p>{e(line)}</p>" for line in intro),
+            "<table><thead><tr>" + "".join(f"<th>{e(h)}</th>" for h in header) + "</tr></thead><tbody>",
+            *("<tr>" + "".join(f"<td>{e(c)}</td>" for c in r) + "</tr>" for r in rows),
+            "</tbody></table>",
+            img("hausdorff.png", "Hausdorff distance against face count"),
+            img("rms.png", "RMS distance against face count")]
+    if contact_sheet:
+        page += [f"<p>{e(sheet_caption)}</p>", img("contact_sheet.png", "contact sheet")]
+    page += ['<p>The table as CSV: <a href="results.csv">results.csv</a>; everything, with the full '
+             'evaluations: <a href="results.json">results.json</a>.</p>', "</body></html>", ""]
+    _atomic_write(out / "report.html", "\n".join(page).encode())
+    files["report.html"] = out / "report.html"
+    comparison.files = files
