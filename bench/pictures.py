@@ -11,20 +11,20 @@ caption line under them. The simplifications run in worker subprocesses
 (bench/fidelity.py ``run_metric_cases``), so a metric that is not available yet gives a
 panel saying so instead of stopping the run.
 
-Rendering is headless and needs nothing beyond numpy and Pillow: :func:`render` is a small
-vectorised z-buffer rasteriser (orthographic camera, two-sided Lambert shading, flat or
-with interpolated vertex normals; vertex colours; texture lookup by uv; hidden-line
-wireframe; highlighted edges; visible vertex dots), supersampled 2x and box-filtered.
-Open3D's ``OffscreenRenderer`` was the first choice but needs a Vulkan/EGL driver this
-machine does not have (``RuntimeError: Failed to load vulkan library!``), and
-:func:`open3d_available` says whether it would work.
+Rendering is headless: :func:`render` is lodkit.render's numpy rasteriser
+(:func:`lodkit.render.draw`: orthographic camera, two-sided Lambert shading, flat or with
+interpolated vertex normals; vertex colours; texture lookup by uv; hidden-line wireframe;
+highlighted edges; visible vertex dots), supersampled 2x and box-filtered. Open3D's
+``OffscreenRenderer`` (``lodkit.render``'s other backend) can draw here now, but these
+pictures need the texture, edge and dot styles only the numpy rasteriser has, and it makes
+them bit-for-bit reproducible. Pillow composes the panels and writes the files.
 """
 from __future__ import annotations
 
 import argparse
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -38,284 +38,24 @@ OUT_DIR = REPO / "docs" / "metrics" / "img"
 
 
 # --------------------------------------------------------------------------------------
-# rasteriser
+# rasteriser: lodkit.render's numpy backend (one renderer for the library and the bench)
 # --------------------------------------------------------------------------------------
 
-def rotation(azimuth: float, elevation: float, up: str = "y") -> np.ndarray:
-    """World -> camera rotation (rows: camera x right, y up, z towards the viewer).
-
-    The camera looks at the model from ``azimuth`` degrees around the ``up`` axis (0: from
-    +z for y-up, from -y for z-up) and ``elevation`` degrees above the horizon.
-    """
-    a, e = np.radians(azimuth), np.radians(elevation)
-    # direction from the target to the eye, in a y-up frame
-    d = np.array([np.sin(a) * np.cos(e), np.sin(e), np.cos(a) * np.cos(e)])
-    world_up = np.array([0.0, 1.0, 0.0])
-    z = d / np.linalg.norm(d)
-    x = np.cross(world_up, z)
-    if np.linalg.norm(x) < 1e-9:
-        x = np.array([1.0, 0.0, 0.0])
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    R = np.stack([x, y, z])
-    if up == "z":          # model is z-up: first map model (x, y, z) -> y-up frame (x, z, -y)
-        R = R @ np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])
-    elif up != "y":
-        raise ValueError("up must be 'y' or 'z'")
-    return R
-
-
-@dataclass
-class Camera:
-    """Orthographic camera: rotation, a centre (camera space) and pixels per model unit."""
-
-    R: np.ndarray
-    center: np.ndarray
-    scale: float
-    width: int
-    height: int
-
-    @classmethod
-    def fit(cls, points: np.ndarray, width: int, height: int, azimuth=30.0, elevation=20.0, up="y",
-            margin: float = 0.06, zoom: float = 1.0, shift=(0.0, 0.0)) -> "Camera":
-        """A camera that frames ``points`` (the original's vertices) in a width x height panel.
-
-        ``zoom`` > 1 magnifies about the centre; ``shift`` moves the view centre by fractions
-        of the framed extent (x right, y up), to look at a detail.
-        """
-        R = rotation(azimuth, elevation, up)
-        P = points @ R.T
-        lo, hi = P.min(axis=0), P.max(axis=0)
-        ext = np.maximum(hi - lo, 1e-12)
-        c = 0.5 * (lo + hi)
-        c[:2] += np.asarray(shift) * ext[:2]
-        s = zoom * min(width * (1 - 2 * margin) / ext[0], height * (1 - 2 * margin) / ext[1])
-        return cls(R, c, float(s), int(width), int(height))
-
-    def aspect_of(self, points: np.ndarray) -> float:
-        P = points @ self.R.T
-        ext = np.maximum(P.max(axis=0) - P.min(axis=0), 1e-12)
-        return float(ext[1] / ext[0])
-
-    def project(self, V: np.ndarray, ss: int = 1) -> tuple[np.ndarray, np.ndarray]:
-        """(pixel coordinates (n,2) at supersampling ``ss``, depth (n,), smaller = nearer)."""
-        P = V @ self.R.T - self.center
-        x = (P[:, 0] * self.scale + 0.5 * self.width) * ss
-        y = (0.5 * self.height - P[:, 1] * self.scale) * ss
-        return np.column_stack([x, y]), -P[:, 2]
-
-    def view_dir(self) -> np.ndarray:
-        """Unit vector from the model towards the viewer, in world coordinates."""
-        return self.R[2]
-
-
-@dataclass
-class Style:
-    """How to draw a mesh. Colours are RGB floats in [0, 1]."""
-
-    color: tuple = (0.72, 0.74, 0.78)
-    vertex_colors: np.ndarray | None = None      # (n,3) in [0,1]
-    uvs: np.ndarray | None = None                 # (n,2), with ``texture``
-    texture: np.ndarray | None = None             # (h,w,3) float [0,1]
-    normals: np.ndarray | None = None             # (n,3): smooth shading by interpolated normals
-    wire: tuple | None = None                     # wireframe colour, or None
-    wire_width: float = 0.6                       # half-width in output pixels
-    edges: np.ndarray | None = None               # (k,2) vertex pairs drawn in ``edge_color``
-    edge_color: tuple = (0.85, 0.1, 0.1)
-    edge_width: float = 1.1
-    points: np.ndarray | None = None              # vertex indices drawn as dots (visible ones only)
-    point_color: tuple = (0.85, 0.1, 0.1)
-    point_radius: float = 1.6
-    ambient: float = 0.33
-    background: tuple = (1.0, 1.0, 1.0)
-    light: np.ndarray | None = None               # camera-space direction to the light
-    extra: dict = field(default_factory=dict)
-
-
-def _edge_keys(a: np.ndarray, b: np.ndarray, n: int) -> np.ndarray:
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    return lo.astype(np.int64) * n + hi
-
-
-def rasterize(V: np.ndarray, F: np.ndarray, cam: Camera, ss: int = 2, max_pairs: int = 3_000_000):
-    """Z-buffer visibility: (face id (H,W) int64, -1 = background; barycentric weights (H,W,3);
-    vertex screen xy (n,2); depth buffer (H,W), inf = background; vertex depth (n,)).
-
-    At ``ss`` x the camera's resolution. Every face whose screen bounding box covers a pixel
-    centre gets a candidate (face, pixel) pair (generated with ``np.repeat``, in chunks of
-    about ``max_pairs``); the barycentric weights decide inside; per pixel the nearest
-    candidate wins (sort by pixel then depth). Both sides of a face are drawn.
-    """
-    W, H = cam.width * ss, cam.height * ss
-    F = np.asarray(F, dtype=np.int64)
-    xy, depth = cam.project(np.asarray(V, dtype=np.float64), ss)
-    zbuf = np.full(W * H, np.inf)
-    fbuf = np.full(W * H, -1, dtype=np.int64)
-    if len(F) == 0:
-        return fbuf.reshape(H, W), np.zeros((H, W, 3)), xy, zbuf.reshape(H, W), depth
-    T = xy[F]                                             # (m,3,2)
-    x0 = np.clip(np.floor(T[..., 0].min(axis=1) - 0.5), 0, W - 1).astype(np.int64)
-    x1 = np.clip(np.ceil(T[..., 0].max(axis=1) - 0.5), 0, W - 1).astype(np.int64)
-    y0 = np.clip(np.floor(T[..., 1].min(axis=1) - 0.5), 0, H - 1).astype(np.int64)
-    y1 = np.clip(np.ceil(T[..., 1].max(axis=1) - 0.5), 0, H - 1).astype(np.int64)
-    area2 = ((T[:, 1, 0] - T[:, 0, 0]) * (T[:, 2, 1] - T[:, 0, 1])
-             - (T[:, 2, 0] - T[:, 0, 0]) * (T[:, 1, 1] - T[:, 0, 1]))
-    offscreen = ((T[..., 0].max(axis=1) < 0) | (T[..., 0].min(axis=1) > W) | (T[..., 1].max(axis=1) < 0)
-                 | (T[..., 1].min(axis=1) > H))
-    live = np.flatnonzero((np.abs(area2) > 1e-12) & ~offscreen)
-    bw = x1 - x0 + 1
-    count = bw * (y1 - y0 + 1)
-    cum = np.cumsum(count[live])
-    start = 0
-    while start < len(live):
-        base = cum[start - 1] if start else 0
-        stop = int(np.searchsorted(cum, base + max_pairs, side="right"))
-        stop = max(stop, start + 1)
-        fs = live[start:stop]
-        start = stop
-        c = count[fs]
-        f = np.repeat(fs, c)
-        first = np.repeat(np.cumsum(c) - c, c)
-        k = np.arange(len(f)) - first
-        px = x0[f] + k % bw[f]
-        py = y0[f] + k // bw[f]
-        cx, cy = px + 0.5, py + 0.5
-        t = T[f]
-        a2 = area2[f]
-        w0 = ((t[:, 1, 0] - cx) * (t[:, 2, 1] - cy) - (t[:, 2, 0] - cx) * (t[:, 1, 1] - cy)) / a2
-        w1 = ((t[:, 2, 0] - cx) * (t[:, 0, 1] - cy) - (t[:, 0, 0] - cx) * (t[:, 2, 1] - cy)) / a2
-        w2 = 1.0 - w0 - w1
-        inside = (w0 >= -1e-9) & (w1 >= -1e-9) & (w2 >= -1e-9)
-        f, px, py, w0, w1, w2 = f[inside], px[inside], py[inside], w0[inside], w1[inside], w2[inside]
-        d = w0 * depth[F[f, 0]] + w1 * depth[F[f, 1]] + w2 * depth[F[f, 2]]
-        pix = py * W + px
-        order = np.lexsort((d, pix))
-        pix, d, f = pix[order], d[order], f[order]
-        firsts = np.r_[True, pix[1:] != pix[:-1]]
-        pix, d, f = pix[firsts], d[firsts], f[firsts]
-        better = d < zbuf[pix]
-        zbuf[pix[better]] = d[better]
-        fbuf[pix[better]] = f[better]
-    # weights of the winners, recomputed per visible pixel
-    wts = np.zeros((H * W, 3))
-    vis = np.flatnonzero(fbuf >= 0)
-    if len(vis):
-        f = fbuf[vis]
-        cx = vis % W + 0.5
-        cy = vis // W + 0.5
-        t = T[f]
-        a2 = area2[f]
-        w0 = ((t[:, 1, 0] - cx) * (t[:, 2, 1] - cy) - (t[:, 2, 0] - cx) * (t[:, 1, 1] - cy)) / a2
-        w1 = ((t[:, 2, 0] - cx) * (t[:, 0, 1] - cy) - (t[:, 0, 0] - cx) * (t[:, 2, 1] - cy)) / a2
-        wts[vis] = np.column_stack([w0, w1, 1.0 - w0 - w1])
-    return fbuf.reshape(H, W), wts.reshape(H, W, 3), xy, zbuf.reshape(H, W), depth
-
-
-def _sample_texture(tex: np.ndarray, uv: np.ndarray) -> np.ndarray:
-    """Bilinear lookup; uv (n,2) with v up (OBJ convention), wrapping."""
-    h, w = tex.shape[:2]
-    x = (uv[:, 0] % 1.0) * w - 0.5
-    y = (1.0 - (uv[:, 1] % 1.0)) * h - 0.5
-    x0 = np.floor(x).astype(np.int64)
-    y0 = np.floor(y).astype(np.int64)
-    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
-    x0w, x1w = x0 % w, (x0 + 1) % w
-    y0c, y1c = np.clip(y0, 0, h - 1), np.clip(y0 + 1, 0, h - 1)
-    return ((1 - fx) * (1 - fy) * tex[y0c, x0w] + fx * (1 - fy) * tex[y0c, x1w]
-            + (1 - fx) * fy * tex[y1c, x0w] + fx * fy * tex[y1c, x1w])
+from lodkit.render import Style, draw, rasterize, rotation  # noqa: E402,F401
+from lodkit.render import View as Camera  # noqa: E402
 
 
 def render(V: np.ndarray, F: np.ndarray, cam: Camera, style: Style | None = None, ss: int = 2) -> np.ndarray:
-    """An (height, width, 3) uint8 image of the mesh (see :class:`Style`)."""
-    style = style or Style()
-    V = np.asarray(V, dtype=np.float64)
-    F = np.asarray(F, dtype=np.int64)
-    fb, wts, xy, zbuf, depth = rasterize(V, F, cam, ss)
-    H, W = fb.shape
-    img = np.empty((H, W, 3))
-    img[:] = style.background
-    vis = fb >= 0
-    if vis.any():
-        f = fb[vis]
-        w = wts[vis]
-        corners = F[f]                                                       # (p,3)
-        # normal per pixel (camera space), two-sided
-        if style.normals is not None:
-            nrm = np.einsum("pk,pkj->pj", w, np.asarray(style.normals)[corners])
-        else:
-            a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
-            fn = np.cross(b - a, c - a)
-            nrm = fn[f]
-        nrm = nrm @ cam.R.T
-        nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-30)
-        L = style.light if style.light is not None else np.array([-0.25, 0.35, 1.0])
-        L = L / np.linalg.norm(L)
-        lam = np.abs(nrm @ L)
-        # a little specular keeps flat regions readable
-        hv = L + np.array([0.0, 0.0, 1.0])
-        hv /= np.linalg.norm(hv)
-        spec = np.abs(nrm @ hv) ** 40 * 0.15
-        if style.texture is not None and style.uvs is not None:
-            uv = np.einsum("pk,pkj->pj", w, np.asarray(style.uvs)[corners])
-            base = _sample_texture(style.texture, uv)
-        elif style.vertex_colors is not None:
-            base = np.einsum("pk,pkj->pj", w, np.asarray(style.vertex_colors)[:, :3][corners])
-        else:
-            base = np.broadcast_to(np.asarray(style.color, dtype=np.float64), (len(f), 3))
-        col = base * (style.ambient + (1 - style.ambient) * lam)[:, None] + spec[:, None]
-        # distance (output pixels) from the pixel to each edge of its face; edge i is opposite corner i
-        if style.wire is not None or style.edges is not None:
-            t = xy[corners]                                                   # (p,3,2)
-            ln = np.stack([np.linalg.norm(t[:, 1] - t[:, 2], axis=1), np.linalg.norm(t[:, 2] - t[:, 0], axis=1),
-                           np.linalg.norm(t[:, 0] - t[:, 1], axis=1)], axis=1)
-            a2 = np.abs((t[:, 1, 0] - t[:, 0, 0]) * (t[:, 2, 1] - t[:, 0, 1])
-                        - (t[:, 2, 0] - t[:, 0, 0]) * (t[:, 1, 1] - t[:, 0, 1]))
-            dist = np.abs(w) * a2[:, None] / np.maximum(ln, 1e-12) / ss
-            if style.wire is not None:
-                on = dist.min(axis=1) < style.wire_width
-                col[on] = 0.35 * col[on] + 0.65 * np.asarray(style.wire)
-            if style.edges is not None and len(style.edges):
-                n = len(V)
-                keys = np.unique(_edge_keys(style.edges[:, 0], style.edges[:, 1], n))
-                fe = np.stack([_edge_keys(F[:, 1], F[:, 2], n), _edge_keys(F[:, 2], F[:, 0], n),
-                               _edge_keys(F[:, 0], F[:, 1], n)], axis=1)
-                flag = np.isin(fe, keys)[f]                                   # (p,3)
-                on = (flag & (dist < style.edge_width)).any(axis=1)
-                col[on] = np.asarray(style.edge_color)
-        img[vis] = np.clip(col, 0.0, 1.0)
-    if style.points is not None and len(style.points):
-        pts = np.asarray(style.points, dtype=np.int64)
-        r = style.point_radius * ss
-        R = int(np.ceil(r))
-        oy, ox = np.mgrid[-R:R + 1, -R:R + 1]
-        disc = (ox ** 2 + oy ** 2) <= r * r
-        ox, oy = ox[disc], oy[disc]
-        px = np.floor(xy[pts, 0]).astype(np.int64)
-        py = np.floor(xy[pts, 1]).astype(np.int64)
-        inb = (px >= 0) & (px < W) & (py >= 0) & (py < H)
-        pts, px, py = pts[inb], px[inb], py[inb]
-        # visible: not behind the surface at its own pixel (tolerance: 1% of the depth range)
-        tol = 0.01 * max(float(np.ptp(depth)), 1e-12)
-        seen = depth[pts] <= zbuf[py, px] + tol
-        px, py = px[seen], py[seen]
-        X = (px[:, None] + ox[None, :]).ravel()
-        Y = (py[:, None] + oy[None, :]).ravel()
-        ok = (X >= 0) & (X < W) & (Y >= 0) & (Y < H)
-        img[Y[ok], X[ok]] = style.point_color
-    # box filter down to the camera's resolution
-    img = img.reshape(H // ss, ss, W // ss, ss, 3).mean(axis=(1, 3))
-    return (img * 255.0 + 0.5).astype(np.uint8)
+    """An (height, width, 3) uint8 image of the mesh (see :class:`lodkit.render.Style`)."""
+    return draw(V, F, cam, style, ss)
 
 
 def open3d_available() -> tuple[bool, str]:
-    """Whether Open3D's OffscreenRenderer can start here (it needs a GPU/EGL/Vulkan driver)."""
-    try:
-        import open3d as o3d
+    """Whether Open3D's OffscreenRenderer can draw here (lodkit.render's probe)."""
+    import lodkit.render
 
-        o3d.visualization.rendering.OffscreenRenderer(16, 16)
-        return True, "ok"
-    except Exception as exc:  # noqa: BLE001
-        return False, f"{type(exc).__name__}: {exc}"
+    info = lodkit.render.backend_info()
+    return info["backend"] == "open3d", info["reason"]
 
 
 # --------------------------------------------------------------------------------------
@@ -544,7 +284,8 @@ def main(argv=None) -> int:
     only = {s for s in args.only.split(",") if s}
     scenes = [s for s in SCENES if not only or s.name in only]
     ok, why = open3d_available()
-    print(f"Open3D OffscreenRenderer: {'available' if ok else 'unavailable (' + why + ')'}; using the numpy rasteriser")
+    print(f"lodkit.render's default backend: {'open3d' if ok else 'numpy'} ({why}); "
+          "these pictures use the numpy rasteriser")
     # one worker per metric over all its scenes, plus qem over every scene
     by_metric: dict[str, list] = {}
     for sc in scenes:

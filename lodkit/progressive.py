@@ -84,6 +84,11 @@ def progressive(mesh, metric="qem", *, min_faces: int = 0, max_error: Optional[f
     if options.get("pair_threshold") is not None:
         raise OptionError("progressive meshes do not support pair_threshold: the pairs it joins "
                           "are not edge collapses of the input's half-edge arrays")
+    from .metrics import create as create_metrics
+
+    if any(m.kind == "removal" for m in create_metrics(metric)):
+        raise OptionError(f"metric {metric!r} removes vertices and re-triangulates their holes; progressive "
+                          "meshes are made of edge collapses (use an edge-collapse metric)")
     src, was_o3d = _as_mesh(mesh)
     result = simplify(src, target_faces=int(min_faces), max_error=max_error, metric=metric, absolute=absolute,
                       placement=placement, boundary=boundary, boundary_weight=boundary_weight,

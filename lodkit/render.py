@@ -1,6 +1,6 @@
 """Pictures of meshes, headless: one renderer with two backends, contact sheets, PNG files.
 
->>> import lodkit, lodkit.render as lr
+>>> import lodkit, lodkit.demo, lodkit.render as lr
 >>> mesh = lodkit.demo.demo_mesh(20_000)
 >>> cam = lr.Camera.fit(mesh, 400, 300, up="z", elevation=35)        # one camera for all LODs
 >>> row = [lr.render(m, 400, 300, camera=cam) for m in (mesh, lodkit.simplify(mesh, target_ratio=0.05).mesh)]
@@ -16,8 +16,14 @@ array. Two backends draw the same picture:
   Open3D's renderer cannot start. It also draws what the Open3D path does not: textures
   by uv, highlighted edges and vertex dots (:class:`Style`; ``bench/pictures.py`` uses it).
 
-:func:`backend` says which one :func:`render` uses and :func:`backend_info` why; the
-environment variable ``LODKIT_RENDER_BACKEND=numpy|open3d`` chooses without probing.
+:func:`backend` says which one :func:`render` uses by default and :func:`backend_info`
+why; ``render(..., backend=...)`` or the environment variable
+``LODKIT_RENDER_BACKEND=numpy|open3d`` chooses without probing. Open3D is the default only
+on a hardware device: on Mesa's software Vulkan (llvmpipe) Filament draws correctly but
+stalls on some frames, spinning a core for minutes (measured here: a 70k-face frame that
+takes 0.5 s took 92, 141 and 279 s on about one call in three after the second in a
+process, with one reused renderer or a fresh one per call), so there the numpy rasteriser
+(1.8 s for the same frame at 320x240) is the default.
 
 Shading is computed here, in numpy, for both backends (two-sided Lambert from a light near
 the viewer, a little ambient and specular), and Open3D draws the shaded colours with its
@@ -27,13 +33,14 @@ lie; this way a colour given is the colour drawn (at full light), both backends 
 and a picture does not depend on the renderer. Both backends draw at ``supersample`` x
 the size and box-filter down (anti-aliasing).
 
-Open3D notes (0.20, measured here): creating an ``OffscreenRenderer`` costs 0.05-1 s and
-the first draw about 0.5 s, so one renderer is kept and reused while the size stays the
-same. Two renderers alive at the same time make the interpreter abort at exit
-(``PreconditionPanic: destroying MaterialInstance ... still in use``, exit code 134), so
-this module never holds more than one: a new size replaces it, and an ``atexit`` hook
-clears its scene and drops it. A driver problem can also abort the process instead of
-raising, so whether Open3D can render at all is probed once in a subprocess.
+Open3D notes (0.20, measured here): creating an ``OffscreenRenderer`` costs 0.05-1 s, so
+one renderer is kept and reused while the size stays the same. Two renderers alive at the
+same time make the interpreter abort at exit (``PreconditionPanic: destroying
+MaterialInstance ... still in use``, exit code 134), so this module never holds more than
+one: a new size replaces it, and an ``atexit`` hook clears its scene and drops it. A driver
+problem can abort the process instead of raising, so whether Open3D can draw at all is
+probed once, in a subprocess. Open3D's line shader is 5-20x slower than the whole mesh on
+the software device, so the wireframe is drawn as thin camera-facing strips.
 """
 from __future__ import annotations
 
@@ -572,25 +579,31 @@ sys.stderr.write("LODKIT-PROBE-OK\n")
 """
 
 _lock = threading.RLock()
-_state: dict = {"probed": None, "reason": None, "renderer": None, "size": None}
+_state: dict = {"probed": None, "reason": None, "software": False, "renderer": None, "size": None}
 
 
-def _probe_open3d() -> tuple[bool, str]:
-    """Whether Open3D's OffscreenRenderer can start and draw, tried once in a subprocess
-    (a broken driver can abort the process instead of raising)."""
+def _probe_open3d() -> tuple[bool, str, bool]:
+    """(whether Open3D's OffscreenRenderer can start and draw, why, whether it draws on a
+    software device), tried once in a subprocess (a broken driver can abort the process
+    instead of raising)."""
     try:
         import open3d  # noqa: F401
     except (ImportError, OSError) as exc:
-        return False, f"open3d cannot be imported: {exc}"
+        return False, f"open3d cannot be imported: {exc}", False
     try:
         proc = subprocess.run([sys.executable, "-c", _PROBE], capture_output=True, text=True, timeout=120)
     except (OSError, subprocess.SubprocessError) as exc:
-        return False, f"the probe subprocess failed: {exc}"
+        return False, f"the probe subprocess failed: {exc}", False
     if proc.returncode == 0 and "LODKIT-PROBE-OK" in proc.stderr:
-        return True, "Open3D OffscreenRenderer starts and draws"
+        banner = proc.stdout + proc.stderr
+        if "llvmpipe" in banner or "software device" in banner or "SwiftShader" in banner:
+            return True, ("Open3D's OffscreenRenderer draws here, but only through a software Vulkan (llvmpipe), "
+                          "where Filament stalls on some frames for minutes; the numpy rasteriser is the default "
+                          "(backend='open3d' or LODKIT_RENDER_BACKEND=open3d uses Open3D anyway)"), True
+        return True, "Open3D's OffscreenRenderer starts and draws", False
     lines = [ln for ln in (proc.stderr + proc.stdout).splitlines() if "rror" in ln or "what()" in ln]
     detail = lines[-1].strip() if lines else (proc.stderr.strip().splitlines() or ["no output"])[-1]
-    return False, f"Open3D OffscreenRenderer cannot start (exit code {proc.returncode}): {detail[:300]}"
+    return False, f"Open3D's OffscreenRenderer cannot start (exit code {proc.returncode}): {detail[:300]}", False
 
 
 def backend_info() -> dict:
@@ -604,8 +617,8 @@ def backend_info() -> dict:
         if forced not in BACKENDS + ("", "auto"):
             raise OptionError(f"LODKIT_RENDER_BACKEND must be one of {', '.join(BACKENDS)} or auto, got {forced!r}")
         if _state["probed"] is None:
-            _state["probed"], _state["reason"] = _probe_open3d()
-        name = "open3d" if _state["probed"] else "numpy"
+            _state["probed"], _state["reason"], _state["software"] = _probe_open3d()
+        name = "open3d" if _state["probed"] and not _state["software"] and forced != "numpy" else "numpy"
         return {"backend": name, "reason": _state["reason"]}
 
 
@@ -794,7 +807,7 @@ def render(mesh, width: int = 640, height: int = 480, *, colors=None, camera: Ca
         if backend == "open3d":
             with _lock:
                 if _state["probed"] is None and os.environ.get("LODKIT_RENDER_BACKEND", "").lower() != "open3d":
-                    _state["probed"], _state["reason"] = _probe_open3d()
+                    _state["probed"], _state["reason"], _state["software"] = _probe_open3d()
                 if _state["probed"] is False:
                     raise RenderError(_state["reason"])
         if normals is not None:

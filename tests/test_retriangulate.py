@@ -140,6 +140,18 @@ def test_min_aspect_refuses_thin_splits():
     assert SPLIT_MIN_ASPECT == 0.04
 
 
+def test_negative_min_aspect_accepts_no_invalid_split():
+    # a self-intersecting loop: no diagonal separates it.  A valid split has aspect > 0, so
+    # a negative bound must behave as 0 (it used to let an invalid split, aspect -1, through
+    # and return overlapping triangles)
+    P = np.array([[0.137, 0.748, 0], [0.47, 0.326, 0], [0.734, 0.845, 0], [0.322, 0.155, 0],
+                  [0.992, 0.919, 0], [0.29, 0.814, 0.0]])
+    assert py_split_loop(P, normal=[0, 0, 1], min_aspect=0.0) is None
+    assert py_split_loop(P, normal=[0, 0, 1], min_aspect=-1.0) is None
+    H = regular(6)
+    assert py_split_loop(H, min_aspect=-1.0).tolist() == py_split_loop(H, min_aspect=0.0).tolist()
+
+
 # ---- forced first split ------------------------------------------------------------------
 
 def test_forced_diagonal_is_the_first_split():

@@ -34,7 +34,8 @@ class PlaneFanMetric(RemovalMetric):
     name = "planefan"
     kernel = PlaneFan
     options = {"gate": Option(None, kind="array"), "veto": Option(None, kind="array"),
-               "fail_after": Option(-1, kind=int), "invalid": Option(False, kind=bool)}
+               "fail_after": Option(-1, kind=int), "invalid": Option(False, kind=bool),
+               "n_tris": Option(-1, kind=int)}
 
 
 def cyclic(faces):
@@ -506,6 +507,42 @@ def test_kernel_failure_and_contract_errors_raise_metric_error():
         lodkit.simplify(polar_disk(), target_faces=0, metric=PlaneFanMetric(fail_after=30))
     with pytest.raises(MetricError, match="no oriented triangulation"):
         lodkit.simplify(polar_disk(), target_faces=0, metric=PlaneFanMetric(invalid=True))
+
+
+def test_kernel_claiming_too_many_triangles():
+    # a plugin's n_tris is not trusted: the run fails with MetricError, and the test API
+    # never reads past Removal.tri (3 * MAX_VALENCE ints)
+    with pytest.raises(MetricError, match="no oriented triangulation"):
+        lodkit.simplify(polar_disk(), target_faces=0, metric=PlaneFanMetric(n_tris=100000))
+    prep = lodkit.api.prepare(polar_disk())
+    k = PlaneFan()
+    k.prepare(None, {"n_tris": 100000})
+    vr = VertexRemover(prep.hm, prep.positions, k, prep.hm.boundary_vertices)
+    state, _, _, _, tris = vr.evaluate_vertex(0)
+    assert state == "candidate" and tris.shape == (64, 3)
+
+
+@pytest.mark.parametrize("n", [63, 64, 65, 200])
+def test_high_valence_stars(n):
+    """A star of n link vertices, closed (a disc's centre) or open (a boundary vertex): up
+    to MAX_VALENCE = 64 it is removed (the fixed-size Star / Removal arrays filled to the
+    brim), above it the vertex is held back as 'valence'."""
+    t = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
+    disc = lodkit.Mesh(np.vstack([np.c_[np.cos(t), np.sin(t), np.zeros(n)], [0.0, 0.0, 0.01]]),
+                       np.array([[n, i, (i + 1) % n] for i in range(n)]))
+    t = np.linspace(0.0, np.pi, n)
+    half = lodkit.Mesh(np.vstack([np.c_[np.cos(t), np.sin(t), np.zeros(n)], [0.0, -0.01, 0.0]]),
+                       np.array([[n, i, i + 1] for i in range(n - 1)]))
+    for mesh in (disc, half):
+        r = lodkit.simplify(mesh, target_faces=0, metric=PlaneFanMetric(), locked=np.arange(n),
+                            min_quality=0.0)
+        assert lodkit.topology(r.mesh).is_manifold
+        if n <= 64:
+            assert r.n_collapses == 1 and n not in r.vertex_map
+            assert r.mesh.n_faces == n - 2
+        else:
+            assert r.n_collapses == 0 and r.report["held_back"]["valence"] == 1
+            assert r.mesh.n_faces == mesh.n_faces
 
 
 def test_kernel_veto_is_reported():

@@ -12,7 +12,7 @@ are read at ``P[stride * slot + 0..2]``.  Nothing here allocates or touches Pyth
 # the two sub-loops; of the valid splits take the one with the best aspect ratio.
 # ``force_a``/``force_b`` (indices into loop, or -1) name a diagonal that must be the first
 # split (a feature edge through an interior-edge vertex).  Returns k - 2, or -1 when no valid
-# triangulation exists (the vertex is then kept).  ``work`` is scratch of >= 4*k*k ints.
+# triangulation exists (the vertex is then kept).  ``work`` is scratch of >= 6*k ints.
 cdef int split_loop(const double* P, int stride, const int* loop, int k,
                     const double* normal, int force_a, int force_b,
                     int* tri, int* work) noexcept nogil

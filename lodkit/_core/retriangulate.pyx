@@ -152,8 +152,8 @@ cdef int split_loop_aspect(const double* P, int stride, const int* loop, int k,
                         best = ar
                         bi = i
                         bj = j
-            if bi < 0 or best < min_aspect:
-                return -1
+            if bi < 0 or best < 0.0 or best < min_aspect:
+                return -1               # no valid split (best < 0), whatever min_aspect says
         # split cur at (bi, bj): A = bi..bj, B = bj..m-1, 0..bi; B is pushed first so that
         # A is split first (the order of the output triangles)
         sb = m - bj + bi + 1
@@ -210,7 +210,7 @@ def py_split_loop(points, normal=None, force=None, min_aspect=None):
     cdef const double[::1] Nv = N
     cdef int[::1] loop = np.arange(k, dtype=np.int32)
     cdef int[::1] tri = np.zeros(3 * k, dtype=np.int32)
-    cdef int[::1] work = np.zeros(4 * k * k, dtype=np.int32)
+    cdef int[::1] work = np.zeros(6 * k, dtype=np.int32)
     cdef int kk = k, n, a = fa, b = fb
     cdef double mm = ma
     with nogil:

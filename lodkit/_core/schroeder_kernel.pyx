@@ -80,7 +80,7 @@ cdef class SchroederKernel(RemovalKernel):
     cdef readonly double cos_feature
     cdef readonly double min_aspect
     cdef readonly bint remove_corners
-    cdef int[::1] _work                      # split_loop scratch: 4 * MAX_VALENCE^2 ints
+    cdef int[::1] _work                      # split_loop scratch: 6 * MAX_VALENCE ints
     cdef int* work
     # what the last evaluate() found (for evaluate_star and tests)
     cdef int last_class
@@ -88,7 +88,7 @@ cdef class SchroederKernel(RemovalKernel):
     cdef int last_fb
 
     def __cinit__(self):
-        self._work = np.zeros(4 * MAX_VALENCE * MAX_VALENCE, dtype=np.int32)
+        self._work = np.zeros(6 * MAX_VALENCE, dtype=np.int32)
         self.work = &self._work[0]
         self.feature_angle = DEFAULT_FEATURE_ANGLE
         self.cos_feature = _math.cos(_math.radians(DEFAULT_FEATURE_ANGLE))

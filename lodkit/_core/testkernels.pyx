@@ -93,13 +93,16 @@ cdef class PlaneFan(RemovalKernel):
     Options: ``gate`` ((n,) floats, NaN allowed: makes the kernel gated, each vertex's gate
     its entry), ``fail_after`` (report an error after that many evaluations; -1 never),
     ``veto`` ((n,) bools: vertices it refuses), ``invalid`` (True: answer triangles that are
-    no triangulation of the hole -- a contract error).  Counts ``n_evaluate`` and
+    no triangulation of the hole -- a contract error), ``n_tris`` (>= 0: claim that many
+    triangles, however many there are -- a contract error).  Counts ``n_evaluate`` and
     ``n_commit``."""
 
     cdef double[::1] gates
     cdef unsigned char[::1] vetoes
     cdef bint has_veto
     cdef bint invalid
+    cdef bint has_claim
+    cdef int claim_tris
     cdef long fail_after
     cdef readonly long n_evaluate
     cdef readonly long n_commit
@@ -118,6 +121,8 @@ cdef class PlaneFan(RemovalKernel):
         self.vetoes = np.ascontiguousarray(vt, dtype=np.uint8) if vt is not None else np.zeros(1, dtype=np.uint8)
         self.fail_after = int(options.get("fail_after", -1))
         self.invalid = bool(options.get("invalid", False))
+        self.claim_tris = int(options.get("n_tris", -1))
+        self.has_claim = self.claim_tris >= 0
         self.n_evaluate = 0
         self.n_commit = 0
 
@@ -190,6 +195,8 @@ cdef class PlaneFan(RemovalKernel):
         r.n_tris = fan_from(apex, s.k, r.tri)
         if self.invalid:
             r.tri[0] = r.tri[1]
+        if self.has_claim:
+            r.n_tris = self.claim_tris
         return KERNEL_OK
 
     cdef int commit(self, const Star* s, const Removal* r) noexcept nogil:

@@ -14,10 +14,13 @@ U_i = u_i / |u_i|:
   +-(U_i x U_j) (the non-parallel pairs): a direction is feasible when min_l d . U_l >=
   -tolerance (unit vectors: the tolerance is an angle in radians, scale-free).  No feasible
   direction: hyperbolic (vetoed, never removed; gate NaN).
-* **The pole** d: the normalised sum of the feasible directions, a point inside the cone
-  when the cone has an interior (the sum of its extreme rays); if that fails (the cone is a
-  half-plane or a line: coplanar neighbours) the feasible direction with the largest
-  min_l d . U_l.  Every U_i lies in the closed hemisphere around d.
+  Fast path first: the star's mean normal N (either sense) with min_l N . U_l > tolerance
+  separates V strictly (non-hyperbolic, pole N).
+* **The pole** d: N on the fast path; else the normalised sum of the feasible directions, a
+  point inside the cone when the cone has an interior (the sum of its extreme rays); if that
+  fails (the cone is a half-plane or a line) the feasible direction with the largest
+  min_l d . U_l; coplanar neighbours: their plane's normal.  Every U_i lies in the closed
+  hemisphere around d.
 * **angle(V)** (Definition 2): min_l d . U_l > tolerance means a plane separates V from the
   hull (the paper's main case); the radial projection of the link onto that plane is a
   polygon whose triangles subtend the same solid angles as the triangles (d, U_i, U_{i+1})
@@ -33,13 +36,16 @@ U_i = u_i / |u_i|:
   alpha for a straight crease of opening alpha (Note 1 overlooks that case; see
   docs/metrics/volume.md).
 * **ht(V)** (Definition 3): the distance of V to the least-squares plane of the W_i (normal:
-  the eigenvector of the smallest eigenvalue of their covariance, by cyclic Jacobi
-  rotations).  Collinear neighbours (no plane): the distance to their line.
+  the eigenvector of the smallest eigenvalue of their covariance, in closed form, by cyclic
+  Jacobi rotations when the two smallest eigenvalues nearly coincide).  Collinear
+  neighbours (no plane): the distance to their line.
 * **vol(V)** = angle * ht^3 (Definition 4): ``Removal.cost``.  ``Removal.gate`` = angle (the
   driver's median filter), ``Removal.error`` = ht.
 * **Re-triangulation** (section III.D): the fan from the nearer end of the line through two
   link vertices closest to V (``closest_line_apex`` / ``fan_from``): a half-edge collapse of
-  V into that neighbour.
+  V into that neighbour.  ``fallback`` (lodkit's addition): if a triangle of that fan is at
+  90 degrees or more from the star's mean normal (the driver would refuse it), the apexes of
+  the next-closest lines are tried in order and the first fan that does not fold is taken.
 * **Boundary vertices** (open star, link a chain W_0 .. W_{k-1}): the same hull test; angle =
   min(2 pi, 2 | sum_{i < k-1} Omega(d, U_i, U_{i+1}) |), the fan over the star's own faces
   doubled (a boundary vertex is half a star: a flat one on a straight boundary gets 2 pi like
@@ -99,10 +105,11 @@ cdef int hull_pole(const double* U, int k, double tol, double* d, double* margin
     """Definition 1 on unit directions U (k x 3).  Returns C_HYPERBOLIC, C_NON_HYPERBOLIC (``d``
     the unit pole, ``margin`` = min_l d . U_l) or C_DEGENERATE (all U_i on one line).
 
-    One branch-free pass over the neighbours serves both senses of a candidate
-    c = U_i x U_j: +c is refuted by some t = c . U_l < -tol |c|, -c by some t > tol |c|
-    (compared squared, no sqrt)."""
-    cdef int i, j, l, s, n_feasible = 0, spans = 0
+    One pass over the neighbours serves both senses of a candidate c = U_i x U_j: +c is
+    refuted by some t = c . U_l < -tol |c|, -c by some t > tol |c| (compared squared, no
+    sqrt); the pass runs in branch-free blocks of 4 and stops after a block once both senses
+    are refuted."""
+    cdef int i, j, l, e, n_feasible = 0, spans = 0
     cdef bint neg, pos
     cdef double c[3]
     cdef double best[3]
@@ -123,10 +130,16 @@ cdef int hull_pole(const double* U, int k, double tol, double* d, double* margin
             c0 = c[0]
             c1 = c[1]
             c2 = c[2]
-            for l in range(k):          # branch-free: min and max of c . U_l
-                t = c0 * U[3 * l] + c1 * U[3 * l + 1] + c2 * U[3 * l + 2]
-                tmin = t if t < tmin else tmin
-                tmax = t if t > tmax else tmax
+            l = 0
+            while l < k:                # branch-free blocks of 4: min and max of c . U_l
+                e = l + 4 if l + 4 < k else k
+                while l < e:
+                    t = c0 * U[3 * l] + c1 * U[3 * l + 1] + c2 * U[3 * l + 2]
+                    tmin = t if t < tmin else tmin
+                    tmax = t if t > tmax else tmax
+                    l += 1
+                if tmin < 0.0 and tmax > 0.0 and tmin * tmin > thr2 and tmax * tmax > thr2:
+                    break               # both senses refuted
             neg = tmin < 0.0 and tmin * tmin > thr2
             pos = tmax > 0.0 and tmax * tmax > thr2
             if neg and pos:

@@ -453,8 +453,8 @@ cdef class VertexRemover:
             return -1
         if self.rem.cost != self.rem.cost:
             self.rem.cost = INFINITY        # a NaN cost ranks last rather than breaking the heap
-        if self.rem.error > self.max_error:
-            return ST_ERROR
+        if not (self.rem.error <= self.max_error):
+            return ST_ERROR                 # a NaN error is not within max_error
         return ST_CANDIDATE
 
     cdef void set_state(self, int v, int st) noexcept nogil:
@@ -942,5 +942,7 @@ cdef class VertexRemover:
             return ("error", None, None, None, None)
         tris = None
         if st == ST_CANDIDATE:
-            tris = np.array([self.rem.tri[i] for i in range(3 * self.rem.n_tris)], dtype=np.int64).reshape(-1, 3)
+            # n_tris is the kernel's word: never read past Removal.tri (3 * MAX_VALENCE ints)
+            n = min(max(self.rem.n_tris, 0), MAX_VALENCE)
+            tris = np.array([self.rem.tri[i] for i in range(3 * n)], dtype=np.int64).reshape(-1, 3)
         return (STATE_NAMES[st], self.rem.cost, self.rem.error, self.rem.gate, tris)
