@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -248,11 +249,11 @@ def write(results: Path, out: Path) -> None:
     doc = json.loads(Path(results).read_text())
     text = render(doc)
     out = Path(out)
-    # keep the sections that bench/metrics.py, bench/fidelity.py and bench/removal.py write
-    # (between their markers)
+    # keep the sections the other bench scripts write (metrics, fidelity, progressive,
+    # clustering, removal, ...): every <!-- name:begin --> ... <!-- name:end --> block
     if out.exists():
         old = out.read_text()
-        for name in ("metrics", "fidelity", "removal", "progressive"):
+        for name in dict.fromkeys(re.findall(r"<!-- (\w+):begin -->", old)):
             begin, end = f"<!-- {name}:begin -->", f"<!-- {name}:end -->"
             if begin in old and end in old:
                 text = text.rstrip("\n") + "\n\n" + begin + old.split(begin, 1)[1].split(end, 1)[0] + end + "\n"

@@ -10,6 +10,7 @@ temporary entry points), so plugins installed in the environment do not change r
 from __future__ import annotations
 
 import ast
+import re
 import importlib
 import json
 import os
@@ -1117,7 +1118,15 @@ def test_any_combination_keeps_the_mesh_valid(case, ratio, boundary, placement):
 
 
 # ---------------------------------------------------------------------- stubs
-STUBBED = ["halfedge", "decimate", "heap", "kernel", "qem_kernel", "testkernels"]
+# every compiled module has a stub (setup.py MODULES)
+STUBBED = [m for m in ast.literal_eval(re.search(r"^MODULES = (\[.*?\])", (REPO / "setup.py").read_text(),
+                                                   re.S | re.M).group(1))]
+
+
+def test_every_compiled_module_is_stubbed():
+    assert len(STUBBED) >= 14
+    missing = [m for m in STUBBED if not (REPO / "lodkit" / "_core" / f"{m}.pyi").is_file()]
+    assert not missing, f"no .pyi stub for {missing}"
 
 
 def _stub_names(path: Path) -> dict:
@@ -1160,3 +1169,23 @@ def test_stubs_name_every_python_visible_name(module):
             assert visible <= members, f"{module}.{name}: not in the stub: {sorted(visible - members)}"
             missing = {m for m in members if not hasattr(obj, m)}
             assert not missing, f"{module}.pyi: {name} has no {sorted(missing)}"
+
+
+def test_removal_metric_kernel_is_checked():
+    from lodkit._core.kernel import Kernel
+    from lodkit._core.removal import API_VERSION, RemovalKernel
+    from lodkit._core.schroeder_kernel import SchroederKernel
+
+    class EdgeKernelAsRemoval(M.RemovalMetric):
+        kernel = Kernel
+
+    class BaseRemoval(M.RemovalMetric):
+        kernel = RemovalKernel
+
+    class GoodRemoval(M.RemovalMetric):
+        kernel = SchroederKernel
+
+    assert "not a subclass of lodkit._core.removal.RemovalKernel" in M.check_metric_class(EdgeKernelAsRemoval)
+    assert "not a subclass of lodkit._core.removal.RemovalKernel" in M.check_metric_class(BaseRemoval)
+    assert M.check_metric_class(GoodRemoval) is None
+    assert vars(SchroederKernel)["api_version"] == API_VERSION

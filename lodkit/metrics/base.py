@@ -1,4 +1,4 @@
-"""What a metric is: the four kinds, their options, and what they are handed.
+"""What a metric is: the five kinds, their options, and what they are handed.
 
 A metric's Python code runs once, at set-up, and hands the core one of:
 
@@ -122,7 +122,7 @@ class Option:
 
 
 class Metric:
-    """Base of every metric.  Subclass one of the four kinds, not this.
+    """Base of every metric.  Subclass one of the five kinds, not this.
 
     Class attributes a metric sets:
         options     : {name: Option}; every metric also has ``weight`` (default 1.0)
@@ -475,17 +475,23 @@ def check_metric_class(obj: Any) -> Optional[str]:
             return f"has dimension {obj.dimension()}; quadrics go up to 16 dimensions"
     if obj.kind == "field" and obj.per not in ("vertex", "edge"):
         return f"has per={obj.per!r}; a field is per 'vertex' or per 'edge'"
-    if obj.kind == "kernel":
-        from .._core.kernel import API_VERSION, Kernel
-
-        if not isinstance(obj.kernel, type) or not issubclass(obj.kernel, Kernel):
-            return f"has kernel={obj.kernel!r}, not a subclass of lodkit._core.kernel.Kernel"
+    if obj.kind in ("kernel", "removal"):
+        if obj.kind == "kernel":
+            from .._core.kernel import API_VERSION, Kernel as Base
+            constant = "KERNEL_API_VERSION"
+        else:
+            from .._core.removal import API_VERSION, RemovalKernel as Base
+            constant = "REMOVAL_API_VERSION"
+        where = f"{Base.__module__}.{Base.__name__}"
+        api = "kernel API" if obj.kind == "kernel" else "removal kernel API"
+        if not isinstance(obj.kernel, type) or not issubclass(obj.kernel, Base) or obj.kernel is Base:
+            return f"has kernel={obj.kernel!r}, not a subclass of {where}"
         # read from the class itself: a value inherited from lodkit's base says nothing
         version = vars(obj.kernel).get("api_version")
         if version is None:
-            return (f"kernel {obj.kernel.__name__} does not state the kernel API it was built for: "
-                    f"set api_version = KERNEL_API_VERSION in its class body")
+            return (f"kernel {obj.kernel.__name__} does not state the {api} it was built for: "
+                    f"set api_version = {constant} in its class body")
         if version != API_VERSION:
-            return (f"kernel {obj.kernel.__name__} was built for kernel API version {version}, "
+            return (f"kernel {obj.kernel.__name__} was built for {api} version {version}, "
                     f"this lodkit has version {API_VERSION}: rebuild the plugin against it")
     return None
