@@ -27,8 +27,6 @@ docs/benchmarks.md (between ``<!-- clustering:begin -->`` and ``<!-- clustering:
 from __future__ import annotations
 
 import argparse
-import json
-import os
 import statistics
 import sys
 import time
@@ -55,7 +53,9 @@ def load_mesh(key: str):
     import lodkit
 
     if key == "igea-1m":
-        path = Path(os.environ.get("LODKIT_TEST_DATA", REPO.parent / "shared" / "data" / "meshes")) / "igea.ply"
+        from common import shared_mesh_path
+
+        path = shared_mesh_path("igea.ply")
         if not path.exists():
             return None
         m = o3d.io.read_triangle_mesh(str(path)).subdivide_midpoint(1)
@@ -191,13 +191,9 @@ def main(argv=None) -> int:
     section = render(results, time.perf_counter() - t0)
     print(section)
     if not args.no_report:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(args.json + ".tmp")
-        tmp.write_text(json.dumps(results, indent=2) + "\n")
-        tmp.replace(args.json)
-        from report import splice_section
+        from common import write_results
 
-        splice_section(Path(args.report), section, BEGIN, END)
+        write_results(results, args.json, section, args.report, BEGIN, END)
     return 0
 
 

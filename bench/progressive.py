@@ -17,8 +17,6 @@ docs/benchmarks.md (between ``<!-- progressive:begin -->`` and ``<!-- progressiv
 from __future__ import annotations
 
 import argparse
-import json
-import os
 import statistics
 import sys
 import tempfile
@@ -54,8 +52,9 @@ def measure(mesh_key: str, ratios, rounds: int, extract_repeat: int) -> dict:
     import lodkit
     from lodkit.progressive import ProgressiveMesh, progressive
 
-    path = Path(os.environ.get("LODKIT_TEST_DATA", REPO.parent / "shared" / "data" / "meshes")) / MESHES[mesh_key]
-    mesh = lodkit.load(path)
+    from common import shared_mesh_path
+
+    mesh = lodkit.load(shared_mesh_path(MESHES[mesh_key]))
     t0 = time.perf_counter()
     pm = progressive(mesh)
     build = time.perf_counter() - t0
@@ -147,13 +146,9 @@ def main(argv=None) -> int:
     section = render(results)
     print(section)
     if not args.no_report:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(args.json + ".tmp")
-        tmp.write_text(json.dumps(results, indent=2) + "\n")
-        tmp.replace(args.json)
-        from report import splice_section
+        from common import write_results
 
-        splice_section(Path(args.report), section, BEGIN, END)
+        write_results(results, args.json, section, args.report, BEGIN, END)
     return 0
 
 

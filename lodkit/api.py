@@ -779,18 +779,24 @@ def _extract(src: Mesh, prep: Prepared, collapser, names):
     moved = collapser.moved_vertices[rep]
     verts = src.vertices[vertex_map].copy()
     verts[moved] = collapser.positions[rep[moved]] * prep.scale + prep.center
-    out_attrs = {}
-    if names:
-        block = collapser.attributes[rep]
-        col = 0
-        for name, width in names:
-            a = block[:, col:col + width]
-            col += width
-            if name == "normals":
-                length = np.linalg.norm(a, axis=1, keepdims=True)
-                a = np.divide(a, length, out=np.zeros_like(a), where=length > 0)
-            elif name == "colors":
-                a = np.clip(a, 0.0, 1.0)
-            out_attrs[name] = a
+    out_attrs = _attribute_arrays(collapser.attributes[rep], names) if names else {}
     out = Mesh(verts, out_faces, **out_attrs)
     return out, vertex_map.astype(np.int64), face_map
+
+
+def _attribute_arrays(block: np.ndarray, names) -> dict:
+    """The output attributes from the core's attribute block (one row per output vertex,
+    the columns of each ``(name, width)`` in turn): normals renormalised (a zero normal
+    stays zero), colours clamped to [0, 1]."""
+    out = {}
+    col = 0
+    for name, width in names:
+        a = block[:, col:col + width]
+        col += width
+        if name == "normals":
+            length = np.linalg.norm(a, axis=1, keepdims=True)
+            a = np.divide(a, length, out=np.zeros_like(a), where=length > 0)
+        elif name == "colors":
+            a = np.clip(a, 0.0, 1.0)
+        out[name] = a
+    return out

@@ -87,13 +87,10 @@ def _build_parser() -> argparse.ArgumentParser:
                         help="stop before the error exceeds E (a fraction of the bounding-box "
                              "diagonal, or model units with --absolute)")
     p.add_argument("--absolute", action="store_true", help="--max-error and the reported error are in model units")
-    p.add_argument("--metric", type=_metric_option, action="append", metavar="NAME[:OPT=VAL,...]",
-                   help="cost metric, with options after a colon, e.g. 'qem' or "
-                        "'importance:weight=2,merge=min' (values are read as int, float, "
-                        "true/false or text); repeat to combine metrics (default: qem); "
-                        "'lodkit metrics' lists them")
-    p.add_argument("--placement", choices=("optimal", "endpoint"), help="where the merged vertex goes (default: optimal)")
-    p.add_argument("--boundary", choices=("lock", "preserve", "free"), help="how boundaries are treated (default: preserve)")
+    _add_collapse_options(p, "cost metric, with options after a colon, e.g. 'qem' or "
+                             "'importance:weight=2,merge=min' (values are read as int, float, "
+                             "true/false or text); repeat to combine metrics (default: qem); "
+                             "'lodkit metrics' lists them")
     p.add_argument("--max-normal-angle", type=float, metavar="DEG",
                    help="reject collapses that turn a face normal by more than DEG degrees")
     p.add_argument("--min-quality", type=float, metavar="Q",
@@ -137,10 +134,7 @@ def _build_parser() -> argparse.ArgumentParser:
                    help="fractions of the faces to keep, each 0 < R <= 1, e.g. 0.5,0.1,0.02")
     p.add_argument("--out-dir", required=True, metavar="DIR", help="output directory (made if missing)")
     p.add_argument("--format", choices=("ply", "obj", "glb"), default="ply", help="file format of the levels (default: ply)")
-    p.add_argument("--metric", type=_metric_option, action="append", metavar="NAME[:OPT=VAL,...]",
-                   help="cost metric, as for 'lodkit simplify' (repeat to combine; default: qem)")
-    p.add_argument("--placement", choices=("optimal", "endpoint"), help="where the merged vertex goes (default: optimal)")
-    p.add_argument("--boundary", choices=("lock", "preserve", "free"), help="how boundaries are treated (default: preserve)")
+    _add_collapse_options(p, "cost metric, as for 'lodkit simplify' (repeat to combine; default: qem)")
     p.add_argument("--absolute", action="store_true", help="report errors in model units")
     p.add_argument("--quiet", "-q", action="store_true", help="no summary lines")
     p.set_defaults(run=_run_lods)
@@ -152,9 +146,7 @@ def _build_parser() -> argparse.ArgumentParser:
                                    "colour error of SIMPLIFIED against ORIGINAL (docs/evaluation.md).")
     p.add_argument("original", metavar="ORIGINAL", help="original mesh file")
     p.add_argument("simplified", metavar="SIMPLIFIED", help="simplified mesh file")
-    p.add_argument("--samples", type=_count, default=200_000, metavar="N",
-                   help="random points on each surface (default: 200000)")
-    p.add_argument("--seed", type=_seed, default=0, metavar="S", help="sampling seed (default: 0)")
+    _add_sampling_options(p, "random points on each surface (default: 200000)")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     p.set_defaults(run=_run_evaluate)
 
@@ -171,9 +163,7 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ratios", default="0.5,0.1,0.02", type=_ratio_list, metavar="R,R,...",
                    help="fractions of the faces to keep (default: 0.5,0.1,0.02)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (created if missing)")
-    p.add_argument("--samples", type=_count, default=200_000, metavar="N",
-                   help="random points on each surface per evaluation (default: 200000)")
-    p.add_argument("--seed", type=_seed, default=0, metavar="S", help="sampling seed (default: 0)")
+    _add_sampling_options(p, "random points on each surface per evaluation (default: 200000)")
     p.add_argument("--size", type=_image_size, default=(320, 240), metavar="WxH",
                    help="size of each picture in the contact sheet (default: 320x240)")
     p.add_argument("--render-backend", choices=("open3d", "numpy"),
@@ -202,11 +192,25 @@ def _build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _add_collapse_options(p, metric_help: str) -> None:
+    """--metric, --placement and --boundary, as simplify and lods take them."""
+    p.add_argument("--metric", type=_metric_option, action="append", metavar="NAME[:OPT=VAL,...]", help=metric_help)
+    p.add_argument("--placement", choices=("optimal", "endpoint"), help="where the merged vertex goes (default: optimal)")
+    p.add_argument("--boundary", choices=("lock", "preserve", "free"), help="how boundaries are treated (default: preserve)")
+
+
+def _add_sampling_options(p, samples_help: str) -> None:
+    """--samples and --seed of the error measurement, as evaluate and compare take them."""
+    p.add_argument("--samples", type=_count, default=200_000, metavar="N", help=samples_help)
+    p.add_argument("--seed", type=_seed, default=0, metavar="S", help="sampling seed (default: 0)")
+
+
 def _number(text: str, kind=float):
     try:
         value = kind(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+        what = "a whole number" if kind is int else "a number"
+        raise argparse.ArgumentTypeError(f"not {what}: {text!r}") from None
     if kind is float and not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"must be finite, got {text!r}")
     return value
@@ -220,20 +224,17 @@ def _ratio(text: str) -> float:
 
 
 def _count(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    value = _number(text, int)
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1, got {text}")
     return value
 
 
 def _ratio_list(text: str) -> list:
-    values = [_ratio(part.strip()) for part in text.split(",") if part.strip()]
-    if not values:
-        raise argparse.ArgumentTypeError(f"expected ratios like 0.5,0.1, got {text!r}")
-    return values
+    items = [t.strip() for t in text.split(",")]
+    if not items or any(not t for t in items):
+        raise argparse.ArgumentTypeError(f"expected comma-separated ratios like 0.5,0.1, got {text!r}")
+    return [_ratio(t) for t in items]
 
 
 def _image_size(text: str) -> tuple:
@@ -244,10 +245,7 @@ def _image_size(text: str) -> tuple:
 
 
 def _seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a whole number: {text!r}") from None
+    value = _number(text, int)
     if value < 0:
         raise argparse.ArgumentTypeError(f"must be >= 0, got {text}")
     return value
@@ -296,10 +294,15 @@ def _option_value(text: str):
 
 
 def _metric_spec(items):
-    """The ``metric=`` argument of simplify() from the ``--metric`` options (None: default)."""
+    """The ``metric=`` argument of simplify() from the ``--metric`` options (None: default),
+    created once so that unknown names and bad options fail before a large mesh is loaded."""
     if not items:
         return None
-    return items[0] if len(items) == 1 else list(items)
+    metric = items[0] if len(items) == 1 else list(items)
+    from .metrics import create
+
+    create(metric)
+    return metric
 
 
 # ---------------------------------------------------------------------- commands
@@ -310,11 +313,6 @@ def _run_simplify(args) -> int:
         raise _UsageError("simplify needs a target: --ratio, --faces or --max-error (see 'lodkit simplify --help')")
     _check_output(args.output)     # before the work, not after it
     metric = _metric_spec(args.metric)
-    if metric is not None:
-        # unknown names and bad options fail here, before a large mesh is loaded
-        from .metrics import create
-
-        create(metric)
     options = {
         "target_ratio": args.ratio,
         "target_faces": args.faces,
@@ -339,8 +337,7 @@ def _run_simplify(args) -> int:
     if not args.quiet:
         out = result.mesh
         unit = "model units" if args.absolute else "of bbox diagonal"
-        print(f"{args.input}: {mesh.n_faces} -> {out.n_faces} faces ({_percent(out.n_faces, mesh.n_faces)}), "
-              f"{mesh.n_vertices} -> {out.n_vertices} vertices, error {result.error:.3g} {unit}, "
+        print(f"{args.input}: {_reduction(mesh, out)}, error {result.error:.3g} {unit}, "
               f"stop: {result.stop_reason}, {seconds:.2f} s -> {args.output}")
     return EXIT_OK
 
@@ -356,8 +353,7 @@ def _run_cluster(args) -> int:
     if not args.quiet:
         out = result.mesh
         unit = "model units" if args.absolute else "of bbox diagonal"
-        print(f"{args.input}: {mesh.n_faces} -> {out.n_faces} faces ({_percent(out.n_faces, mesh.n_faces)}), "
-              f"{mesh.n_vertices} -> {out.n_vertices} vertices, cell {result.cell_size:.3g} {unit}, "
+        print(f"{args.input}: {_reduction(mesh, out)}, cell {result.cell_size:.3g} {unit}, "
               f"grid {'x'.join(map(str, result.report['grid']))}, error {result.error:.3g} {unit}, "
               f"{result.elapsed:.2f} s -> {args.output}")
     return EXIT_OK
@@ -447,13 +443,6 @@ def _run_metrics(args) -> int:
     return EXIT_OK
 
 
-def _ratio_list(text: str) -> list:
-    items = [t.strip() for t in text.split(",")]
-    if not items or any(not t for t in items):
-        raise argparse.ArgumentTypeError(f"expected comma-separated ratios like 0.5,0.1, got {text!r}")
-    return [_ratio(t) for t in items]
-
-
 def _run_lods(args) -> int:
     import csv
     import io as _io
@@ -462,10 +451,6 @@ def _run_lods(args) -> int:
     from .progressive import atomic_write, progressive
 
     metric = _metric_spec(args.metric)
-    if metric is not None:
-        from .metrics import create
-
-        create(metric)                       # unknown names fail before the mesh is loaded
     out_dir = os.path.abspath(args.out_dir)
     if os.path.exists(out_dir) and not os.path.isdir(out_dir):
         raise MeshIOError(f"cannot write to {args.out_dir}: it is not a directory")
@@ -571,6 +556,12 @@ def _check_output(path: str) -> None:
         raise MeshIOError(f"cannot save {path}: directory {directory} does not exist")
     if os.path.isdir(path):
         raise MeshIOError(f"cannot save {path}: it is a directory")
+
+
+def _reduction(mesh, out) -> str:
+    """``"F -> f faces (p %), V -> v vertices"`` for a summary line."""
+    return (f"{mesh.n_faces} -> {out.n_faces} faces ({_percent(out.n_faces, mesh.n_faces)}), "
+            f"{mesh.n_vertices} -> {out.n_vertices} vertices")
 
 
 def _weld_positions(mesh):

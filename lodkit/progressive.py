@@ -431,18 +431,11 @@ class ProgressiveMesh:
         verts[has] = d["position"][rec]
         attrs = {}
         if self._names:
+            from .api import _attribute_arrays
+
             block = self._slot_attributes()[slots[first]]
             block[has] = d["attributes"][rec]
-            col = 0
-            for name, width in self._names:
-                a = block[:, col:col + width]
-                col += width
-                if name == "normals":
-                    length = np.linalg.norm(a, axis=1, keepdims=True)
-                    a = np.divide(a, length, out=np.zeros_like(a), where=length > 0)
-                elif name == "colors":
-                    a = np.clip(a, 0.0, 1.0)
-                attrs[name] = a
+            attrs = _attribute_arrays(block, self._names)
         mesh = _trusted_mesh(verts, out_faces, attrs)
         if self._open3d:
             mesh = mesh.to_open3d()

@@ -18,8 +18,8 @@ import pytest
 import lodkit
 import lodkit.render as lr
 
-REPO = Path(lodkit.__file__).resolve().parents[1]
-EXAMPLES = REPO / "docs" / "examples"
+REPO = Path(lodkit.__file__).resolve().parents[1]          # the lodkit under test
+EXAMPLES = Path(__file__).resolve().parents[1] / "docs" / "examples"   # the checkout's scripts
 o3d = pytest.importorskip("open3d", reason="the examples read meshes and write PNG files through Open3D")
 
 

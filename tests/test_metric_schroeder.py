@@ -293,25 +293,9 @@ def test_flat_grid_goes_down_to_its_corners():
     assert r.error < 1e-12
 
 
-def feature_corners(mesh, angle=30.0):
-    """Input vertices with a closed star and 1 or >= 3 feature edges (numpy)."""
-    F = mesh.faces
-    N = mesh.face_normals()
-    N = N / np.maximum(np.linalg.norm(N, axis=1), 1e-300)[:, None]
-    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    fid = np.tile(np.arange(len(F)), 3)
-    order = np.lexsort((e[:, 1], e[:, 0]))
-    e, fid = e[order], fid[order]
-    same = np.all(e[1:] == e[:-1], axis=1)
-    i = np.where(same)[0]
-    cosang = np.einsum("ij,ij->i", N[fid[i]], N[fid[i + 1]])
-    feat = e[i][cosang < np.cos(np.radians(angle))]
-    count = np.bincount(feat.ravel(), minlength=mesh.n_vertices)
-    return np.where((count == 1) | (count >= 3))[0]
-
-
-def feature_edge_points(mesh, angle=30.0):
-    """Ends and midpoints of the edges whose faces' normals differ by more than ``angle``."""
+def feature_edges(mesh, angle=30.0):
+    """(n, 2) sorted vertex pairs of the interior edges whose two faces' normals differ by
+    more than ``angle`` degrees (numpy)."""
     F = mesh.faces
     N = mesh.face_normals()
     N = N / np.maximum(np.linalg.norm(N, axis=1), 1e-300)[:, None]
@@ -320,7 +304,19 @@ def feature_edge_points(mesh, angle=30.0):
     order = np.lexsort((e[:, 1], e[:, 0]))
     e, fid = e[order], fid[order]
     i = np.where(np.all(e[1:] == e[:-1], axis=1))[0]
-    fe = e[i][np.einsum("ij,ij->i", N[fid[i]], N[fid[i + 1]]) < np.cos(np.radians(angle))]
+    cosang = np.einsum("ij,ij->i", N[fid[i]], N[fid[i + 1]])
+    return e[i][cosang < np.cos(np.radians(angle))]
+
+
+def feature_corners(mesh, angle=30.0):
+    """Input vertices with a closed star and 1 or >= 3 feature edges (numpy)."""
+    count = np.bincount(feature_edges(mesh, angle).ravel(), minlength=mesh.n_vertices)
+    return np.where((count == 1) | (count >= 3))[0]
+
+
+def feature_edge_points(mesh, angle=30.0):
+    """Ends and midpoints of the edges whose faces' normals differ by more than ``angle``."""
+    fe = feature_edges(mesh, angle)
     a, b = mesh.vertices[fe[:, 0]], mesh.vertices[fe[:, 1]]
     return np.concatenate([a, b, (a + b) / 2])
 

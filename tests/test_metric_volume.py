@@ -640,3 +640,30 @@ def test_stall_on_a_real_mesh_is_explained():
     detail = result.report["stop_detail"]
     n = int(detail.split("kernel vetoes: ")[1].split(" hyperbolic")[0])
     assert n > 0 and f"{n} kernel" in detail
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.filter_too_much])
+@given(point_sets(), st.sampled_from([1e-9, 1e-3, 0.05]))
+def test_hyperbolic_witness_never_contradicts_the_exhaustive_test(case, tol):
+    """The quick tetrahedron certificate (a shortcut before the O(k^3) hull test) only
+    answers "hyperbolic" where the LP does too, with a ball of radius > tolerance (so the
+    exhaustive test, with the same tolerance, would say so as well)."""
+    V, W = case
+    if vk.hyperbolic_witness(V, W, tolerance=tol):
+        assert not lp_non_hyperbolic(V, W)
+        assert vk.measure(V, W, tolerance=tol)["class"] == "hyperbolic"
+
+
+def test_hyperbolic_witness_finds_saddles():
+    ring = [(math.cos(a), math.sin(a)) for a in np.linspace(0, 2 * math.pi, 8, endpoint=False)]
+    W = [(x, y, x * y) for x, y in ring]                # z = x y: A, B, C, D alternate
+    assert vk.hyperbolic_witness([0, 0, 0], W)
+    assert vk.measure([0, 0, 0], W)["class"] == "hyperbolic"
+    # a cube corner and a flat star: no witness (not hyperbolic)
+    assert not vk.hyperbolic_witness([0, 0, 0], [[1, 0, 0], [0, 1, 0], [0, 0, 1]])
+    assert not vk.hyperbolic_witness([0, 0, 0], [(x, y, 0.0) for x, y in ring])
+    # a shallow saddle whose tetrahedra hold only a thin ball: no witness above that radius
+    W = [(x, y, 1e-4 * x * y) for x, y in ring]
+    assert vk.measure([0, 0, 0], W)["class"] == "hyperbolic"
+    assert not vk.hyperbolic_witness([0, 0, 0], W, tolerance=1e-3)
+    assert vk.measure([0, 0, 0], W, tolerance=1e-3)["class"] == "non_hyperbolic"

@@ -14,6 +14,22 @@ cdef enum:
     QSIZE = 11
 
 
+cdef inline int check_label(long long c, Py_ssize_t i, long long n_cells) except -1 nogil:
+    """Raise ValueError unless vertex ``i``'s label ``c`` names one of the ``n_cells`` cells."""
+    if c < 0 or c >= n_cells:
+        with gil:
+            raise ValueError(f"label {c} of vertex {i} is outside 0..{n_cells - 1}")
+    return 0
+
+
+cdef inline int check_corner(Py_ssize_t f, int v, Py_ssize_t n) except -1 nogil:
+    """Raise ValueError unless corner ``v`` of face ``f`` is one of the ``n`` vertices."""
+    if v < 0 or v >= n:
+        with gil:
+            raise ValueError(f"face {f} has an index outside 0..{n - 1}")
+    return 0
+
+
 def cell_sums(const double[:, ::1] P, const int[:, ::1] F, const long long[::1] label,
               Py_ssize_t n_cells, bint quadrics):
     """Per cell: the summed positions (k, 3) and vertex counts (k,) of its vertices, and
@@ -37,9 +53,7 @@ def cell_sums(const double[:, ::1] P, const int[:, ::1] F, const long long[::1] 
     with nogil:
         for i in range(n):
             c = label[i]
-            if c < 0 or c >= n_cells:
-                with gil:
-                    raise ValueError(f"label {c} of vertex {i} is outside 0..{n_cells - 1}")
+            check_label(c, i, n_cells)
             S[c, 0] += P[i, 0]
             S[c, 1] += P[i, 1]
             S[c, 2] += P[i, 2]
@@ -49,9 +63,9 @@ def cell_sums(const double[:, ::1] P, const int[:, ::1] F, const long long[::1] 
                 a = F[f, 0]
                 b = F[f, 1]
                 d = F[f, 2]
-                if a < 0 or a >= n or b < 0 or b >= n or d < 0 or d >= n:
-                    with gil:
-                        raise ValueError(f"face {f} has an index outside 0..{n - 1}")
+                check_corner(f, a, n)
+                check_corner(f, b, n)
+                check_corner(f, d, n)
                 ux = P[b, 0] - P[a, 0]
                 uy = P[b, 1] - P[a, 1]
                 uz = P[b, 2] - P[a, 2]
@@ -197,9 +211,7 @@ def most_important(const double[:, ::1] P, const int[:, ::1] F, const long long[
         for f in range(m):
             for j in range(3):
                 v[j] = F[f, j]
-                if v[j] < 0 or v[j] >= n:
-                    with gil:
-                        raise ValueError(f"face {f} has an index outside 0..{n - 1}")
+                check_corner(f, v[j], n)
             for j in range(3):
                 dx = P[v[(j + 1) % 3], 0] - P[v[j], 0]
                 dy = P[v[(j + 1) % 3], 1] - P[v[j], 1]
@@ -232,9 +244,7 @@ def most_important(const double[:, ::1] P, const int[:, ::1] F, const long long[
                     s = 0.0
             W[i] = L[i] * s
             c = label[i]
-            if c < 0 or c >= n_cells:
-                with gil:
-                    raise ValueError(f"label {c} of vertex {i} is outside 0..{n_cells - 1}")
+            check_label(c, i, n_cells)
             best = chosen[c]
             if best < 0 or W[i] > W[best] or (W[i] == W[best] and L[i] > L[best]):
                 chosen[c] = i
@@ -255,9 +265,7 @@ def nearest_vertex(const double[:, ::1] P, const long long[::1] label, const dou
     with nogil:
         for i in range(n):
             c = label[i]
-            if c < 0 or c >= k:
-                with gil:
-                    raise ValueError(f"label {c} of vertex {i} is outside 0..{k - 1}")
+            check_label(c, i, k)
             dx = P[i, 0] - X[c, 0]
             dy = P[i, 1] - X[c, 1]
             dz = P[i, 2] - X[c, 2]

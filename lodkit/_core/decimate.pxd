@@ -173,7 +173,6 @@ cdef class EdgeCollapser:
     cdef void recost_face(self, int f) noexcept nogil
     cdef void rerank_tri(self, int k) noexcept nogil
     cdef void retry_refused_tri(self, int w) noexcept nogil
-    cdef void rescan_tri(self) noexcept nogil
     cdef int run_tri_c(self, int target_faces, int max_steps) noexcept nogil
 
     cdef int plan(self, int e, int* h_out, int* r_out, double* p, double* cost, double* err) noexcept nogil
@@ -204,6 +203,7 @@ cdef class EdgeCollapser:
     cdef void recost_around(self, int w, int stamp) noexcept nogil
     cdef void retry_refused(self, int w) noexcept nogil
     cdef void rescan(self) noexcept nogil
+    cdef bint pop_candidate(self, int* item) noexcept nogil
     cdef void perform(self, int h, int r, const double* p, double cost, double err) noexcept nogil
     cdef void touch_ring(self, int w, int stamp) noexcept nogil
     cdef void mark_touched(self, int k, int stamp) noexcept nogil

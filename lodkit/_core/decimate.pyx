@@ -54,6 +54,17 @@ cdef inline double quadric_eval(const double* q, const double* p) noexcept nogil
             + 2.0 * (q[6] * x + q[7] * y + q[8] * z) + q[9])
 
 
+cdef inline void take_if_lower(const double* q, const double* x, double* p, double* best) noexcept nogil:
+    """The fallback placement's search: move ``p`` to ``x`` when the quadric is lower there
+    than ``best`` (which then becomes that value)."""
+    cdef double c = quadric_eval(q, x)
+    cdef int i
+    if c < best[0]:
+        best[0] = c
+        for i in range(3):
+            p[i] = x[i]
+
+
 cdef inline bint cofactor_solve(const double* q, double* p, double min_det) noexcept nogil:
     """Solve A p = -b (A the quadric's 3x3 block) by cofactors; False if |det A| <= min_det."""
     cdef double a11 = q[0], a12 = q[1], a13 = q[2], a22 = q[3], a23 = q[4], a33 = q[5]
@@ -834,21 +845,9 @@ cdef class EdgeCollapser:
                     cand[i] = self.P[VSTRIDE * u + i] + 0.5 * du[i]
                 quadric_solve_truncated(q, cand, p)
                 best = quadric_eval(q, p)
-                c = quadric_eval(q, &self.P[VSTRIDE * u])
-                if c < best:
-                    best = c
-                    for i in range(3):
-                        p[i] = self.P[VSTRIDE * u + i]
-                c = quadric_eval(q, &self.P[VSTRIDE * v])
-                if c < best:
-                    best = c
-                    for i in range(3):
-                        p[i] = self.P[VSTRIDE * v + i]
-                c = quadric_eval(q, cand)
-                if c < best:
-                    best = c
-                    for i in range(3):
-                        p[i] = cand[i]
+                take_if_lower(q, &self.P[VSTRIDE * u], p, &best)
+                take_if_lower(q, &self.P[VSTRIDE * v], p, &best)
+                take_if_lower(q, cand, p, &best)
                 # Q(u + t du) = alpha t^2 + 2 beta t + const  ->  t* = -beta / alpha
                 denom = (q[0] * du[0] * du[0] + 2 * q[1] * du[0] * du[1] + 2 * q[2] * du[0] * du[2]
                          + q[3] * du[1] * du[1] + 2 * q[4] * du[1] * du[2] + q[5] * du[2] * du[2])
@@ -859,11 +858,7 @@ cdef class EdgeCollapser:
                     if 0.0 < t < 1.0:
                         for i in range(3):
                             cand[i] = self.P[VSTRIDE * u + i] + t * du[i]
-                        c = quadric_eval(q, cand)
-                        if c < best:
-                            best = c
-                            for i in range(3):
-                                p[i] = cand[i]
+                        take_if_lower(q, cand, p, &best)
                 c = best
             # the kept slot is the end nearer to the new position (provenance); only the
             # collapse itself and the metric's fields / kernels need it, not QEM's ranking
@@ -1365,22 +1360,25 @@ cdef class EdgeCollapser:
             y = ny
 
     cdef void rescan(self) noexcept nogil:
-        cdef int e
-        cdef int h, r
+        """Rebuild the heap from every live candidate: edges, or faces for triangle collapse."""
+        cdef int e, f
+        cdef int h, r, r2
         cdef double p[3]
         cdef double cost
-        if self.tri:
-            self.rescan_tri()
-            return
         self.heap.clear_fast()
         self.n_vetoed = 0
-        for e in range(self.hm.n_edges):
-            if self.m.edge_alive[e] and self.plan(e, &h, &r, p, &cost, NULL) == 0:
-                if self.SP != NULL and self.seam_h >= 0 and self.m.edge[h] != e:
-                    continue              # side b of a seam pair: ranked as side a's edge
-                self.heap.append_unordered(e, cost)
-            if self.failed:
-                break
+        if self.tri:
+            for f in range(self.hm.n_faces):
+                if self.m.face_alive[f] and self.plan_tri(f, &h, &r, &r2, p, &cost, NULL) == 0:
+                    self.heap.append_unordered(f, cost)
+        else:
+            for e in range(self.hm.n_edges):
+                if self.m.edge_alive[e] and self.plan(e, &h, &r, p, &cost, NULL) == 0:
+                    if self.SP != NULL and self.seam_h >= 0 and self.m.edge[h] != e:
+                        continue              # side b of a seam pair: ranked as side a's edge
+                    self.heap.append_unordered(e, cost)
+                if self.failed:
+                    break
         self.heap.heapify_fast()
         self.collapses_since_rescan = 0
         self.n_rejected_error = 0
@@ -1504,9 +1502,20 @@ cdef class EdgeCollapser:
             for j in range(ne):
                 self.EF[ne * es + j] = merge_value(self.EF[ne * es + j], self.EF[ne * ed + j], <int>self.erules[j, RULE_MERGE])
 
+    cdef bint pop_candidate(self, int* item) noexcept nogil:
+        """Pop the cheapest candidate (edge, or face for triangle collapse) into ``item``.
+        When the heap is empty, rescan and pop again, unless nothing collapsed since the
+        last rescan; False: no candidate is left."""
+        cdef double key
+        while self.heap.pop_fast(item, &key) < 0:
+            if self.collapses_since_rescan == 0:
+                return False
+            self.rescan()
+        return True
+
     cdef int run_c(self, int target_faces, int max_steps) noexcept nogil:
         cdef int e, h, r, k, hs, rs, ks, steps = 0
-        cdef double key, cost, err
+        cdef double cost, err
         cdef double p[3]
         cdef double dvol[2]
         if self.tri:
@@ -1514,11 +1523,8 @@ cdef class EdgeCollapser:
         while self.hm.n_alive_faces > target_faces:
             if steps >= max_steps:
                 return RUN_CHUNK
-            if self.heap.pop_fast(&e, &key) < 0:
-                if self.collapses_since_rescan == 0:
-                    return RUN_EXHAUSTED
-                self.rescan()
-                continue
+            if not self.pop_candidate(&e):
+                return RUN_EXHAUSTED
             if self.plan(e, &h, &r, p, &cost, &err) < 0:
                 if self.failed:
                     return RUN_ERROR
@@ -1663,16 +1669,8 @@ cdef class EdgeCollapser:
                 quadric_solve_truncated(q, cand, p)
                 best = quadric_eval(q, p)
                 for j in range(3):
-                    c = quadric_eval(q, &self.P[VSTRIDE * v[j]])
-                    if c < best:
-                        best = c
-                        for i in range(3):
-                            p[i] = self.P[VSTRIDE * v[j] + i]
-                c = quadric_eval(q, cand)
-                if c < best:
-                    best = c
-                    for i in range(3):
-                        p[i] = cand[i]
+                    take_if_lower(q, &self.P[VSTRIDE * v[j]], p, &best)
+                take_if_lower(q, cand, p, &best)
                 c = best
         if c < 0.0:
             c = 0.0
@@ -1930,37 +1928,19 @@ cdef class EdgeCollapser:
                 return
             y = ny
 
-    cdef void rescan_tri(self) noexcept nogil:
-        cdef int f, h, r, r2
-        cdef double p[3]
-        cdef double cost
-        self.heap.clear_fast()
-        self.n_vetoed = 0
-        for f in range(self.hm.n_faces):
-            if self.m.face_alive[f] and self.plan_tri(f, &h, &r, &r2, p, &cost, NULL) == 0:
-                self.heap.append_unordered(f, cost)
-        self.heap.heapify_fast()
-        self.collapses_since_rescan = 0
-        self.n_rejected_error = 0
-        self.n_rejected_topology = 0
-        self.n_rejected_geometry = 0
-
     cdef int run_tri_c(self, int target_faces, int max_steps) noexcept nogil:
         """``run_c`` for triangle collapse: pop the cheapest face, re-plan it, check both
         collapses, do them; ``max_steps`` counts triangle collapses."""
         cdef int f, h1, r1, r2, h2, k, steps = 0
         cdef int dead_faces[4]
-        cdef double key, cost, err
+        cdef double cost, err
         cdef double p[3]
         cdef double dvol[2]
         while self.hm.n_alive_faces > target_faces:
             if steps >= max_steps:
                 return RUN_CHUNK
-            if self.heap.pop_fast(&f, &key) < 0:
-                if self.collapses_since_rescan == 0:
-                    return RUN_EXHAUSTED
-                self.rescan_tri()
-                continue
+            if not self.pop_candidate(&f):
+                return RUN_EXHAUSTED
             if self.plan_tri(f, &h1, &r1, &r2, p, &cost, &err) < 0:
                 continue
             if err > self.max_error:

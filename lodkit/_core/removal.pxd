@@ -23,8 +23,9 @@ or KERNEL_ERROR (after ``self.fail(b"...")``), as for edge kernels (kernel.pxd).
 
 Driver details (vremove.pyx; docs/algorithms.md, "Vertex removal"):
 * ``evaluate`` is called for every vertex at the start, for every vertex of the old link
-  after a removal, again when a vertex is popped (a dearer answer is re-ranked), and for all
-  vertices when the heap runs dry.  Fixed vertices (``VERTEX_FIXED``) and stars with more
+  after a removal, again when a vertex is popped (a dearer answer is re-ranked; not for a
+  kernel with the class attribute ``star_local = True``, whose answer depends on the star
+  alone: the driver keeps its triangles), and for all vertices when the heap runs dry.  Fixed vertices (``VERTEX_FIXED``) and stars with more
   than MAX_VALENCE link vertices are never handed to it.  Positions are the driver's:
   ``s.mesh.positions`` with ``s.mesh.stride`` (3).  ``Removal`` is not cleared between
   calls except n_tris, cost, error and gate (set to 0).

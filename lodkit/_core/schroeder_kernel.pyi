@@ -35,6 +35,7 @@ class SchroederKernel(RemovalKernel):
     valid triangulation."""
 
     api_version: ClassVar[int]
+    star_local: ClassVar[bool]
     @property
     def feature_angle(self) -> float:
         """Degrees: a feature edge's faces' normals differ by more."""

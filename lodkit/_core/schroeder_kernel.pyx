@@ -52,6 +52,8 @@ from libc.math cimport sqrt, NAN
 from .kernel cimport KernelMesh, KERNEL_OK, KERNEL_VETO
 from .removal cimport RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION
 from .retriangulate cimport split_loop_aspect
+from .removal_star cimport star_on_points
+from .vec3 cimport sub3, cross3, dot3, norm3
 
 cdef enum:
     C_SIMPLE = 0
@@ -75,6 +77,7 @@ DEFAULT_MIN_ASPECT = 0.04        # vtkDecimate's AspectRatio 25: a split is refu
 
 cdef class SchroederKernel(RemovalKernel):
     api_version = REMOVAL_API_VERSION
+    star_local = True                        # evaluate() depends on the star alone (vremove caches it)
 
     cdef readonly double feature_angle       # degrees
     cdef readonly double cos_feature
@@ -142,13 +145,10 @@ cdef class SchroederKernel(RemovalKernel):
         for i in range(nf):
             b = &P[stride * s.link[i]]
             c = &P[stride * s.link[(i + 1) % k]]
-            for j in range(3):
-                e[j] = b[j] - x[j]
-                f[j] = c[j] - x[j]
-            g[0] = e[1] * f[2] - e[2] * f[1]
-            g[1] = e[2] * f[0] - e[0] * f[2]
-            g[2] = e[0] * f[1] - e[1] * f[0]
-            nl = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
+            sub3(b, x, e)
+            sub3(c, x, f)
+            cross3(e, f, g)
+            nl = norm3(g)
             area = 0.5 * nl
             for j in range(3):
                 N[j] += g[j]
@@ -201,16 +201,13 @@ cdef class SchroederKernel(RemovalKernel):
         elif cls == C_INTERIOR_EDGE or cls == C_BOUNDARY or (cls == C_CORNER and self.remove_corners):
             b = &P[stride * s.link[fa]]
             c = &P[stride * s.link[fb]]
-            for j in range(3):
-                e[j] = c[j] - b[j]
-                f[j] = x[j] - b[j]
-            ll = e[0] * e[0] + e[1] * e[1] + e[2] * e[2]
+            sub3(c, b, e)
+            sub3(x, b, f)
+            ll = dot3(e, e)
             if not ll > 0.0:
                 return KERNEL_VETO
-            g[0] = e[1] * f[2] - e[2] * f[1]
-            g[1] = e[2] * f[0] - e[0] * f[2]
-            g[2] = e[0] * f[1] - e[1] * f[0]
-            d = sqrt((g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) / ll)
+            cross3(e, f, g)
+            d = sqrt(dot3(g, g) / ll)
             force_a = fa
             force_b = fb
         else:
@@ -247,19 +244,9 @@ cdef class SchroederKernel(RemovalKernel):
         cdef Star star
         cdef Removal rem
         cdef int i, rc
-        mesh.he = NULL
-        mesh.positions = &Pv[0, 0]
-        mesh.stride = 3
-        mesh.flags = NULL
-        mesh.n_vertices = Pv.shape[0]
-        mesh.n_faces = 0
-        star.mesh = &mesh
-        star.v = v
-        star.k = L.shape[0]
-        star.closed = 1 if closed else 0
-        for i in range(star.k):
-            star.link[i] = L[i]
-            star.face[i] = -1
+        cdef const int[::1] Lv = L
+        star_on_points(&mesh, &star, &Pv[0, 0], Pv.shape[0], NULL, v,
+                       &Lv[0] if L.shape[0] else NULL, L.shape[0], closed)
         rem.n_tris = 0
         with nogil:
             rc = self.evaluate(&star, &rem)

@@ -80,6 +80,7 @@ cdef class CommitVeto(Kernel):
 # ---- vertex-removal test kernels (removal.pxd) -----------------------------------------
 from .removal cimport RemovalKernel, Star, Removal
 from .retriangulate cimport fan_from, closest_line_apex
+from .vec3 cimport sub3, cross3, norm3
 from libc.math cimport sqrt, fabs
 
 
@@ -151,13 +152,10 @@ cdef class PlaneFan(RemovalKernel):
         for i in range(nf):
             a = &P[st * s.link[i]]
             b = &P[st * s.link[(i + 1) % s.k]]
-            for j in range(3):
-                e1[j] = a[j] - pv[j]
-                e2[j] = b[j] - pv[j]
-            f[0] = e1[1] * e2[2] - e1[2] * e2[1]
-            f[1] = e1[2] * e2[0] - e1[0] * e2[2]
-            f[2] = e1[0] * e2[1] - e1[1] * e2[0]
-            area = sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2])
+            sub3(a, pv, e1)
+            sub3(b, pv, e2)
+            cross3(e1, e2, f)
+            area = norm3(f)
             total += area
             for j in range(3):
                 nrm[j] += f[j]
@@ -174,17 +172,14 @@ cdef class PlaneFan(RemovalKernel):
             # a boundary vertex: the distance to the new boundary edge's line (Schroeder)
             a = &P[st * s.link[0]]
             b = &P[st * s.link[s.k - 1]]
-            for j in range(3):
-                e1[j] = b[j] - a[j]
-                e2[j] = pv[j] - a[j]
-            f[0] = e1[1] * e2[2] - e1[2] * e2[1]
-            f[1] = e1[2] * e2[0] - e1[0] * e2[2]
-            f[2] = e1[0] * e2[1] - e1[1] * e2[0]
-            ln = sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2])
+            sub3(b, a, e1)
+            sub3(pv, a, e2)
+            cross3(e1, e2, f)
+            ln = norm3(e1)
             if ln > 0.0:
-                d = sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]) / ln
+                d = norm3(f) / ln
             else:
-                d = sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2])
+                d = norm3(e2)
         r.cost = d
         r.error = d
         r.gate = self.gates[s.v] if self.gated else 0.0

@@ -17,6 +17,7 @@ class VolumeKernel(RemovalKernel):
     hyperbolic and degenerate stars are vetoed."""
 
     api_version: ClassVar[int]
+    star_local: ClassVar[bool]
     @property
     def tolerance(self) -> float:
         """Angle (radians) within which a neighbour counts as on a plane through V."""
@@ -46,6 +47,10 @@ def solid_angle(a: Sequence[float], b: Sequence[float], c: Sequence[float]) -> f
     """Signed solid angle at the origin of the triangle (a, b, c) (Van Oosterom-Strackee
     with atan2); positive when (a, b, c) runs counter-clockwise seen from the origin."""
 
+def hyperbolic_witness(center: Sequence[float], neighbours: Any, closed: bool = True,
+                       tolerance: float = 1e-9) -> bool:
+    """True if the quick tetrahedron certificate settled the star as hyperbolic."""
+    ...
 def measure(center: Sequence[float], neighbours: Any, closed: bool = True,
             tolerance: float = 1e-9) -> dict[str, Any]:
     """Classify and measure a star: ``class``, ``on_hull``, ``angle``, ``height``,

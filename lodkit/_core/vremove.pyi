@@ -42,6 +42,9 @@ class VertexRemover:
     n_collapses: int
     max_error_done: float
     failed: bool
+    star_local: bool        # the kernel's star_local: popped candidates come from a cache
+    n_evaluations: int      # kernel evaluate() calls over the run
+    n_rescans: int          # full rescans of every vertex slot (the one at the start included)
     def __init__(self, hm: HalfEdgeMesh, positions: ArrayLike, kernel: RemovalKernel, fixed: ArrayLike,
                  boundary: int = 1, max_normal_angle: float = 90.0, min_quality: float = 0.0,
                  max_error: float = ..., record: bool = False, closed_connected: bool = False) -> None: ...

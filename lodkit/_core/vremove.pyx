@@ -10,7 +10,8 @@ The loop (``VertexRemover.run_c``), without the GIL and without allocation:
     link (their stars changed).
 
 One candidate per vertex slot lives in an indexed heap keyed by the kernel's
-``Removal.cost``.  A removal the checks refuse takes the vertex out of the heap until its
+``Removal.cost``; for a ``star_local`` kernel its triangles are kept too, so a popped
+candidate is not evaluated a second time.  A removal the checks refuse takes the vertex out of the heap until its
 star changes (or a rescan, when the heap runs dry).  Gated kernels (``kernel.gated``,
 Chuon & Guha's median filter) only let the candidates whose gate is >= the median gate of
 all candidates compete; the median is kept by :class:`MedianFilter` (two indexed heaps).
@@ -117,6 +118,17 @@ cdef class MedianFilter:
         if self.lo.contains_fast(cid) or self.hi.contains_fast(cid):
             if value == self.val[cid]:
                 return
+            if value == value:
+                # stays in its half: move it there (the halves' sizes, hence the median's
+                # rank, are unchanged)
+                if self.lo.contains_fast(cid) and (self.hi.size == 0 or value <= self.hi.hkey[0]):
+                    self.val[cid] = value
+                    self.lo.push_fast(cid, -value)
+                    return
+                if self.hi.contains_fast(cid) and value >= -self.lo.hkey[0]:
+                    self.val[cid] = value
+                    self.hi.push_fast(cid, value)
+                    return
             self.remove_fast(cid)
         if value != value:
             return
@@ -284,10 +296,18 @@ cdef class VertexRemover:
     cdef readonly bint failed
     cdef long[::1] nref             # refusal events by state code
     cdef int removals_since_rescan
+    cdef readonly long n_evaluations  # kernel evaluate() calls over the run (profiling, tests)
+    cdef readonly long n_rescans      # full rescans of every vertex slot (the start included)
     cdef int reranks                # re-ranks on pop since the last removal
     cdef Star star
     cdef Removal rem
     cdef int hv[MAX_VALENCE]        # hv[i]: the half-edge v -> link[i] in face[i]
+    # star-local kernels (``star_local = True``): each candidate's triangulation, kept from
+    # its evaluation so that popping it needs no second evaluation (its star is unchanged)
+    cdef readonly bint star_local
+    cdef unsigned char[::1] ctri    # 3 MAX_VALENCE per vertex slot: the triangles (link indices)
+    cdef unsigned char[::1] ck      # the star's k at that evaluation
+    cdef unsigned char[::1] cn      # the number of triangles
     cdef int slot_plan[MAX_VALENCE] # geometry_ok: the face slot each new triangle takes
     # records
     cdef bint record
@@ -329,6 +349,11 @@ cdef class VertexRemover:
         self.vflags = np.ascontiguousarray(flags, dtype=np.uint8)
         self.kernel = kernel
         self.gated = kernel.gated
+        self.star_local = bool(getattr(kernel, "star_local", False))
+        nc = n if self.star_local else 0
+        self.ctri = np.zeros(max(3 * MAX_VALENCE * nc, 1), dtype=np.uint8)
+        self.ck = np.zeros(max(nc, 1), dtype=np.uint8)
+        self.cn = np.zeros(max(nc, 1), dtype=np.uint8)
         self.kmesh.he = self.m
         self.kmesh.positions = self.P
         self.kmesh.stride = 3
@@ -443,6 +468,7 @@ cdef class VertexRemover:
         self.rem.cost = 0.0
         self.rem.error = 0.0
         self.rem.gate = 0.0
+        self.n_evaluations += 1
         rc = self.kernel.evaluate(&self.star, &self.rem)
         if rc == KERNEL_VETO:
             return ST_KERNEL
@@ -471,6 +497,8 @@ cdef class VertexRemover:
             return
         self.vcost[v] = self.rem.cost
         self.verr[v] = self.rem.error
+        if self.star_local:
+            self.keep(v)
         if not self.gated:
             self.heap.push_fast(v, self.rem.cost)
             return
@@ -481,6 +509,38 @@ cdef class VertexRemover:
             self.heap.push_fast(v, self.rem.cost)
         else:
             self.heap.remove_fast(v)
+
+    cdef void keep(self, int v) noexcept nogil:
+        """Cache ``self.rem``'s triangles for ``v`` (just evaluated: ``self.star`` is its star).
+        A count outside 0..MAX_VALENCE is kept as 255, which :meth:`recall` never matches."""
+        cdef int i, n = self.rem.n_tris
+        cdef unsigned char* t = &self.ctri[3 * MAX_VALENCE * v]
+        self.ck[v] = <unsigned char>self.star.k
+        if n < 0 or n > MAX_VALENCE:
+            self.cn[v] = 255
+            return
+        self.cn[v] = <unsigned char>n
+        for i in range(3 * n):
+            t[i] = <unsigned char>self.rem.tri[i]
+
+    cdef int recall(self, int v) noexcept nogil:
+        """The popped candidate ``v`` of a star-local kernel: fill its star and restore its
+        evaluation from the cache (the star has not changed since: every vertex whose star a
+        removal changes is evaluated again).  Falls back to :meth:`evaluate` if the star's
+        size does not match.  Returns as evaluate()."""
+        cdef int i, n
+        cdef const unsigned char* t
+        if self.cn[v] == 255 or self.fill_star(v) != self.ck[v]:
+            return self.evaluate(v)
+        n = self.cn[v]
+        t = &self.ctri[3 * MAX_VALENCE * v]
+        self.rem.n_tris = n
+        for i in range(3 * n):
+            self.rem.tri[i] = t[i]
+        self.rem.cost = self.vcost[v]
+        self.rem.error = self.verr[v]
+        self.rem.gate = self.vgate[v] if self.gated else 0.0
+        return ST_CANDIDATE
 
     cdef void refuse(self, int v, int st) noexcept nogil:
         self.nref[st] += 1
@@ -511,6 +571,7 @@ cdef class VertexRemover:
 
     cdef void rescan(self) noexcept nogil:
         cdef int v, st
+        self.n_rescans += 1
         self.heap.clear_fast()
         for v in range(self.hm.n_vertices):
             st = self.evaluate(v)
@@ -562,35 +623,11 @@ cdef class VertexRemover:
     cdef inline int source(self, int v) noexcept nogil:
         return self.hm.vertex_source[v] if self.hm.has_copies else v
 
-    cdef bint adjacent(self, int a, int b) noexcept nogil:
-        """Is there an edge between input vertices source(a) and source(b), over every copy
-        of a?"""
-        cdef int sb = self.source(b)
-        cdef int x = a
-        cdef int start, y, ny
-        while True:
-            start = self.m.v_he[x]
-            y = start
-            while True:
-                if self.source(he_dest(self.m, y)) == sb:
-                    return True
-                ny = he_ring_next(self.m, y)
-                if ny < 0:
-                    if self.source(self.m.corner[he_prev(y)]) == sb:
-                        return True
-                    break
-                if ny == start:
-                    break
-                y = ny
-            if not self.hm.has_copies:
-                return False
-            x = self.hm.next_copy[x]
-            if x < 0 or x == a:
-                return False
-
-    cdef bint face_exists(self, int a, int b, int c) noexcept nogil:
-        """Is there a live face on input vertices {source(a), source(b), source(c)}?"""
-        cdef int sb = self.source(b), sc = self.source(c)
+    cdef bint ring_has(self, int a, int b, int c) noexcept nogil:
+        """Over every copy of ``a``, is there a live face (a, p, q) with source(b) in {p, q}
+        (``c`` < 0: the edge a b exists, for every neighbour of a is the p or q of one of
+        its faces) or with {p, q} = {source(b), source(c)} (the face a b c exists)?"""
+        cdef int sb = self.source(b), sc = self.source(c) if c >= 0 else -1
         cdef int x = a
         cdef int start, y, ny, p, q
         while True:
@@ -599,7 +636,7 @@ cdef class VertexRemover:
             while True:
                 p = self.source(he_dest(self.m, y))
                 q = self.source(self.m.corner[he_prev(y)])
-                if (p == sb and q == sc) or (p == sc and q == sb):
+                if (p == sb and (sc < 0 or q == sc)) or (q == sb and (sc < 0 or p == sc)):
                     return True
                 ny = he_ring_next(self.m, y)
                 if ny < 0 or ny == start:
@@ -610,6 +647,14 @@ cdef class VertexRemover:
             x = self.hm.next_copy[x]
             if x < 0 or x == a:
                 return False
+
+    cdef inline bint adjacent(self, int a, int b) noexcept nogil:
+        """Is there an edge between input vertices source(a) and source(b)?"""
+        return self.ring_has(a, b, -1)
+
+    cdef inline bint face_exists(self, int a, int b, int c) noexcept nogil:
+        """Is there a live face on input vertices {source(a), source(b), source(c)}?"""
+        return self.ring_has(a, b, c)
 
     cdef int topology_ok(self) noexcept nogil:
         """The manifold / weld rules for the removal in ``self.star`` / ``self.rem``."""
@@ -812,7 +857,10 @@ cdef class VertexRemover:
                 if self.failed:
                     return R_ERROR
                 continue
-            st = self.evaluate(v)
+            if self.star_local and self.state[v] == ST_CANDIDATE:
+                st = self.recall(v)
+            else:
+                st = self.evaluate(v)
             if st < 0:
                 return R_ERROR
             if st != ST_CANDIDATE:
