@@ -317,3 +317,166 @@ def test_convex_polygons_always_triangulate(k, gaps, tx, ty):
     tris = py_split_loop(P, normal=n, min_aspect=0.0)
     assert tris is not None
     check_triangulation(P, tris, n)
+
+
+# ---- a bit-exact port of split_loop -------------------------------------------------------
+#
+# The compiled search stops scanning a candidate split early (once it cannot beat the best
+# so far) and reads the vertices in another order; it must choose exactly the split the plain
+# rule chooses, ties (relative 1e-9, first in order) included.  This port evaluates every
+# candidate in full with the same floating-point expressions in the same order (Python floats
+# are IEEE doubles, math.sqrt is correctly rounded, as the C code without FMA), so the
+# triangles must be equal, not merely both valid.
+
+def exact_split(P, n, min_aspect=SPLIT_MIN_ASPECT, force=None):
+    P = [tuple(float(c) for c in p) for p in np.asarray(P, dtype=np.float64)]
+    n0, n1, n2 = (float(c) for c in np.asarray(n, dtype=np.float64).reshape(3))
+    nlen = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    k = len(P)
+
+    def aspect(cur, i, j):
+        a, b = P[cur[i]], P[cur[j]]
+        d0, d1, d2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+        L = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        if not L > 0.0:
+            return -1.0
+        s0 = d1 * n2 - d2 * n1
+        s1 = d2 * n0 - d0 * n2
+        s2 = d0 * n1 - d1 * n0
+        sl = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+        if not sl > 1e-12 * L * nlen:
+            return -1.0
+        s0, s1, s2 = s0 / sl, s1 / sl, s2 / sl
+        eps = 1e-12 * L
+        mind = 1e300
+        for t in range(len(cur)):
+            if t in (i, j):
+                continue
+            q = P[cur[t]]
+            h = (q[0] - a[0]) * s0 + (q[1] - a[1]) * s1 + (q[2] - a[2]) * s2
+            if i < t < j:
+                if not h > eps:
+                    return -1.0
+            else:
+                if not h < -eps:
+                    return -1.0
+                h = -h
+            mind = min(mind, h)
+        return -1.0 if mind == 1e300 else mind / L
+
+    forced = force is not None and force[0] >= 0 and force[1] >= 0
+    if forced:
+        fa, fb = int(force[0]), int(force[1])
+        if fa >= k or fb >= k or fa == fb:
+            return None
+        fa, fb = min(fa, fb), max(fa, fb)
+    tris = []
+    stack = [list(range(k))]
+    while stack:
+        cur = stack.pop()
+        m = len(cur)
+        if forced:
+            bi, bj = fa, fb
+            best = aspect(cur, bi, bj)
+            forced = False
+            if best < 0.0 or best < min_aspect:
+                return None
+        elif m == 3:
+            p0, p1, p2 = P[cur[0]], P[cur[1]], P[cur[2]]
+            e0, e1, e2 = p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]
+            f0, f1, f2 = p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]
+            if not ((e1 * f2 - e2 * f1) * n0 + (e2 * f0 - e0 * f2) * n1
+                    + (e0 * f1 - e1 * f0) * n2) > 0.0:
+                return None
+            t = list(cur)
+            while t[0] > t[1] or t[0] > t[2]:
+                t = t[1:] + t[:1]
+            tris.append(t)
+            continue
+        else:
+            best, bi, bj = -1.0, -1, -1
+            for i in range(m - 2):
+                for j in range(i + 2, m):
+                    if i == 0 and j == m - 1:
+                        continue
+                    ar = aspect(cur, i, j)
+                    if ar > best * (1.0 + 1e-9):
+                        best, bi, bj = ar, i, j
+            if bi < 0 or best < 0.0 or best < min_aspect:
+                return None
+        B = cur[bj:] + cur[:bi + 1]
+        A = cur[bi:bj + 1]
+        if len(B) >= 3:
+            stack.append(B)
+        if len(A) >= 3:
+            stack.append(A)
+    return np.array(tris, dtype=np.int32).reshape(-1, 3)
+
+
+def assert_same_as_exact(P, n, min_aspect, force=None):
+    got = py_split_loop(P, normal=n, force=force, min_aspect=min_aspect)
+    want = exact_split(P, n, min_aspect, force)
+    if want is None:
+        assert got is None
+    else:
+        assert got is not None and got.tolist() == want.tolist()
+
+
+coord = st.floats(-1.0, 1.0, allow_nan=False, allow_infinity=False)
+aspects = st.sampled_from([-1.0, 0.0, 0.01, SPLIT_MIN_ASPECT, 0.1, 0.3])
+
+
+@st.composite
+def star_loops(draw, planar):
+    k = draw(st.integers(3, 16))
+    gaps = np.array(draw(st.lists(st.floats(0.05, 1.0), min_size=k, max_size=k)))
+    angles = np.cumsum(gaps) / gaps.sum() * 2 * np.pi
+    radii = np.array(draw(st.lists(st.floats(0.2, 1.0), min_size=k, max_size=k)))
+    z = (np.zeros(k) if planar
+         else np.array(draw(st.lists(st.floats(-0.5, 0.5), min_size=k, max_size=k))))
+    return np.c_[radii * np.cos(angles), radii * np.sin(angles), z]
+
+
+@st.composite
+def normals_and_forces(draw, k):
+    n = draw(st.one_of(st.just(None), st.tuples(coord, coord, st.floats(0.1, 1.0))))
+    force = draw(st.one_of(st.just(None),
+                           st.tuples(st.integers(0, k - 1), st.integers(0, k - 1))))
+    return n, force
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.data(), st.booleans(), aspects)
+def test_star_loops_match_the_exact_port(data, planar, min_aspect):
+    P = data.draw(star_loops(planar))
+    n, force = data.draw(normals_and_forces(len(P)))
+    assert_same_as_exact(P, newell(P) if n is None else n, min_aspect, force)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.data(), st.integers(3, 14), aspects)
+def test_random_non_planar_loops_match_the_exact_port(data, k, min_aspect):
+    P = np.array(data.draw(st.lists(st.tuples(coord, coord, coord), min_size=k, max_size=k)))
+    n, force = data.draw(normals_and_forces(k))
+    assert_same_as_exact(P, newell(P) if n is None else n, min_aspect, force)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(3, 14), st.integers(1, 4), st.integers(0, 13), aspects)
+def test_snapped_loops_with_exact_ties_match_the_exact_port(k, grid, shift, min_aspect):
+    # regular polygons snapped to a coarse grid: many candidate splits tie exactly, so the
+    # early stop must give way to the first of equal splits as the full scan does
+    a = 2 * np.pi * ((np.arange(k) + shift) % k) / k
+    P = np.round(np.c_[np.cos(a), np.sin(a), np.zeros(k)] * 2 * grid) / (2 * grid)
+    assert_same_as_exact(P, [0.0, 0.0, 1.0], min_aspect)
+    assert_same_as_exact(regular(k), [0.0, 0.0, 1.0], min_aspect)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.integers(4, 12), st.integers(7, 11), st.integers(0, 2**32 - 1), aspects)
+def test_nearly_regular_loops_match_the_exact_port(k, e, seed, min_aspect):
+    # perturbed by about 10^-e: candidate splits within a few 1e-9 of each other, where the
+    # relative tie tolerance decides and an early stop that is too eager would show
+    P = regular(k) + np.random.default_rng(seed).uniform(-1, 1, (k, 3)) * 10.0 ** -e
+    assert_same_as_exact(P, [0.0, 0.0, 1.0], min_aspect)
+    assert_same_as_exact(P, newell(P), min_aspect)

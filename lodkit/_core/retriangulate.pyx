@@ -23,23 +23,36 @@
 # with one empty side: every other vertex must lie on the loop's side of the plane through
 # that edge (Schroeder's own vtkDecimate does this for the new boundary edge of a boundary
 # vertex); the loop is then triangulated without constraint.
-from libc.math cimport sqrt, fabs
+from libc.math cimport sqrt, fabs, INFINITY
+from libc.float cimport DBL_MIN, DBL_MAX
 
 # Schroeder's vtkDecimate: AspectRatio = 25, a split is refused when
 # (min distance / split length)^2 < 1 / 25^2, i.e. below 1 / 25 = 0.04.
 SPLIT_MIN_ASPECT = 0.04
 cdef double _min_aspect_default = 0.04
 
-cdef double _split_aspect(const double* P, int stride, const int* loop, const int* cur, int m,
-                          const double* n, int i, int j) noexcept nogil:
+cdef inline double _split_aspect(const double* P, int stride, const int* loop, const int* cur,
+                                 int m, const double* n, double nlen, int i, int j,
+                                 double cutoff) noexcept nogil:
     """Aspect ratio of the split of ``cur`` (indices into ``loop``) at local i < j, or -1
-    if the split is invalid (a vertex on the wrong side of, or on, the split plane)."""
+    if the split is invalid (a vertex on the wrong side of, or on, the split plane) or
+    cannot beat ``cutoff``.  ``nlen`` is |n| (computed once per loop by the caller).
+
+    ``cutoff``: the caller takes a split only when its ratio is > cutoff, so the scan stops
+    (returning -1) as soon as the running minimum distance mind is <= lim, a bound below
+    cutoff * L: then mind / L < cutoff exactly, the final ratio fl(min / L) <= cutoff (the
+    minimum only decreases, rounding is monotone and cutoff is a double), so the split could
+    not be taken whatever the remaining vertices give, and an invalid split would not be
+    taken either (identical choices, ties included).  -inf never stops early.  The vertices are
+    scanned side A (i+1..j-1) then side B (j+1..m-1, 0..i-1), each starting next to the
+    diagonal, where the nearest vertices usually are; the minimum and the validity verdict
+    do not depend on the order."""
     cdef const double* a = &P[stride * loop[cur[i]]]
     cdef const double* b = &P[stride * loop[cur[j]]]
     cdef const double* q
     cdef double d0 = b[0] - a[0], d1 = b[1] - a[1], d2 = b[2] - a[2]
     cdef double L = sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-    cdef double s0, s1, s2, sl, h, eps, mind = 1e300
+    cdef double s0, s1, s2, sl, h, eps, lim, mind = 1e300
     cdef int t
     if not L > 0.0:
         return -1.0
@@ -47,26 +60,37 @@ cdef double _split_aspect(const double* P, int stride, const int* loop, const in
     s1 = d2 * n[0] - d0 * n[2]
     s2 = d0 * n[1] - d1 * n[0]
     sl = sqrt(s0 * s0 + s1 * s1 + s2 * s2)
-    if not sl > 1e-12 * L * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]):
+    if not sl > 1e-12 * L * nlen:
         return -1.0                     # split line along the normal: no split plane
     s0 /= sl
     s1 /= sl
     s2 /= sl
     eps = 1e-12 * L
-    for t in range(m):
-        if t == i or t == j:
-            continue
+    # mind <= lim implies mind / L < cutoff in exact arithmetic (lim is cutoff * L made
+    # smaller by far more than its two roundings), hence fl(mind / L) <= cutoff; only
+    # used when lim is a normal positive number (no underflow, no overflow)
+    lim = cutoff * L * (1.0 - 1e-12)
+    if not (lim >= DBL_MIN and lim <= DBL_MAX):
+        lim = -1.0
+    for t in range(i + 1, j):           # side A: strictly positive
         q = &P[stride * loop[cur[t]]]
         h = (q[0] - a[0]) * s0 + (q[1] - a[1]) * s1 + (q[2] - a[2]) * s2
-        if i < t < j:
-            if not h > eps:
-                return -1.0
-        else:
-            if not h < -eps:
-                return -1.0
-            h = -h
+        if not h > eps:
+            return -1.0
         if h < mind:
             mind = h
+        if mind <= lim:
+            return -1.0
+    for t in range(j + 1, m + i):       # side B: strictly negative
+        q = &P[stride * loop[cur[t - m if t >= m else t]]]
+        h = (q[0] - a[0]) * s0 + (q[1] - a[1]) * s1 + (q[2] - a[2]) * s2
+        if not h < -eps:
+            return -1.0
+        h = -h
+        if h < mind:
+            mind = h
+        if mind <= lim:
+            return -1.0
     if mind == 1e300:
         return -1.0                     # nothing to separate (m == 2)
     return mind / L
@@ -81,7 +105,8 @@ cdef int split_loop_aspect(const double* P, int stride, const int* loop, int k,
     cdef int* stack            # (offset, size) of each waiting sub-loop: <= 2k ints
     cdef int nst = 0, top = 0, n_tri = 0, off, m, i, j, bi, bj, t, sa, sb, a, b, c, tmp
     cdef bint forced = force_a >= 0 and force_b >= 0
-    cdef double ar, best
+    cdef double ar, best, cutoff
+    cdef double nlen = sqrt(normal[0] * normal[0] + normal[1] * normal[1] + normal[2] * normal[2])
     cdef const double* p0
     cdef const double* p1
     cdef const double* p2
@@ -113,7 +138,7 @@ cdef int split_loop_aspect(const double* P, int stride, const int* loop, int k,
             # the first loop is the whole loop in order: local index == loop index
             bi = force_a
             bj = force_b
-            best = _split_aspect(P, stride, loop, cur, m, normal, bi, bj)
+            best = _split_aspect(P, stride, loop, cur, m, normal, nlen, bi, bj, -INFINITY)
             forced = False
             if best < 0.0 or best < min_aspect:
                 return -1
@@ -142,16 +167,19 @@ cdef int split_loop_aspect(const double* P, int stride, const int* loop, int k,
             continue
         else:
             best = -1.0
+            cutoff = -INFINITY          # before any valid split: no early stop
             bi = bj = -1
             for i in range(m - 2):
                 for j in range(i + 2, m):
                     if i == 0 and j == m - 1:
                         continue        # a polygon edge, not a diagonal
-                    ar = _split_aspect(P, stride, loop, cur, m, normal, i, j)
+                    ar = _split_aspect(P, stride, loop, cur, m, normal, nlen, i, j, cutoff)
                     if ar > best * (1.0 + 1e-9):
                         best = ar
                         bi = i
                         bj = j
+                        if best >= 0.0:
+                            cutoff = best * (1.0 + 1e-9)
             if bi < 0 or best < 0.0 or best < min_aspect:
                 return -1               # no valid split (best < 0), whatever min_aspect says
         # split cur at (bi, bj): A = bi..bj, B = bj..m-1, 0..bi; B is pushed first so that
