@@ -1,4 +1,5 @@
-"""Helpers the single-section benchmark scripts share (bench/clustering.py, bench/progressive.py).
+"""Helpers the benchmark scripts share (bench/clustering.py, bench/progressive.py,
+bench/fidelity.py, bench/removal.py).
 
 Import it as the scripts import their other bench modules (``bench/`` on ``sys.path``):
 ``from common import shared_mesh_path, write_results``.
@@ -7,7 +8,10 @@ from __future__ import annotations
 
 import json
 import os
+import subprocess
+import sys
 from pathlib import Path
+from typing import Optional
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -29,3 +33,22 @@ def write_results(results, json_path, section: str, report, begin: str, end: str
     tmp.write_text(json.dumps(results, indent=2) + "\n")
     tmp.replace(json_path)
     splice_section(Path(report), section, begin, end)
+
+
+def run_worker(args, timeout: float) -> Optional[str]:
+    """Run ``python <args>`` in a fresh process with this checkout and ``bench/`` on its
+    path (a crash or a hang there cannot take the benchmark down); None if it exited 0,
+    else what went wrong (exit code or signal and the last stderr lines, or the timeout)."""
+    here = Path(__file__).resolve().parent
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(REPO), str(here)] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
+    try:
+        p = subprocess.run([sys.executable, *map(str, args)], capture_output=True, text=True, timeout=timeout,
+                           env=env, cwd=str(here))
+    except subprocess.TimeoutExpired:
+        return f"timed out after {timeout:.0f} s"
+    if p.returncode == 0:
+        return None
+    sig = f" (signal {-p.returncode})" if p.returncode < 0 else ""
+    tail = " | ".join(p.stderr.strip().splitlines()[-3:])
+    return f"worker exited with {p.returncode}{sig}: {tail[-300:]}"

@@ -48,6 +48,8 @@ REPO = HERE.parent
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(HERE))
 
+from common import run_worker  # noqa: E402
+
 BEGIN = "<!-- fidelity:begin -->"
 END = "<!-- fidelity:end -->"
 
@@ -224,18 +226,7 @@ def run_metric_cases(metric: str, cases: list[dict], timeout: float = 300.0) -> 
     with tempfile.TemporaryDirectory(prefix="lodkit-fidelity-") as tmp:
         tmp = Path(tmp)
         (tmp / "cases.json").write_text(json.dumps(cases))
-        cmd = [sys.executable, str(Path(__file__).resolve()), "--worker", metric, "--worker-dir", str(tmp)]
-        env = dict(os.environ)
-        env["PYTHONPATH"] = os.pathsep.join([str(REPO), str(HERE)] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
-        crash = None
-        try:
-            p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=str(HERE))
-            if p.returncode != 0:
-                sig = f" (signal {-p.returncode})" if p.returncode < 0 else ""
-                tail = " | ".join(p.stderr.strip().splitlines()[-3:])
-                crash = f"worker exited with {p.returncode}{sig}: {tail[-300:]}"
-        except subprocess.TimeoutExpired:
-            crash = f"timed out after {timeout:.0f} s"
+        crash = run_worker([Path(__file__).resolve(), "--worker", metric, "--worker-dir", tmp], timeout)
         out = []
         for i, case in enumerate(cases):
             js = tmp / f"case{i}.json"

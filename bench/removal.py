@@ -32,7 +32,6 @@ import argparse
 import json
 import os
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -45,6 +44,8 @@ HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(HERE))
+
+from common import run_worker  # noqa: E402
 
 BEGIN = "<!-- removal:begin -->"
 END = "<!-- removal:end -->"
@@ -166,19 +167,7 @@ def worker(method: str, mesh: str, ratio: float, repeats: int, out_dir: Path) ->
 def run_case(method: str, mesh: str, ratio: float, repeats: int, timeout: float) -> dict:
     with tempfile.TemporaryDirectory(prefix="lodkit-removal-") as tmp:
         tmp = Path(tmp)
-        cmd = [sys.executable, str(Path(__file__).resolve()), "--worker", method, mesh, str(ratio),
-               str(repeats), str(tmp)]
-        env = dict(os.environ)
-        env["PYTHONPATH"] = os.pathsep.join([str(REPO), str(HERE)] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
-        crash = None
-        try:
-            p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=str(HERE))
-            if p.returncode != 0:
-                sig = f" (signal {-p.returncode})" if p.returncode < 0 else ""
-                tail = " | ".join(p.stderr.strip().splitlines()[-3:])
-                crash = f"worker exited with {p.returncode}{sig}: {tail[-300:]}"
-        except subprocess.TimeoutExpired:
-            crash = f"timed out after {timeout:.0f} s"
+        crash = run_worker([Path(__file__).resolve(), "--worker", method, mesh, ratio, repeats, tmp], timeout)
         js = tmp / "status.json"
         if not js.exists():
             return {"method": method, "mesh": mesh, "ratio": ratio, "status": "failed",

@@ -448,7 +448,8 @@ def _run_lods(args) -> int:
     import io as _io
 
     from . import load, save
-    from .progressive import atomic_write, progressive
+    from .io import atomic_write
+    from .progressive import progressive
 
     metric = _metric_spec(args.metric)
     out_dir = os.path.abspath(args.out_dir)

@@ -26,7 +26,6 @@ import io
 import json
 import math
 import os
-import secrets
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -35,6 +34,7 @@ from typing import Callable, Optional
 import numpy as np
 
 from .errors import LodkitError, OptionError
+from .io import atomic_write
 from .evaluate import DEFAULT_SAMPLES, Evaluation, Evaluator, as_mesh
 from .mesh import Mesh
 
@@ -364,17 +364,7 @@ def _render_module():
 
 # ---------------------------------------------------------------------- writing
 def _atomic_write(path: Path, data: bytes) -> None:
-    """Write ``data`` to a temporary file next to ``path``, fsync it, rename it into place."""
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}-{secrets.token_hex(4)}")
-    try:
-        with open(tmp, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    atomic_write(path, lambda fh: fh.write(data), binary=True)
 
 
 def _curve_png(comparison: Comparison, key: str, title: str) -> bytes:

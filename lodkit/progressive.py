@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 import zipfile
 from dataclasses import dataclass
 from typing import Any, Optional
@@ -21,9 +20,10 @@ from typing import Any, Optional
 import numpy as np
 
 from .errors import MeshIOError, OptionError
+from .io import atomic_write
 from .mesh import Mesh
 
-__all__ = ["progressive", "ProgressiveMesh", "Level", "Cursor", "FORMAT", "FORMAT_VERSION", "atomic_write"]
+__all__ = ["progressive", "ProgressiveMesh", "Level", "Cursor", "FORMAT", "FORMAT_VERSION"]
 
 #: what ``ProgressiveMesh.save`` writes in the ``format`` field, and the layout version
 FORMAT = "lodkit-progressive"
@@ -139,28 +139,6 @@ def progressive(mesh, metric="qem", *, min_faces: int = 0, max_error: Optional[f
         raise RuntimeError("lodkit.progressive: the collapse records do not reproduce the run's "
                            f"result (options {sorted(options)}); this is a bug")
     return pm
-
-
-def atomic_write(path, write, binary: bool = False) -> None:
-    """Call ``write(file)`` on a temporary file next to ``path``, then rename it onto
-    ``path``: the target is either left as it was or completely replaced.  The file gets
-    the permissions a plain ``open`` would give (0o666 less the umask)."""
-    path = os.fspath(path)
-    directory = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".tmp", dir=directory)
-    try:
-        with os.fdopen(fd, "wb" if binary else "w") as fh:
-            write(fh)
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
 
 
 def _trusted_mesh(vertices, faces, attrs) -> Mesh:

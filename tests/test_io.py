@@ -708,3 +708,22 @@ def test_real_bunny_ply_round_trip_is_exact(tmp_path):
     loaded = load(tmp_path / "bunny.ply")
     np.testing.assert_array_equal(loaded.vertices, mesh.vertices)
     np.testing.assert_array_equal(loaded.faces, mesh.faces)
+
+
+def test_atomic_write_replaces_whole_or_leaves_the_target(tmp_path):
+    from lodkit.io import atomic_write
+
+    target = tmp_path / "out.txt"
+    atomic_write(target, lambda fh: fh.write("first"))
+    assert target.read_text() == "first"
+
+    def broken(fh):
+        fh.write("half")
+        raise RuntimeError("disk on fire")
+
+    with pytest.raises(RuntimeError, match="disk on fire"):
+        atomic_write(target, broken)
+    assert target.read_text() == "first"                       # untouched
+    assert [p.name for p in tmp_path.iterdir()] == ["out.txt"]  # no temporary left behind
+    atomic_write(target, lambda fh: fh.write(b"\x00bytes"), binary=True)
+    assert target.read_bytes() == b"\x00bytes"
