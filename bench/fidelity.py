@@ -586,6 +586,13 @@ def _esc(s) -> str:
     return str(s).replace("|", "\\|").replace("\n", " ")
 
 
+def _row(head: str, r: dict, ncols: int, cells) -> str:
+    """A table row: ``head`` then ``cells(r)``, or the ``ncols`` cells saying why ``r`` has
+    no numbers (``_na``)."""
+    na = _na(r, ncols)
+    return f"{head} {na}" if na else f"{head} {cells(r)}"
+
+
 def _na(r: dict, ncols: int) -> str | None:
     """A table cell run saying why a row has no numbers, or None if it has them."""
     if r.get("status") == "ok":
@@ -641,13 +648,9 @@ def render(doc: dict) -> str:
               "| mesh | ratio | method | faces | Hausdorff | mean | RMS | flipped |",
               "|---|--:|---|--:|--:|--:|--:|--:|"]
         for r in g["rows"]:
-            head = f"| {r['mesh']} | {r['ratio']:g} | {r['metric']} |"
-            na = _na(r, 5)
-            if na:
-                L.append(f"{head} {na}")
-            else:
-                L.append(f"{head} {_faces(r)} | {_e(r.get('hausdorff'))} | {_e(r.get('mean'))} | "
-                         f"{_e(r.get('rms'))} | {r.get('flipped', '–')} |")
+            L.append(_row(f"| {r['mesh']} | {r['ratio']:g} | {r['metric']} |", r, 5, lambda r:
+                          f"{_faces(r)} | {_e(r.get('hausdorff'))} | {_e(r.get('mean'))} | "
+                          f"{_e(r.get('rms'))} | {r.get('flipped', '–')} |"))
         L.append("")
         L += _verdict_lines(g["verdicts"], " (not part of the claim)")
 
@@ -663,11 +666,9 @@ def render(doc: dict) -> str:
               "| ratio | method | faces | RMS | mean abs | p99 | max | Hausdorff |",
               "|--:|---|--:|--:|--:|--:|--:|--:|"]
         for r in c["rows"]:
-            head = f"| {r['ratio']:g} | {r['metric']} |"
-            na = _na(r, 6)
-            L.append(f"{head} {na}" if na else
-                     f"{head} {_faces(r)} | {_f(r.get('rms'))} | {_f(r.get('mean_abs'))} | {_f(r.get('p99'), '.1f')} | "
-                     f"{_f(r.get('max'), '.1f')} | {_e(r.get('hausdorff'))} |")
+            L.append(_row(f"| {r['ratio']:g} | {r['metric']} |", r, 6, lambda r:
+                          f"{_faces(r)} | {_f(r.get('rms'))} | {_f(r.get('mean_abs'))} | {_f(r.get('p99'), '.1f')} | "
+                          f"{_f(r.get('max'), '.1f')} | {_e(r.get('hausdorff'))} |"))
         L.append("")
         L += _verdict_lines(c["verdicts"], " (a variant, not the claim)")
 
@@ -690,11 +691,9 @@ def render(doc: dict) -> str:
               "| ratio | method | faces | seam copies kept | split | one-sided | open edges | max gap | uv changed |",
               "|--:|---|--:|--:|--:|--:|--:|--:|--:|"]
         for r in rows:
-            head = f"| {r['ratio']:g} | {r['metric']} |"
-            na = _na(r, 7)
-            L.append(f"{head} {na}" if na else
-                     f"{head} {_faces(r)} | {r['seam_vertices_out']} | {r['split_groups']} | {r['orphans']} | "
-                     f"{r['new_open_edges']} | {r['max_gap']:.2g} | {r.get('uv_changed', '–')} |")
+            L.append(_row(f"| {r['ratio']:g} | {r['metric']} |", r, 7, lambda r:
+                          f"{_faces(r)} | {r['seam_vertices_out']} | {r['split_groups']} | {r['orphans']} | "
+                          f"{r['new_open_edges']} | {r['max_gap']:.2g} | {r.get('uv_changed', '–')} |"))
         L.append("")
         L += _verdict_lines(s["verdicts"], " (a variant, not the claim)")
 
@@ -710,11 +709,9 @@ def render(doc: dict) -> str:
               "| ratio | method | faces | vertices | near crease | fraction | Hausdorff |",
               "|--:|---|--:|--:|--:|--:|--:|"]
         for r in k["rows"]:
-            head = f"| {r['ratio']:g} | {r['metric']} |"
-            na = _na(r, 5)
-            L.append(f"{head} {na}" if na else
-                     f"{head} {_faces(r)} | {r['vertices']} | {r['near']} | {r['fraction']:.0%} | "
-                     f"{_e(r.get('hausdorff'))} |")
+            L.append(_row(f"| {r['ratio']:g} | {r['metric']} |", r, 5, lambda r:
+                          f"{_faces(r)} | {r['vertices']} | {r['near']} | {r['fraction']:.0%} | "
+                          f"{_e(r.get('hausdorff'))} |"))
         L.append("")
         L += _verdict_lines(k["verdicts"], " (a variant, not the claim)")
 
@@ -730,11 +727,9 @@ def render(doc: dict) -> str:
               "",
               "| metric | input | faces | time | qem time | ×qem |", "|---|---|--:|--:|--:|--:|"]
         for r in sp["rows"]:
-            head = f"| {r['metric']} | {r['input']} |"
-            na = _na(r, 4)
-            L.append(f"{head} {na}" if na else
-                     f"{head} {r['faces']:,} | {r['time_s'] * 1000:.0f} ms | {r['qem_time_s'] * 1000:.0f} ms | "
-                     f"{r['ratio_to_qem']:.2f} |")
+            L.append(_row(f"| {r['metric']} | {r['input']} |", r, 4, lambda r:
+                          f"{r['faces']:,} | {r['time_s'] * 1000:.0f} ms | {r['qem_time_s'] * 1000:.0f} ms | "
+                          f"{r['ratio_to_qem']:.2f} |"))
         L.append("")
         for v in sp["verdicts"]:
             L.append(f"- {_verdict(v)} — {_esc(v['detail'])}")
