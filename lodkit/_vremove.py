@@ -70,18 +70,8 @@ def simplify_removal(src, was_o3d, metrics, settings, *, target, max_error, abso
                             closed_connected=api._closed_connected(hm))
     _raise_if_failed(remover, metric)
 
-    bar = None
-    if progress:
-        from ._progress import Progress
-        bar = Progress(total=max(hm.n_alive_faces - target, 1), enabled=True)
-    start_faces = hm.n_alive_faces
-    chunk = max((start_faces - target) // (2 * api._PROGRESS_CHUNKS), 1000) if bar else 2**31 - 1
-    while True:
-        status = remover.run(target, chunk)
-        if bar:
-            bar.update(start_faces - hm.n_alive_faces)
-        if status != 1:
-            break
+    bar = api._progress_bar(progress, hm, target)
+    status = api._run_chunked(remover, hm, target, bar)
     if bar:
         bar.close()
     _raise_if_failed(remover, metric)

@@ -304,22 +304,13 @@ def simplify(
     )
     _raise_if_failed(collapser, setup)
 
-    bar = None
-    if progress:
-        from ._progress import Progress
-        bar = Progress(total=max(hm.n_alive_faces - target, 1), enabled=True)
+    bar = _progress_bar(progress, hm, target)
     start_faces = hm.n_alive_faces
     n_passes = 0
     if setup.batch:
         status, rejected_error, n_passes = _run_passes(collapser, setup, ctx, target, bar, start_faces)
     else:
-        chunk = max((start_faces - target) // (2 * _PROGRESS_CHUNKS), 1000) if bar else 2**31 - 1
-        while True:
-            status = collapser.run(target, chunk)
-            if bar:
-                bar.update(start_faces - hm.n_alive_faces)
-            if status != 1:
-                break
+        status = _run_chunked(collapser, hm, target, bar)
         rejected_error = collapser.n_rejected_error
     if bar:
         bar.close()
@@ -388,6 +379,28 @@ SETTING_DEFAULTS = {
     "max_normal_angle": 90.0,
     "min_quality": 0.1,
 }
+
+
+def _progress_bar(progress: bool, hm, target: int):
+    """A progress bar over the faces to remove (None when ``progress`` is off)."""
+    if not progress:
+        return None
+    from ._progress import Progress
+    return Progress(total=max(hm.n_alive_faces - target, 1), enabled=True)
+
+
+def _run_chunked(driver, hm, target: int, bar) -> int:
+    """``driver.run(target, chunk)`` until it stops for another reason than the chunk
+    (status 1), updating ``bar`` between chunks (one chunk when there is no bar); returns
+    the driver's final status."""
+    start_faces = hm.n_alive_faces
+    chunk = max((start_faces - target) // (2 * _PROGRESS_CHUNKS), 1000) if bar else 2**31 - 1
+    while True:
+        status = driver.run(target, chunk)
+        if bar:
+            bar.update(start_faces - hm.n_alive_faces)
+        if status != 1:
+            return status
 
 
 def resolve_settings(metrics, **given) -> dict:
