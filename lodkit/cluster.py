@@ -28,6 +28,7 @@ import numpy as np
 from .api import _as_mesh
 from .errors import MeshError, OptionError
 from .mesh import Mesh
+from .metrics.base import face_vectors
 
 __all__ = ["ClusterResult", "cluster", "REPRESENTATIVES"]
 
@@ -322,7 +323,7 @@ def _drop_duplicates(data: _Input, fc, source, n_cells: int, count_only: bool):
     even = after_min == s[o, 1]
     f = data.faces[source[o]]
     p = data.positions
-    area = np.linalg.norm(np.cross(p[f[:, 1]] - p[f[:, 0]], p[f[:, 2]] - p[f[:, 0]]), axis=1)
+    area = np.linalg.norm(face_vectors(p, f), axis=1)
     head = np.empty(o.size, dtype=bool)
     head[0] = True
     head[1:] = grp[1:] != grp[:-1]
@@ -346,7 +347,7 @@ def _search(data: _Input, want: int, faces: bool):
     start from the surface area (a surface meets about area / h^2 cells), then secant steps
     on log(count) against log(h).  Returns (clustering, steps)."""
     p, f = data.positions, data.faces
-    area = 0.5 * float(np.linalg.norm(np.cross(p[f[:, 1]] - p[f[:, 0]], p[f[:, 2]] - p[f[:, 0]]), axis=1).sum())
+    area = 0.5 * float(np.linalg.norm(face_vectors(p, f), axis=1).sum())
     per_vertex = 2.0 if faces else 1.0            # a closed surface has about 2 faces per vertex
     h = math.sqrt(max(area, 1e-12) / max(want / per_vertex, 1.0))
     h = min(max(h, 1e-7), 2.0)

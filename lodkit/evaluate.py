@@ -40,6 +40,7 @@ import numpy as np
 
 from .errors import MeshError, OptionError
 from .mesh import Mesh
+from .metrics.base import face_vectors
 from .topology import TopologyReport, topology
 
 __all__ = [
@@ -316,10 +317,7 @@ def _check_surface(mesh: Mesh, what: str) -> None:
 # ---------------------------------------------------------------------- geometry
 def face_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(unit normals (m, 3), zero rows for zero-area faces; areas (m,))."""
-    V = np.asarray(vertices, dtype=np.float64)
-    F = np.asarray(faces, dtype=np.int64)
-    a = V[F[:, 0]]
-    n = np.cross(V[F[:, 1]] - a, V[F[:, 2]] - a)
+    n = face_vectors(vertices, np.asarray(faces, dtype=np.int64))
     ln = np.linalg.norm(n, axis=1)
     unit = np.divide(n, ln[:, None], out=np.zeros_like(n), where=ln[:, None] > 0)
     return unit, 0.5 * ln

@@ -30,6 +30,7 @@ import numpy as np
 
 from .errors import OptionError
 from .mesh import Mesh
+from .metrics.base import face_vectors
 
 __all__ = ["contract_pairs"]
 
@@ -167,7 +168,7 @@ def _drop_seams(pairs, mesh):
 def _vertex_quadrics(P, faces, n):
     """(n, 10) area-weighted plane quadrics a11 a12 a13 a22 a23 a33 b1 b2 b3 c per vertex."""
     p0 = P[faces[:, 0]]
-    nrm = np.cross(P[faces[:, 1]] - p0, P[faces[:, 2]] - p0)
+    nrm = face_vectors(P, faces)
     length = np.linalg.norm(nrm, axis=1)
     ok = length > 0
     nrm[ok] /= length[ok, None]
