@@ -62,6 +62,7 @@ from .kernel cimport (KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VERTEX_F
 from .removal cimport (RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION)
 from .retriangulate cimport closest_line_apex, fan_from
 from .removal_star cimport star_on_points
+from .vec3 cimport dot3, cross3
 
 # classification codes
 cdef enum:
@@ -74,16 +75,6 @@ NON_HYPERBOLIC = C_NON_HYPERBOLIC
 HYPERBOLIC = C_HYPERBOLIC
 
 cdef double PARALLEL = 1e-12        # |U_i x U_j| below this: the pair spans no plane
-
-
-cdef inline double dot3(const double* a, const double* b) noexcept nogil:
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-cdef inline void cross3(const double* a, const double* b, double* out) noexcept nogil:
-    out[0] = a[1] * b[2] - a[2] * b[1]
-    out[1] = a[2] * b[0] - a[0] * b[2]
-    out[2] = a[0] * b[1] - a[1] * b[0]
 
 
 cdef inline double solid_angle_unit(const double* a, const double* b, const double* c) noexcept nogil:
