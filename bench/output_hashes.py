@@ -48,9 +48,9 @@ CASES = [
     ("qem_lock", {"boundary": "lock"}),
     ("qem_free", {"boundary": "free"}),
     ("qem_native", {"metric": "qem_native"}),
-    ("importance", {"metric": ["qem", "importance"]}),
+    ("importance", {"metric": ["qem", ("importance", {"values": "height"})]}),
     ("melod", {"metric": "melod"}),
-    ("normal_qem", {"metric": "normal_qem"}),
+    ("normal_qem", {"metric": ("normal_qem", {"normals": "estimate"})}),
     ("curvature", {"metric": "curvature"}),
     ("appearance", {"metric": "appearance"}),
     ("triangle", {"operator": "triangle"}),
@@ -86,15 +86,27 @@ def digest(obj) -> str:
     return h.hexdigest()[:20]
 
 
+def _with_values(spec, mesh):
+    """Resolve the placeholder "height" into per-vertex values (importance needs some)."""
+    if isinstance(spec, list):
+        return [_with_values(s, mesh) for s in spec]
+    if isinstance(spec, tuple) and spec[1].get("values") == "height":
+        z = mesh.vertices[:, 2]
+        return (spec[0], {**spec[1], "values": (z - z.min()) / max(float(np.ptp(z)), 1e-30)})
+    return spec
+
+
 def run_case(mesh, ratio, kwargs) -> dict:
     kw = {"target_ratio": ratio, "record": True}
     kw.update(kwargs)
+    if "metric" in kw:
+        kw["metric"] = _with_values(kw["metric"], mesh)
     if kw.get("target_ratio") is None:
         kw.pop("target_ratio")
     try:
         r = lodkit.simplify(mesh, **kw)
     except Exception as exc:  # an error is an output too: it must stay the same
-        return {"error": f"{type(exc).__name__}: {exc}"}
+        return {"raised": f"{type(exc).__name__}: {exc}", "all": f"{type(exc).__name__}: {exc}"}
     report = {k: v for k, v in r.report.items() if k not in ("settings",)}
     out = {
         "vertices": digest(r.mesh.vertices),
