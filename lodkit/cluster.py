@@ -25,10 +25,9 @@ from typing import Any, Optional
 
 import numpy as np
 
-from .api import _as_mesh
 from .errors import MeshError, OptionError
-from .mesh import Mesh
-from .metrics.base import face_vectors
+from .geometry import face_vectors
+from .mesh import Mesh, as_mesh, is_open3d
 
 __all__ = ["ClusterResult", "cluster", "REPRESENTATIVES"]
 
@@ -150,7 +149,7 @@ def cluster(
     cell.  An open3d.geometry.TriangleMesh in gives one out.
     """
     t0 = time.perf_counter()
-    src, was_o3d = _as_mesh(mesh)
+    src, was_o3d = as_mesh(mesh), is_open3d(mesh)
     if representative not in REPRESENTATIVES:
         raise OptionError(f"representative must be one of {', '.join(REPRESENTATIVES)}, got {representative!r}")
     given = [k for k, v in (("cell_size", cell_size), ("target_vertices", target_vertices),

@@ -34,9 +34,9 @@ from typing import Callable, Optional
 import numpy as np
 
 from .errors import LodkitError, OptionError
-from .io import atomic_write
-from .evaluate import DEFAULT_SAMPLES, Evaluation, Evaluator, as_mesh
-from .mesh import Mesh
+from .evaluate import DEFAULT_SAMPLES, Evaluation, Evaluator
+from .io import atomic_write, load
+from .mesh import Mesh, as_mesh
 
 __all__ = ["PEERS", "Comparison", "Run", "MissingDependencyError", "compare"]
 
@@ -284,7 +284,7 @@ def compare(mesh, *, metrics=("qem",), peers=(), ratios=(0.5, 0.1, 0.02), out=No
         if contact_sheet:
             _render_module()
     source = str(mesh) if isinstance(mesh, (str, os.PathLike)) else type(mesh).__name__
-    original = as_mesh(mesh, "input")
+    original = as_mesh(mesh, "input", tensor=True, load=load)
     evaluator = Evaluator(original, samples, seed)
     out_dir = None if out is None else _prepare_dir(out)     # only once everything else is known to be fine
     n_faces = original.n_faces

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import OptionError
+from .geometry import vertex_normals
 from .mesh import Mesh
 
 __all__ = ["demo_mesh", "run_demo"]
@@ -52,7 +53,7 @@ def demo_mesh(n_faces: int = 100_000) -> Mesh:
     faces = _grid_faces(nx, ny, vertices)
     colors = _colors(vertices)
     mesh = Mesh(vertices, faces, colors=colors)
-    mesh.normals = _vertex_normals(mesh)
+    mesh.normals = vertex_normals(mesh.vertices, mesh.faces)
     mesh.metadata["name"] = f"lodkit demo surface {nx}x{ny}"
     return mesh
 
@@ -104,18 +105,6 @@ def _colors(vertices: np.ndarray) -> np.ndarray:
     rgb = rgb * np.where(y > _STEP_Y, 0.7, 1.0)[:, None]          # colour edge along the step
     rgb[:, 2] += 0.08 * np.sin(6.0 * np.pi * x)                    # smooth variation in x
     return np.clip(rgb, 0.0, 1.0)
-
-
-def _vertex_normals(mesh: Mesh) -> np.ndarray:
-    """Area-weighted vertex normals (the unnormalised cross product is twice the area)."""
-    v, f = mesh.vertices, mesh.faces
-    face_n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
-    corner = f.reshape(-1)
-    normals = np.stack(
-        [np.bincount(corner, weights=np.repeat(face_n[:, c], 3), minlength=v.shape[0]) for c in range(3)], axis=1
-    )
-    length = np.linalg.norm(normals, axis=1, keepdims=True)
-    return np.divide(normals, length, out=np.tile([0.0, 0.0, 1.0], (v.shape[0], 1)), where=length > 0)
 
 
 def run_demo(out_dir="lodkit-demo", ratios=(0.5, 0.2, 0.05, 0.01), stream=None, n_faces: int = 100_000) -> list[dict]:

@@ -32,15 +32,15 @@ give exactly 0 for every distance, angle and colour error.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass, fields
 from typing import Optional
 
 import numpy as np
 
 from .errors import MeshError, OptionError
-from .mesh import Mesh
-from .metrics.base import face_vectors
+from .geometry import face_normals, face_vectors, triangle_quality, weld_positions
+from .io import load
+from .mesh import Mesh, as_mesh
 from .topology import TopologyReport, topology
 
 __all__ = [
@@ -52,7 +52,6 @@ __all__ = [
     "Evaluator",
     "NormalDeviation",
     "QualityStats",
-    "as_mesh",
     "closest_points",
     "evaluate",
     "face_normals",
@@ -279,31 +278,10 @@ def _columns(rows) -> list[str]:
 
 
 # ---------------------------------------------------------------------- inputs
-def as_mesh(mesh, what: str = "mesh") -> Mesh:
-    """A :class:`lodkit.Mesh` from a Mesh, an Open3D triangle mesh (legacy or tensor), a
-    ``(vertices, faces)`` pair or a file path (read with :func:`lodkit.load`)."""
-    if isinstance(mesh, Mesh):
-        return mesh
-    if isinstance(mesh, (str, os.PathLike)):
-        from .io import load
-
-        return load(mesh)
-    if isinstance(mesh, tuple) and len(mesh) == 2:
-        try:
-            return Mesh(mesh[0], mesh[1])
-        except MeshError as exc:
-            raise MeshError(f"{what}: {exc}") from None
-    module = type(mesh).__module__ or ""
-    if module.startswith("open3d"):
-        if hasattr(mesh, "to_legacy"):
-            mesh = mesh.to_legacy()
-        if hasattr(mesh, "triangles") and hasattr(mesh, "vertices"):
-            try:
-                return Mesh.from_open3d(mesh)
-            except MeshError as exc:
-                raise MeshError(f"{what}: {exc}") from None
-    raise MeshError(f"{what}: expected a lodkit.Mesh, an open3d TriangleMesh, a (vertices, faces) "
-                    f"tuple or a file path, got {type(mesh).__module__}.{type(mesh).__qualname__}")
+def _input(mesh, what: str) -> Mesh:
+    """A lodkit Mesh from any input evaluate() takes: those of :func:`lodkit.mesh.as_mesh`,
+    Open3D tensor meshes and file paths."""
+    return as_mesh(mesh, what, tensor=True, load=load)
 
 
 def _check_surface(mesh: Mesh, what: str) -> None:
@@ -315,27 +293,6 @@ def _check_surface(mesh: Mesh, what: str) -> None:
 
 
 # ---------------------------------------------------------------------- geometry
-def face_normals(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(unit normals (m, 3), zero rows for zero-area faces; areas (m,))."""
-    n = face_vectors(vertices, np.asarray(faces, dtype=np.int64))
-    ln = np.linalg.norm(n, axis=1)
-    unit = np.divide(n, ln[:, None], out=np.zeros_like(n), where=ln[:, None] > 0)
-    return unit, 0.5 * ln
-
-
-def triangle_quality(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """(m,) Q = 4 sqrt(3) A / (l0^2 + l1^2 + l2^2) in [0, 1]: 1 for an equilateral triangle,
-    0 for a zero-area one (faces whose three corners coincide included)."""
-    V = np.asarray(vertices, dtype=np.float64)
-    F = np.asarray(faces, dtype=np.int64)
-    a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
-    _, area = face_normals(V, F)
-    sq = (np.einsum("ij,ij->i", b - a, b - a) + np.einsum("ij,ij->i", c - b, c - b)
-          + np.einsum("ij,ij->i", a - c, a - c))
-    q = np.divide(4.0 * math.sqrt(3.0) * area, sq, out=np.zeros_like(sq), where=sq > 0)
-    return np.clip(q, 0.0, 1.0)
-
-
 def _quality_stats(mesh: Mesh) -> QualityStats:
     q = triangle_quality(mesh.vertices, mesh.faces)
     hist, _ = np.histogram(q, bins=np.asarray(QUALITY_BINS))
@@ -564,15 +521,10 @@ def _angle_stats(a_fwd: np.ndarray, a_bwd: np.ndarray) -> NormalDeviation:
                            n_skipped=int(a_fwd.size + a_bwd.size - both.size))
 
 
-def _weld_positions(mesh: Mesh) -> Mesh:
-    """Faces over the distinct positions: a mesh read with uvs is cut along its uv seams
-    (one vertex per position and uv); its shape's topology is that of the welded positions."""
-    positions, inverse = np.unique(mesh.vertices + 0.0, axis=0, return_inverse=True)
-    return Mesh(positions, inverse.reshape(-1)[mesh.faces])
-
-
 def _topology_of(mesh: Mesh) -> TopologyReport:
-    return topology(_weld_positions(mesh) if mesh.uvs is not None else mesh)
+    # a mesh read with uvs is cut along its uv seams; its shape's topology is that of the
+    # welded positions
+    return topology(Mesh(*weld_positions(mesh.vertices, mesh.faces)) if mesh.uvs is not None else mesh)
 
 
 # ---------------------------------------------------------------------- the API
@@ -589,7 +541,7 @@ class Evaluator:
             raise OptionError(f"samples must be a whole number >= 1, got {samples!r}")
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
             raise OptionError(f"seed must be a whole number >= 0, got {seed!r}")
-        self.mesh = as_mesh(original, "original")
+        self.mesh = _input(original, "original")
         _check_surface(self.mesh, "the original mesh")
         self.samples = int(samples)
         self.seed = int(seed)
@@ -601,7 +553,7 @@ class Evaluator:
         self.topology = _topology_of(self.mesh)
 
     def _directions(self, simplified) -> tuple[Mesh, _Direction, _Direction]:
-        mesh = as_mesh(simplified, "simplified")
+        mesh = _input(simplified, "simplified")
         _check_surface(mesh, "the simplified mesh")
         other = _Surface(mesh.vertices, mesh.faces, mesh.colors, self.centre)
         # fwd: samples on the original (seed); bwd: samples on the simplified mesh (seed + 1)

@@ -1,6 +1,8 @@
-"""The triangle mesh lodkit works on, and its conversion to and from Open3D."""
+"""The triangle mesh lodkit works on, its conversion to and from Open3D, and the one
+:func:`as_mesh` every entry point turns its input into a :class:`Mesh` with."""
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -8,7 +10,7 @@ import numpy as np
 
 from .errors import MeshError
 
-__all__ = ["Mesh"]
+__all__ = ["Mesh", "as_mesh", "is_open3d"]
 
 
 def _as_float_array(name: str, values, n_rows: int | None, n_cols: int | tuple) -> np.ndarray:
@@ -164,6 +166,47 @@ class Mesh:
         if self.uvs is not None:
             m.triangle_uvs = o3d.utility.Vector2dVector(self.uvs[self.faces.reshape(-1)])
         return m
+
+
+def is_open3d(mesh) -> bool:
+    """True for a legacy ``open3d.geometry.TriangleMesh`` (told by its class name, so Open3D
+    is not imported to ask): the entry points give one back when they are given one."""
+    return type(mesh).__name__ == "TriangleMesh" and hasattr(mesh, "triangles")
+
+
+def as_mesh(mesh, what: Optional[str] = None, *, tensor: bool = False, load=None) -> Mesh:
+    """A :class:`Mesh` from a Mesh (as is), a legacy Open3D ``TriangleMesh`` or a
+    ``(vertices, faces)`` tuple; with ``tensor`` also an ``open3d.t.geometry.TriangleMesh``;
+    with a ``load`` function (:func:`lodkit.load`) also a file path, read with it.
+
+    what : names the argument in error messages ("original: face 0 ..."); the MeshError
+           raised for any other type says what is accepted.
+    """
+    if isinstance(mesh, Mesh):
+        return mesh
+    if load is not None and isinstance(mesh, (str, os.PathLike)):
+        return load(mesh)
+    prefix = f"{what}: " if what else ""
+    if isinstance(mesh, tuple) and len(mesh) == 2:
+        try:
+            return Mesh(mesh[0], mesh[1])
+        except MeshError as exc:
+            if not what:
+                raise
+            raise MeshError(f"{prefix}{exc}") from None
+    if tensor and type(mesh).__name__ == "TriangleMesh" and (type(mesh).__module__ or "").startswith("open3d"):
+        if hasattr(mesh, "to_legacy"):
+            mesh = mesh.to_legacy()
+    if is_open3d(mesh):
+        try:
+            return Mesh.from_open3d(mesh)
+        except MeshError as exc:
+            if not what:
+                raise
+            raise MeshError(f"{prefix}{exc}") from None
+    accepted = "a lodkit.Mesh, an open3d TriangleMesh" + (", a (vertices, faces) tuple or a file path"
+                                                          if load is not None else " or a (vertices, faces) tuple")
+    raise MeshError(f"{prefix}expected {accepted}, got {type(mesh).__module__}.{type(mesh).__qualname__}")
 
 
 def _split_at_uv_seams(vertices, faces, corner_uv, attrs):

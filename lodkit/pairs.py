@@ -30,7 +30,7 @@ import numpy as np
 
 from .errors import OptionError
 from .mesh import Mesh
-from .metrics.base import face_vectors
+from .geometry import plane_quadrics
 
 __all__ = ["contract_pairs"]
 
@@ -85,7 +85,7 @@ def contract_pairs(mesh: Mesh, threshold, *, absolute: bool = False, locked: Opt
         return mesh, all_faces, report
     # normalised coordinates, as the core's, so costs and conditioning do not depend on units
     P = (mesh.vertices - center) / scale
-    Q = _vertex_quadrics(P, faces, n)
+    Q = plane_quadrics(P, faces, n)
     root, pos, origin = _contract(pairs, Q, P, fixed, t_model / scale)
     merged = root != np.arange(n)
     report["merged"] = int(np.count_nonzero(merged))
@@ -163,25 +163,6 @@ def _drop_seams(pairs, mesh):
         differ |= (a[pairs[:, 0]] != a[pairs[:, 1]]).any(axis=1)
     seam = same_pos & differ
     return pairs[~seam], int(np.count_nonzero(seam))
-
-
-def _vertex_quadrics(P, faces, n):
-    """(n, 10) area-weighted plane quadrics a11 a12 a13 a22 a23 a33 b1 b2 b3 c per vertex."""
-    p0 = P[faces[:, 0]]
-    nrm = face_vectors(P, faces)
-    length = np.linalg.norm(nrm, axis=1)
-    ok = length > 0
-    nrm[ok] /= length[ok, None]
-    nrm[~ok] = 0.0
-    area = 0.5 * length
-    d = -np.einsum("ij,ij->i", nrm, p0)
-    parts = [nrm[:, 0] * nrm[:, 0], nrm[:, 0] * nrm[:, 1], nrm[:, 0] * nrm[:, 2], nrm[:, 1] * nrm[:, 1],
-             nrm[:, 1] * nrm[:, 2], nrm[:, 2] * nrm[:, 2], d * nrm[:, 0], d * nrm[:, 1], d * nrm[:, 2], d * d]
-    corners = faces.T.reshape(-1)
-    Q = np.empty((n, 10))
-    for k, part in enumerate(parts):
-        Q[:, k] = np.bincount(corners, weights=np.tile(area * part, 3), minlength=n)
-    return Q
 
 
 def _quadric_value(q, x) -> float:

@@ -19,9 +19,12 @@ from typing import Any, Optional
 
 import numpy as np
 
+from ._pipeline import attribute_arrays, prepare
+from .api import simplify
 from .errors import MeshIOError, OptionError
 from .io import atomic_write
-from .mesh import Mesh
+from .mesh import Mesh, as_mesh, is_open3d
+from .metrics import create as create_metrics
 
 __all__ = ["progressive", "ProgressiveMesh", "Level", "Cursor", "FORMAT", "FORMAT_VERSION"]
 
@@ -77,19 +80,15 @@ def progressive(mesh, metric="qem", *, min_faces: int = 0, max_error: Optional[f
     Other keyword options go to simplify as they are; a driver that keeps no collapse
     records (vertex removal metrics) raises OptionError.
     """
-    from .api import _as_mesh, prepare, simplify
-
     if isinstance(min_faces, bool) or not isinstance(min_faces, (int, np.integer)) or min_faces < 0:
         raise OptionError(f"min_faces must be a non-negative integer, got {min_faces!r}")
     if options.get("pair_threshold") is not None:
         raise OptionError("progressive meshes do not support pair_threshold: the pairs it joins "
                           "are not edge collapses of the input's half-edge arrays")
-    from .metrics import create as create_metrics
-
     if any(m.kind == "removal" for m in create_metrics(metric)):
         raise OptionError(f"metric {metric!r} removes vertices and re-triangulates their holes; progressive "
                           "meshes are made of edge collapses (use an edge-collapse metric)")
-    src, was_o3d = _as_mesh(mesh)
+    src, was_o3d = as_mesh(mesh), is_open3d(mesh)
     result = simplify(src, target_faces=int(min_faces), max_error=max_error, metric=metric, absolute=absolute,
                       placement=placement, boundary=boundary, boundary_weight=boundary_weight,
                       locked=locked, max_normal_angle=max_normal_angle, min_quality=min_quality,
@@ -409,11 +408,9 @@ class ProgressiveMesh:
         verts[has] = d["position"][rec]
         attrs = {}
         if self._names:
-            from .api import _attribute_arrays
-
             block = self._slot_attributes()[slots[first]]
             block[has] = d["attributes"][rec]
-            attrs = _attribute_arrays(block, self._names)
+            attrs = attribute_arrays(block, self._names)
         mesh = _trusted_mesh(verts, out_faces, attrs)
         if self._open3d:
             mesh = mesh.to_open3d()

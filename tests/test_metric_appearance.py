@@ -15,7 +15,7 @@ import lodkit
 from conftest import shared_mesh
 from lodkit._core.decimate import EdgeCollapser, vertex_quadrics
 from lodkit._core.halfedge import build
-from lodkit.api import _seam_partners, prepare
+from lodkit._pipeline import prepare, seam_partners
 from lodkit.metrics import MetricError, OptionError, QuadricMetric, create
 from lodkit.metrics.appearance import Appearance, gh98_face_quadrics, hoppe99_face_quadrics
 from lodkit.metrics.base import BatchMetric, check_metric_class, unpack_quadrics
@@ -270,7 +270,7 @@ def seam_grid(nx=6, ny=4, s=3, bumpy=True):
 def test_seam_partners_on_a_hand_made_cut():
     mesh, copy = seam_grid()
     prep = prepare(mesh)
-    partners = _seam_partners(mesh, prep, prep.hm.locked_vertices.copy())
+    partners = seam_partners(mesh, prep, prep.hm.locked_vertices.copy())
     slot = {int(iv): k for k, iv in enumerate(prep.input_vertex)}
     col = sorted(copy)
     expect = np.full(len(prep.input_vertex), -1)
@@ -284,7 +284,7 @@ def test_seam_partners_on_a_hand_made_cut():
     v, f = grid_mesh(4, 3)
     plain = lodkit.Mesh(v, f)
     prep = prepare(plain)
-    assert _seam_partners(plain, prep, prep.hm.locked_vertices.copy()) is None
+    assert seam_partners(plain, prep, prep.hm.locked_vertices.copy()) is None
 
 
 def seam_intact(src, res, closed=False):
@@ -364,7 +364,7 @@ def test_random_cut_grids_keep_their_seams(nx, ny, seed, ratio, metric, placemen
 
 def collapser_with_seams(mesh, policy):
     prep = prepare(mesh)
-    partners = _seam_partners(mesh, prep, prep.hm.locked_vertices.copy())
+    partners = seam_partners(mesh, prep, prep.hm.locked_vertices.copy())
     hm = prep.hm
     q = vertex_quadrics(hm, prep.positions)
     fixed = (partners == -2).astype(np.uint8)
@@ -459,10 +459,10 @@ def test_spot_keeps_its_uv_seams(metric, ratio):
 def test_without_seam_handling_spot_cracks(monkeypatch):
     # what the seam handling prevents: with it switched off, seam vertices move and go on
     # one side only, and the glued surface opens
-    import lodkit.api
+    import lodkit._pipeline
 
     spot = lodkit.load(shared_mesh("spot_triangulated.obj"))
-    monkeypatch.setattr(lodkit.api, "_seam_partners", lambda *args: None)
+    monkeypatch.setattr(lodkit._pipeline, "seam_partners", lambda *args: None)
     res = lodkit.simplify(spot, target_ratio=0.1, metric="appearance")
     assert res.report["seams"]["pair_collapses"] == 0
     with pytest.raises(AssertionError):

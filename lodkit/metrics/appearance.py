@@ -17,7 +17,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import MetricError, OptionError
-from .base import ATTRIBUTE_WIDTHS, MetricContext, Option, QuadricMetric, face_vectors, pack_quadrics
+from ..geometry import face_vectors
+from .base import ATTRIBUTE_WIDTHS, MetricContext, Option, QuadricMetric, pack_quadrics
 
 __all__ = ["Appearance", "gh98_face_quadrics", "hoppe99_face_quadrics"]
 

@@ -18,6 +18,8 @@ from typing import Any, ClassVar, Optional
 import numpy as np
 
 from ..errors import OptionError
+from ..geometry import face_vectors, vertex_sums
+from ..settings import SETTING_DEFAULTS
 
 __all__ = [
     "Option", "Metric", "QuadricMetric", "FieldMetric", "KernelMetric", "BatchMetric",
@@ -323,23 +325,6 @@ class BatchMetric(Metric):
         raise NotImplementedError
 
 
-def face_vectors(positions, faces) -> np.ndarray:
-    """(m, 3) (b - a) x (c - a) of each face (a, b, c): twice its area times its unit normal."""
-    P = np.asarray(positions, dtype=np.float64)
-    F = np.asarray(faces)
-    return np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]])
-
-
-def vertex_sums(faces, values, n: int) -> np.ndarray:
-    """Per vertex, the sum over the faces around it of a per-face value: (m,) -> (n,),
-    (m, k) -> (n, k)."""
-    idx = np.asarray(faces).reshape(-1)
-    vals = np.asarray(values, dtype=np.float64)
-    if vals.ndim == 1:
-        return np.bincount(idx, np.repeat(vals, 3), minlength=n)
-    return np.stack([np.bincount(idx, np.repeat(vals[:, j], 3), minlength=n) for j in range(vals.shape[1])], axis=1)
-
-
 class MetricContext:
     """What a metric sees at set-up.  Positions are normalised (bbox centred on the origin,
     unit diagonal): multiply by ``scale`` and add ``center`` for input units.
@@ -460,8 +445,6 @@ def check_metric_class(obj: Any) -> Optional[str]:
     for key, opt in obj.all_options().items():
         if not isinstance(opt, Option):
             return f"option {key!r} is {opt!r}, not a lodkit.metrics.Option"
-    from ..api import SETTING_DEFAULTS
-
     defaults = getattr(obj, "defaults", {})
     if not isinstance(defaults, dict) or any(k not in SETTING_DEFAULTS for k in defaults):
         return (f"has defaults={defaults!r}; a metric may prefer values of "

@@ -1,0 +1,391 @@
+"""The steps every :func:`lodkit.simplify` driver shares, in the order they run:
+
+    start()          -> Work      clean-up and half-edge arrays (prepare), pair contraction,
+                                  locks, attribute seams, attribute block, the core's vertex rows
+    metric_context() -> MetricContext   what the metrics see at set-up
+    (the driver runs: lodkit.drivers)   -> Run
+    extract()        -> (Mesh, vertex_map, face_map)   the live part of the half-edge arrays
+    report()         -> dict      result.report
+
+Also the helpers the drivers share: the chunked run loop with its progress bar and the
+core's layout and status numbers, named once.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Optional
+
+import numpy as np
+
+from ._core.decimate import vertex_quadrics
+from ._core.halfedge import build, count_face_components
+from ._progress import Progress
+from .errors import MeshError
+from .mesh import Mesh
+from .metrics import MetricContext
+from .pairs import contract_pairs
+from .settings import locked_mask
+
+# The core's per-vertex row (lodkit/_core/decimate.pxd, QSIZE and VSTRIDE): the quadric
+# a11 a12 a13 a22 a23 a33 b1 b2 b3 c w (w = summed face area), then the position x y z.
+QSIZE = 11
+VSTRIDE = 14
+PLANE_SIZE = 10            # the quadric without w: the packed 3D plane quadric a metric gives
+
+# What a driver's run(target, max_steps) returns (decimate.pxd RunStatus; vremove.RUN_*)
+RUN_TARGET = 0             # face target reached
+RUN_CHUNK = 1              # max_steps operations done: call again
+RUN_EXHAUSTED = 2          # no legal operation left (or none within max_error)
+RUN_ERROR = 3              # a native kernel failed (the driver's error_message)
+
+# Entries of seam_partners() besides a partner slot (decimate.pxd SEAM_NONE / SEAM_STAYS)
+SEAM_NONE = -1             # not on an attribute seam
+SEAM_STAYS = -2            # a seam copy that may neither move nor go
+
+#: Stop reasons, as found in :attr:`lodkit.SimplifyResult.stop_reason`.
+STOP_TARGET = "target_faces"          # the face target (target_faces / target_ratio) was reached
+STOP_MAX_ERROR = "max_error"          # every remaining collapse would exceed max_error
+STOP_NO_COLLAPSE = "no_valid_collapse"  # no collapse passes the checks (topology, flips, locks)
+
+# Run the nogil loop in chunks of this fraction of the work, to draw the progress bar.
+PROGRESS_CHUNKS = 50
+
+
+@dataclass
+class Prepared:
+    """A mesh cleaned and turned into half-edge arrays, ready for a driver."""
+
+    hm: Any                      # lodkit._core.halfedge.HalfEdgeMesh
+    positions: Optional[np.ndarray]  # (n_slots, 3) normalised positions (dropped once copied)
+    input_vertex: np.ndarray     # (n_slots,) input vertex index of each slot
+    input_face: np.ndarray       # (m_kept,) input face index of each face slot
+    center: np.ndarray
+    scale: float                 # bbox diagonal of the input
+    n_degenerate_faces: int
+    n_unreferenced_vertices: int
+
+
+def prepare(mesh: Mesh) -> Prepared:
+    """Drop faces with a repeated index and unreferenced vertices, normalise positions
+    (centre of the bbox at the origin, unit diagonal) and build the half-edge arrays."""
+    faces = mesh.faces
+    if faces.shape[0] == 0:
+        raise MeshError("the mesh has no faces")
+    degenerate = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 0] == faces[:, 2])
+    n_degenerate = int(np.count_nonzero(degenerate))
+    if n_degenerate == faces.shape[0]:
+        raise MeshError(f"all {faces.shape[0]} faces repeat a vertex index (zero area); nothing to simplify")
+    if n_degenerate:
+        input_face = np.flatnonzero(~degenerate).astype(np.int32)
+        faces = faces[input_face]
+    else:
+        input_face = np.arange(faces.shape[0], dtype=np.int32)
+    del degenerate
+    used = np.zeros(mesh.n_vertices, dtype=bool)
+    used[faces.reshape(-1)] = True
+    input_vertex = np.flatnonzero(used).astype(np.int32)
+    del used
+    if input_vertex.size == mesh.n_vertices:
+        compact = faces                                 # every vertex is used: no renumbering
+    else:
+        remap = np.full(mesh.n_vertices, -1, dtype=np.int32)
+        remap[input_vertex] = np.arange(input_vertex.size, dtype=np.int32)
+        compact = remap[faces]
+        del remap
+    pts = mesh.vertices[input_vertex]
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    del pts
+    with np.errstate(over="ignore", invalid="ignore"):
+        center = 0.5 * lo + 0.5 * hi
+        scale = float(np.linalg.norm(hi - lo))
+    if not scale > 0.0:
+        raise MeshError("all vertices used by faces coincide: the bounding box has zero size")
+    if not np.isfinite(scale):
+        raise MeshError(f"the bounding box is too large to measure (coordinates up to "
+                        f"{np.abs(mesh.vertices[input_vertex]).max():.3g}); rescale the mesh")
+    hm = build(compact, int(input_vertex.size))
+    del compact, faces
+    slot_input = input_vertex[hm.vertex_sources] if hm.n_split_vertices else input_vertex
+    positions = mesh.vertices[slot_input]
+    positions -= center
+    positions /= scale
+    return Prepared(hm, positions, slot_input, input_face, center, scale,
+                    n_degenerate, int(mesh.n_vertices - input_vertex.size))
+
+
+@dataclass
+class Work:
+    """One run's input, ready for a driver: the (pair-contracted) mesh, its half-edge arrays
+    and the core's arrays, one row per vertex slot."""
+
+    src: Mesh                    # the mesh the half-edge arrays were built from
+    prep: Prepared
+    fixed: np.ndarray            # (n_slots,) bool: may neither move nor go
+    seams: Optional[np.ndarray]  # seam_partners(), None without seams
+    n_seam_fixed: int            # seam copies made fixed
+    names: list                  # (attribute name, width) in column order of ``attributes``
+    layout: dict                 # attribute name -> its first column in ``attributes``
+    attributes: Optional[np.ndarray]   # (n_slots, k) the input's attributes, None without any
+    vdata: np.ndarray            # (n_slots, VSTRIDE): plain face quadric, then position
+    input_faces: int             # faces of the mesh as given (before pair contraction)
+    pair_report: Optional[dict] = None
+    welded_faces: Optional[np.ndarray] = None   # after pair contraction: input face of each face
+
+    @property
+    def positions(self) -> np.ndarray:
+        """(n_slots, 3) the normalised positions the core moves (a view of ``vdata``)."""
+        return self.vdata[:, QSIZE:]
+
+
+def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolute: bool = False,
+          fix_seams: bool = False) -> Work:
+    """Everything before the metrics: pair contraction (when ``pair_threshold`` is given),
+    :func:`prepare`, the fixed vertices (non-manifold copies, ``locked``, the boundary
+    under "lock", attribute seam copies that stay -- every seam copy with ``fix_seams``, for
+    a driver that cannot keep a seam closed), the attribute block and the vertex rows with
+    the plain face quadrics (they place the vertex and measure the error when no quadric
+    metric is given)."""
+    input_faces, pair_report, welded_faces = src.n_faces, None, None
+    if pair_threshold is not None:
+        src, welded_faces, pair_report = contract_pairs(
+            src, pair_threshold, absolute=absolute,
+            locked=None if locked is None else locked_mask(locked, src.n_vertices))
+    prep = prepare(src)
+    hm = prep.hm
+    fixed = hm.locked_vertices.copy()
+    if locked is not None:
+        fixed |= locked_mask(locked, src.n_vertices)[prep.input_vertex]
+    attrs = src.attributes()
+    names, layout, col = [], {}, 0
+    for name, arr in attrs.items():
+        names.append((name, arr.shape[1]))
+        layout[name] = col
+        col += arr.shape[1]
+    attributes = np.concatenate([arr[prep.input_vertex] for arr in attrs.values()], axis=1) if attrs else None
+    vdata = np.empty((hm.n_vertices, VSTRIDE), dtype=np.float64)
+    vdata[:, QSIZE:] = prep.positions
+    prep.positions = None
+    vertex_quadrics(hm, vdata[:, QSIZE:], 0.0, out=vdata)
+    seams, n_seam_fixed = None, 0
+    if settings["boundary"][0] == "lock":
+        fixed |= hm.boundary_vertices        # every seam vertex is a boundary vertex: all stay
+    else:
+        seams = seam_partners(src, prep, fixed)
+        if seams is not None:
+            stays = seams != SEAM_NONE if fix_seams else seams == SEAM_STAYS
+            fixed |= stays
+            n_seam_fixed = int(np.count_nonzero(stays))
+    return Work(src, prep, fixed, seams, n_seam_fixed, names, layout, attributes, vdata,
+                input_faces, pair_report, welded_faces)
+
+
+def seam_partners(src: Mesh, prep: Prepared, fixed: np.ndarray) -> Optional[np.ndarray]:
+    """Attribute seams of the input, for the collapser's ``seam_partners``: (n_slots,)
+    int32 holding each seam vertex's partner slot, SEAM_NONE (-1) off the seams and
+    SEAM_STAYS (-2) for a seam copy that must stay; None when there are no seams.
+
+    A seam is where a file splits a vertex to give it two sets of attributes (OBJ / glTF
+    uv, normal or colour seams): two input vertices with bit-identical positions, each on
+    a boundary chain of the split connectivity, the two chains running side by side in
+    opposite directions.  A boundary half-edge a -> b is a seam edge when some boundary
+    half-edge runs from a copy of b to a copy of a.  Two boundary copies of one position
+    are partners when each one's outgoing seam edge pairs with the other's incoming one
+    (as in meshoptimizer, positions alone decide: equal attributes on both sides make
+    no difference).  Boundary vertices touching a seam that cannot be paired -- more than
+    two copies, the end of a cut, a seam meeting a true boundary -- stay (-2).  Copies of
+    one input vertex (non-manifold splits) are no seam; they are locked anyway."""
+    hm = prep.hm
+    n = hm.n_vertices
+    corners = hm.corners.reshape(-1)
+    he = np.flatnonzero((hm.twins < 0) & np.repeat(hm.alive_faces, 3))
+    if he.size == 0:
+        return None                                 # a seam is a pair of boundary chains
+    a = corners[he]
+    b = corners[np.where(he % 3 == 2, he - 2, he + 1)]
+    out_he = np.full(n, -1, dtype=np.int64)
+    in_he = np.full(n, -1, dtype=np.int64)
+    out_he[a] = np.arange(he.size)
+    in_he[b] = np.arange(he.size)
+    slots = np.flatnonzero(out_he >= 0)             # the boundary vertex slots
+    # classes of equal position among them (+ 0.0: -0.0 and 0.0 are one position)
+    pos = src.vertices[prep.input_vertex[slots]] + 0.0
+    order = np.lexsort((pos[:, 2], pos[:, 1], pos[:, 0]))
+    sp = pos[order]
+    first = np.ones(slots.size, dtype=bool)
+    first[1:] = (sp[1:] != sp[:-1]).any(axis=1)
+    if first.all():
+        return None                                 # no two boundary slots share a position
+    cls = np.full(n, -1, dtype=np.int64)
+    cls[slots[order]] = np.cumsum(first) - 1
+    n_cls = int(cls.max()) + 1
+    # distinct input vertices at each position (split copies of one vertex do not count)
+    stride = int(prep.input_vertex.max()) + 1
+    pairs = np.unique(cls[slots] * stride + prep.input_vertex[slots])
+    n_inputs = np.bincount(pairs // stride, minlength=n_cls)
+    forward = np.sort(cls[a] * n_cls + cls[b])
+    backward = cls[b] * n_cls + cls[a]
+    at = np.minimum(np.searchsorted(forward, backward), forward.size - 1)
+    mated = forward[at] == backward                # a copy of b -> a copy of a exists
+    shared = np.zeros(n, dtype=bool)
+    shared[slots] = n_inputs[cls[slots]] >= 2
+    n_boundary = np.bincount(cls[slots], minlength=n_cls)
+    partners = np.full(n, SEAM_NONE, dtype=np.intc)
+    two = slots[shared[slots] & (n_boundary[cls[slots]] == 2)]
+    two = two[np.argsort(cls[two], kind="stable")]
+    s, t = two[0::2], two[1::2]
+
+    def chains_pair(x, y):
+        # x's outgoing seam edge x -> c runs beside y's incoming one c' -> y
+        o, i = out_he[x], in_he[y]
+        return mated[o] & mated[i] & (cls[b[o]] == cls[a[i]])
+
+    ok = chains_pair(s, t) & chains_pair(t, s) & ~fixed[s] & ~fixed[t]
+    partners[s[ok]] = t[ok]
+    partners[t[ok]] = s[ok]
+    near = shared.copy()
+    near[a[mated]] = True
+    near[b[mated]] = True
+    partners[near & (partners < 0)] = SEAM_STAYS
+    # the copies made for non-manifold input are locked by the half-edge build; their cut
+    # edges pair up like seams, but unless another input vertex shares the position they
+    # are no attribute seam
+    partners[hm.locked_vertices & ~shared] = SEAM_NONE
+    if not (partners != SEAM_NONE).any():
+        return None
+    return partners
+
+
+def metric_context(work: Work, settings: dict) -> MetricContext:
+    """What the metrics see at set-up: read-only views of the positions and plain face
+    quadrics, the half-edge arrays, the fixed vertices and the run's settings."""
+    prep = work.prep
+    positions_ro = work.vdata[:, QSIZE:].view()
+    positions_ro.flags.writeable = False
+    face_quadrics = work.vdata[:, :PLANE_SIZE].view()
+    face_quadrics.flags.writeable = False
+    return MetricContext(positions=positions_ro, halfedge=prep.hm, input_vertex=prep.input_vertex,
+                         input_face=prep.input_face, fixed=work.fixed.copy(), scale=prep.scale,
+                         center=prep.center, mesh=work.src, face_quadrics=face_quadrics,
+                         settings={"placement": settings["placement"][0], "boundary": settings["boundary"][0],
+                                   "boundary_weight": float(settings["boundary_weight"][0])})
+
+
+def error_limit(max_error, work: Work, absolute: bool) -> float:
+    """``max_error`` in the core's normalised units (inf when not given)."""
+    if max_error is None:
+        return math.inf
+    return float(max_error) / (work.prep.scale if absolute else 1.0)
+
+
+def closed_connected(hm) -> bool:
+    """True when the half-edge mesh has no boundary and one face-connected component."""
+    return not (hm.twins < 0).any() and count_face_components(hm) == 1
+
+
+def progress_bar(progress: bool, hm, target: int):
+    """A progress bar over the faces to remove (None when ``progress`` is off)."""
+    if not progress:
+        return None
+    return Progress(total=max(hm.n_alive_faces - target, 1), enabled=True)
+
+
+def run_chunked(driver, hm, target: int, bar) -> int:
+    """``driver.run(target, chunk)`` until it stops for another reason than the chunk
+    (RUN_CHUNK), updating ``bar`` between chunks (one chunk when there is no bar); returns
+    the driver's final status."""
+    start_faces = hm.n_alive_faces
+    chunk = max((start_faces - target) // (2 * PROGRESS_CHUNKS), 1000) if bar else 2**31 - 1
+    while True:
+        status = driver.run(target, chunk)
+        if bar:
+            bar.update(start_faces - hm.n_alive_faces)
+        if status != RUN_CHUNK:
+            return status
+
+
+@dataclass
+class Run:
+    """What a driver hands back: the state of the vertex slots after the run, why it
+    stopped, and its own counters for the report."""
+
+    core: Any                    # the core's driver object (its records, once the run is over)
+    positions: np.ndarray        # (n_slots, 3) normalised positions
+    moved: Optional[np.ndarray]  # (n_slots,) bool, the slots whose position is new (None: none)
+    attributes: Optional[np.ndarray]   # (n_slots, k) attributes after the run
+    max_error: float             # largest error done, normalised
+    n_collapses: int
+    stop: str                    # a STOP_* reason
+    detail: str                  # report["stop_detail"]
+    seam_pair_collapses: int = 0
+    counters: dict = field(default_factory=dict)   # the driver's entries of the report
+
+
+def extract(work: Work, run: Run):
+    """(Mesh, vertex_map, face_map): the live part of the half-edge arrays compacted into a
+    Mesh, the copies made for non-manifold vertices welded back together; vertices that
+    did not move keep their input position bit for bit."""
+    src, prep = work.src, work.prep
+    hm = prep.hm
+    alive_faces = hm.alive_faces
+    faces_slots = hm.corners[alive_faces]
+    face_map = prep.input_face[np.flatnonzero(alive_faces)].astype(np.int64)
+    alive_v = hm.alive_vertices
+    slots = np.flatnonzero(alive_v)
+    # weld: one output vertex per input vertex (split copies are locked, so they coincide)
+    inputs = prep.input_vertex[slots]
+    vertex_map, first, inverse = np.unique(inputs, return_index=True, return_inverse=True)
+    slot_to_out = np.full(hm.n_vertices, -1, dtype=np.int32)
+    slot_to_out[slots] = inverse.reshape(-1)
+    out_faces = slot_to_out[faces_slots].astype(np.int32)
+    rep = slots[first]
+    verts = src.vertices[vertex_map].copy()
+    if run.moved is not None:
+        moved = run.moved[rep]
+        verts[moved] = run.positions[rep[moved]] * prep.scale + prep.center
+    out_attrs = attribute_arrays(run.attributes[rep], work.names) if work.names else {}
+    out = Mesh(verts, out_faces, **out_attrs)
+    if work.welded_faces is not None:
+        face_map = work.welded_faces[face_map]       # faces of the welded mesh -> input faces
+    return out, vertex_map.astype(np.int64), face_map
+
+
+def attribute_arrays(block: np.ndarray, names) -> dict:
+    """The output attributes from the core's attribute block (one row per output vertex,
+    the columns of each ``(name, width)`` in turn): normals renormalised (a zero normal
+    stays zero), colours clamped to [0, 1]."""
+    out = {}
+    col = 0
+    for name, width in names:
+        a = block[:, col:col + width]
+        col += width
+        if name == "normals":
+            length = np.linalg.norm(a, axis=1, keepdims=True)
+            a = np.divide(a, length, out=np.zeros_like(a), where=length > 0)
+        elif name == "colors":
+            a = np.clip(a, 0.0, 1.0)
+        out[name] = a
+    return out
+
+
+def report(work: Work, run: Run, metrics, settings: dict, target: int) -> dict:
+    """``result.report``: what the clean-up did, the run's counters, why it stopped, the
+    seams and the settings used (docs/getting-started.md lists the keys)."""
+    prep, seams = work.prep, work.seams
+    hm = prep.hm
+    out = {
+        "input_faces": work.input_faces,
+        "degenerate_faces_removed": prep.n_degenerate_faces,
+        "unreferenced_vertices_removed": prep.n_unreferenced_vertices,
+        "nonmanifold_edges_cut": hm.n_nonmanifold_edges,
+        "vertices_split": hm.n_split_vertices,
+        "target_faces": target,
+        "metrics": [m.name for m in metrics],
+    }
+    out.update(run.counters)
+    out["stop_detail"] = run.detail
+    out["seams"] = {"paired_vertices": 0 if seams is None else int(np.count_nonzero(seams >= 0)),
+                    "fixed_vertices": work.n_seam_fixed,
+                    "pair_collapses": run.seam_pair_collapses}
+    out["settings"] = {k: {"value": v, "from": s} for k, (v, s) in settings.items()}
+    return out

@@ -1,0 +1,166 @@
+"""Edge collapse (``operator="edge"``): the core's EdgeCollapser, run greedily from its heap,
+or, with batch metrics, by the Python pass driver (:func:`run_passes`).  Triangle collapse
+(lodkit.drivers.triangle) runs through :func:`run_collapser` too."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._compile import Compiled, batch_result, compile_metrics
+from .._core.decimate import EdgeCollapser
+from .._pipeline import (RUN_EXHAUSTED, RUN_TARGET, STOP_MAX_ERROR, STOP_NO_COLLAPSE, STOP_TARGET, Run, Work,
+                         closed_connected, progress_bar, run_chunked)
+from ..errors import MetricError
+from ..metrics import Batch
+from ..settings import BOUNDARY_POLICIES, COLLAPSE_OPERATORS, PLACEMENTS
+
+__all__ = ["FIX_SEAMS", "check", "setup", "run", "run_collapser", "run_passes", "records"]
+
+#: seam copies that can be paired collapse together with their partner: only the others stay
+FIX_SEAMS = False
+
+
+def check(metrics, pair_threshold) -> None:
+    """Edge collapse runs every metric kind but removal (which implies vertex removal)."""
+
+
+def setup(metrics, ctx, work: Work) -> Compiled:
+    return compile_metrics(metrics, ctx, work)
+
+
+def run(work: Work, compiled: Compiled, settings: dict, *, target: int, max_error: float, record: bool,
+        progress: bool) -> Run:
+    return run_collapser(work, compiled, settings, target=target, max_error=max_error, record=record,
+                         progress=progress, operator="edge")
+
+
+def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int, max_error: float,
+                  record: bool, progress: bool, operator: str) -> Run:
+    """Build the EdgeCollapser over ``work`` and run it to ``target`` faces (or until no
+    collapse within ``max_error`` is left)."""
+    hm = work.prep.hm
+    collapser = EdgeCollapser(
+        hm, None, work.vdata, work.attributes, work.fixed,
+        placement=PLACEMENTS[settings["placement"][0]], boundary=BOUNDARY_POLICIES[settings["boundary"][0]],
+        max_normal_angle=float(settings["max_normal_angle"][0]), min_quality=float(settings["min_quality"][0]),
+        max_error=max_error, record=bool(record),
+        closed_connected=closed_connected(hm),
+        use_heap=not compiled.batch, seam_partners=work.seams, operator=COLLAPSE_OPERATORS[operator],
+        **compiled.core,
+    )
+    raise_if_failed(collapser, compiled)
+
+    bar = progress_bar(progress, hm, target)
+    n_passes = 0
+    if compiled.batch:
+        status, rejected_error, n_passes = run_passes(collapser, compiled, work, target, bar)
+    else:
+        status = run_chunked(collapser, hm, target, bar)
+        rejected_error = collapser.n_rejected_error
+    if bar:
+        bar.close()
+    raise_if_failed(collapser, compiled)
+
+    if status == RUN_TARGET:
+        stop, detail = STOP_TARGET, ""
+    elif rejected_error > 0:
+        stop, detail = STOP_MAX_ERROR, f"{rejected_error} candidate collapses exceed max_error"
+    else:
+        stop, detail = STOP_NO_COLLAPSE, _no_collapse_detail(collapser)
+    collapser.release()          # the heap and quadrics are not needed to build the output
+    return Run(
+        core=collapser,
+        positions=collapser.positions,
+        moved=collapser.moved_vertices,
+        attributes=collapser.attributes if work.names else None,
+        max_error=collapser.max_error_done,
+        n_collapses=int(collapser.n_collapses),
+        stop=stop,
+        detail=detail,
+        seam_pair_collapses=int(collapser.n_seam_pairs),
+        counters={
+            "pair_contraction": work.pair_report,
+            "vetoed": int(collapser.n_vetoed),
+            "passes": n_passes,
+            "operator": operator + "_collapse",
+            "triangle_collapses": int(collapser.n_tri_collapses),
+            "refused_at_second_collapse": int(collapser.n_tri_refused_second),
+        },
+    )
+
+
+def raise_if_failed(collapser, compiled: Compiled) -> None:
+    """MetricError naming the kernel that failed during the run, if one did."""
+    if not collapser.failed:
+        return
+    for m, k in compiled.kernels:
+        if k.failed:
+            raise MetricError(f"metric {m.name!r} failed during the run: {k.message}")
+    raise MetricError(f"a metric kernel failed during the run: {collapser.error_message}")
+
+
+def _no_collapse_detail(collapser) -> str:
+    if collapser.n_vetoed and collapser.n_collapses == 0:
+        return (f"every candidate collapse was vetoed by a metric kernel "
+                f"({collapser.n_vetoed} vetoes); the mesh is unchanged")
+    if collapser.n_vetoed:
+        return f"the remaining candidates failed the checks or were vetoed by a metric kernel ({collapser.n_vetoed} vetoes)"
+    return "every remaining collapse would break the topology, flip or degrade a face, or move a locked vertex"
+
+
+def run_passes(collapser, compiled: Compiled, work: Work, target: int, bar):
+    """The pass driver for batch metrics: rank every candidate (the core's cost, then each
+    batch metric in order), collapse the cheapest ``fraction`` that share no vertex
+    neighbourhood, repeat.  Returns (status, candidates over max_error, passes)."""
+    hm = work.prep.hm
+    ctx = compiled.ctx
+    start_faces = hm.n_alive_faces
+    fraction = min(m.params["fraction"] for m in compiled.batch)
+    passes = 0
+    while hm.n_alive_faces > target:
+        plan = collapser.plan_all()
+        if plan is None:
+            raise_if_failed(collapser, compiled)
+        rejected = collapser.n_rejected_error
+        k = plan["edge"].shape[0]
+        if k == 0:
+            return RUN_EXHAUSTED, rejected, passes
+        cost, pos = plan["cost"], None
+        live = collapser.positions
+        for m in compiled.batch:
+            batch = Batch(edge=plan["edge"], u=plan["u"], v=plan["v"], removed=plan["removed"],
+                          kept=plan["kept"], position=plan["position"] if pos is None else pos,
+                          cost=cost, error=plan["error"], positions=live, ctx=ctx)
+            cost, new_pos = batch_result(m, m.costs(batch), k)
+            if new_pos is not None:
+                pos = new_pos
+        order = np.argsort(cost, kind="stable")
+        n_try = max(int(math.ceil(fraction * k)), 1)
+        done = 0
+        for take in ((order[:n_try], order) if n_try < k else (order,)):
+            done = collapser.collapse_pass(plan["edge"][take], None if pos is None else pos[take], target)
+            if done != 0:
+                break
+        if done < 0:
+            raise_if_failed(collapser, compiled)
+        passes += 1
+        if bar:
+            bar.update(start_faces - hm.n_alive_faces)
+        if done == 0:
+            return RUN_EXHAUSTED, rejected, passes
+    return RUN_TARGET, 0, passes
+
+
+def records(work: Work, run: Run, scale: float) -> dict:
+    """The collapse record in input vertex indices (docs/progressive.md)."""
+    prep, src = work.prep, work.src
+    out = run.core.records()
+    out["removed"] = prep.input_vertex[out["removed"]].astype(np.int64)
+    out["kept"] = prep.input_vertex[out["kept"]].astype(np.int64)
+    moved = out.pop("moved")
+    # positions that are an input vertex's are given bit for bit, the others denormalised
+    out["position"] = np.where(moved[:, None], out["position"] * prep.scale + prep.center,
+                               src.vertices[out["kept"]])
+    out["error"] = out["error"] * scale
+    return out

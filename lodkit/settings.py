@@ -1,0 +1,133 @@
+"""The options of :func:`lodkit.simplify`: their defaults, the numbers the core takes for
+them, and their checks.  Every check raises :class:`lodkit.OptionError` naming the option.
+
+    resolve_operator(operator, metrics) -> "edge" | "triangle" | "vertex_removal"
+    resolve_settings(metrics, **given)  -> {setting: (value, where it came from)}
+    check_settings(settings, max_error)
+    resolve_target(n_faces, target_faces, target_ratio, max_error) -> face target
+    locked_mask(locked, n)              -> (n,) bool
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .errors import OptionError
+
+__all__ = ["SETTING_DEFAULTS", "PLACEMENTS", "BOUNDARY_POLICIES", "OPERATORS", "COLLAPSE_OPERATORS",
+           "resolve_operator", "resolve_settings", "check_settings", "resolve_target", "locked_mask"]
+
+#: simplify()'s own defaults for the settings a metric may prefer other values of
+SETTING_DEFAULTS = {
+    "placement": "optimal",
+    "boundary": "preserve",
+    "boundary_weight": 10.0,
+    "max_normal_angle": 90.0,
+    "min_quality": 0.1,
+}
+
+# The numbers the core takes: the values of the enums Placement, BoundaryPolicy and Operator
+# in lodkit/_core/decimate.pxd (the vertex-removal driver takes the same boundary numbers).
+PLACEMENTS = {"optimal": 0, "endpoint": 1}
+BOUNDARY_POLICIES = {"lock": 0, "preserve": 1, "free": 2}
+#: the collapse driver's candidates: edges, or faces collapsed as two edge collapses
+COLLAPSE_OPERATORS = {"edge": 0, "triangle": 1}
+
+#: simplify(operator=): the operators, each run by its driver (lodkit.drivers.DRIVERS)
+OPERATORS = ("edge", "triangle", "vertex_removal")
+
+
+def resolve_operator(operator, metrics) -> str:
+    """The operator that runs: ``operator`` as given, except that a vertex-removal metric
+    turns the default "edge" into "vertex_removal" (``metric="schroeder"`` alone removes
+    vertices).  Raises when the operator cannot run the metrics."""
+    if not isinstance(operator, str) or operator not in OPERATORS:
+        raise OptionError(f"operator must be one of {', '.join(OPERATORS)}, got {operator!r}")
+    removal = [m for m in metrics if m.kind == "removal"]
+    if operator == "triangle":
+        other = [m for m in metrics if m.kind != "quadric"]
+        if other:
+            raise OptionError(f"operator='triangle' takes quadric metrics only; {other[0].name!r} is a "
+                              f"{other[0].kind} metric, whose values are defined per edge or vertex "
+                              f"pair (use operator='edge')")
+    if operator == "vertex_removal" and not removal:
+        raise OptionError(f"operator='vertex_removal' needs a vertex-removal metric (one of kind 'removal', "
+                          f"e.g. 'schroeder' or 'volume'); {metrics[0].name!r} is a {metrics[0].kind} metric "
+                          f"(use operator='edge')")
+    if operator == "edge" and removal:
+        return "vertex_removal"
+    return operator
+
+
+def resolve_settings(metrics, **given) -> dict:
+    """{setting: (value, where it came from)}: the caller's value when given (not None),
+    else the first listed metric's ``defaults``, else :data:`SETTING_DEFAULTS`."""
+    out = {}
+    for key, default in SETTING_DEFAULTS.items():
+        value = given.get(key)
+        if value is not None:
+            out[key] = (value, "caller")
+            continue
+        for m in metrics:
+            if key in m.defaults:
+                out[key] = (m.defaults[key], f"metric {m.name}")
+                break
+        else:
+            out[key] = (default, "lodkit")
+    return out
+
+
+def check_settings(settings: dict, max_error) -> None:
+    """Raise OptionError on a setting (from :func:`resolve_settings`) or ``max_error`` out of range."""
+    placement, boundary = settings["placement"][0], settings["boundary"][0]
+    boundary_weight = settings["boundary_weight"][0]
+    max_normal_angle, min_quality = settings["max_normal_angle"][0], settings["min_quality"][0]
+    if placement not in PLACEMENTS:
+        raise OptionError(f"placement must be one of {', '.join(PLACEMENTS)}, got {placement!r}")
+    if boundary not in BOUNDARY_POLICIES:
+        raise OptionError(f"boundary must be one of {', '.join(BOUNDARY_POLICIES)}, got {boundary!r}")
+    if not (0.0 < float(max_normal_angle) <= 180.0):
+        raise OptionError(f"max_normal_angle must be in (0, 180] degrees, got {max_normal_angle!r}")
+    if not (0.0 <= float(min_quality) <= 1.0):
+        raise OptionError(f"min_quality must be in [0, 1], got {min_quality!r}")
+    if not (float(boundary_weight) >= 0.0 and math.isfinite(float(boundary_weight))):
+        raise OptionError(f"boundary_weight must be a finite number >= 0, got {boundary_weight!r}")
+    if max_error is not None and not (float(max_error) >= 0.0):
+        raise OptionError(f"max_error must be >= 0, got {max_error!r}")
+
+
+def resolve_target(n_faces: int, target_faces, target_ratio, max_error) -> int:
+    """The face count to stop at (0 when only ``max_error`` stops the run)."""
+    if target_faces is None and target_ratio is None and max_error is None:
+        raise OptionError("give a stop criterion: target_faces=, target_ratio= or max_error=")
+    target = 0
+    if target_faces is not None:
+        if isinstance(target_faces, bool) or not isinstance(target_faces, (int, np.integer)) or target_faces < 0:
+            raise OptionError(f"target_faces must be a non-negative integer, got {target_faces!r}")
+        target = max(target, int(target_faces))
+    if target_ratio is not None:
+        r = float(target_ratio)
+        if not (0.0 <= r <= 1.0):
+            raise OptionError(f"target_ratio must be in [0, 1], got {target_ratio!r}")
+        target = max(target, int(round(r * n_faces)))
+    return target
+
+
+def locked_mask(locked, n: int) -> np.ndarray:
+    """(n,) bool from ``locked``: an (n,) bool mask or an array of vertex indices."""
+    arr = np.asarray(locked)
+    if arr.dtype == bool:
+        if arr.shape != (n,):
+            raise OptionError(f"locked as a mask must have shape ({n},), got {arr.shape}")
+        return arr
+    if arr.size == 0:
+        return np.zeros(n, dtype=bool)
+    if arr.dtype.kind not in "iu" or arr.ndim != 1:
+        raise OptionError("locked must be a boolean mask or a 1-D array of vertex indices")
+    if arr.min() < 0 or arr.max() >= n:
+        raise OptionError(f"locked holds a vertex index outside 0..{n - 1}")
+    mask = np.zeros(n, dtype=bool)
+    mask[arr] = True
+    return mask
+
