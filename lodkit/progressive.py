@@ -390,7 +390,7 @@ class ProgressiveMesh:
 
     def _assemble(self, face_idx, corners, slots, last, s) -> Level:
         """The output mesh from live face slots (with their corner slots) and live vertex
-        slots, as simplify's _extract builds it."""
+        slots, as lodkit._pipeline.extract builds it."""
         d = self._d
         iv = d["input_vertex"]
         inputs = iv[slots]

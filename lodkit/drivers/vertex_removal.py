@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._compile import removal_kernel
-from .._core.vremove import VertexRemover
+from .._core import vremove
 from .._pipeline import (RUN_TARGET, STOP_MAX_ERROR, STOP_NO_COLLAPSE, STOP_TARGET, Run, Work, closed_connected,
                          progress_bar, run_chunked)
 from ..errors import MetricError, OptionError
@@ -40,12 +40,12 @@ def run(work: Work, compiled, settings: dict, *, target: int, max_error: float, 
     """Remove vertices down to ``target`` faces; ``n_collapses`` counts removals."""
     metric, kernel = compiled
     hm = work.prep.hm
-    remover = VertexRemover(hm, work.positions, kernel, work.fixed,
-                            boundary=BOUNDARY_POLICIES[settings["boundary"][0]],
-                            max_normal_angle=float(settings["max_normal_angle"][0]),
-                            min_quality=float(settings["min_quality"][0]),
-                            max_error=max_error, record=bool(record),
-                            closed_connected=closed_connected(hm))
+    remover = vremove.VertexRemover(hm, work.positions, kernel, work.fixed,
+                                    boundary=BOUNDARY_POLICIES[settings["boundary"][0]],
+                                    max_normal_angle=float(settings["max_normal_angle"][0]),
+                                    min_quality=float(settings["min_quality"][0]),
+                                    max_error=max_error, record=bool(record),
+                                    closed_connected=closed_connected(hm))
     _raise_if_failed(remover, metric)
 
     bar = progress_bar(progress, hm, target)
