@@ -81,7 +81,8 @@ def compile_metrics(metrics, ctx: MetricContext, work: Work) -> Compiled:
         elif m.kind == "kernel":
             k = m.make_kernel(ctx)
             if not isinstance(k, m.kernel):
-                raise MetricError(f"metric {m.name!r}: make_kernel returned {type(k).__name__}, not {m.kernel.__name__}")
+                raise MetricError(f"metric {m.name!r}: make_kernel returned {type(k).__name__}, "
+                                  f"not {m.kernel.__name__}")
             step = (STEP_KERNEL, len(kernels), len(kernels) + 1)
             kernels.append((m, k))
         else:

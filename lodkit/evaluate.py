@@ -38,7 +38,7 @@ from typing import Optional
 import numpy as np
 
 from .errors import MeshError, OptionError
-from .geometry import face_normals, face_vectors, triangle_quality, weld_positions
+from .geometry import face_normals, triangle_quality, weld_positions
 from .io import load
 from .mesh import Mesh, as_mesh
 from .topology import TopologyReport, topology

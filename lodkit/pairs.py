@@ -29,8 +29,8 @@ from typing import Optional
 import numpy as np
 
 from .errors import OptionError
-from .mesh import Mesh
 from .geometry import plane_quadrics
+from .mesh import Mesh
 
 __all__ = ["contract_pairs"]
 
