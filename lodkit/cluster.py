@@ -25,6 +25,7 @@ from typing import Any, Optional
 
 import numpy as np
 
+from ._core import cluster as kern
 from .errors import MeshError, OptionError
 from .geometry import face_vectors
 from .mesh import Mesh, as_mesh, is_open3d
@@ -382,8 +383,6 @@ def _n_used_cells(g: _Clustering) -> int:
 
 def _build(src: Mesh, data: _Input, g: _Clustering, representative: str):
     """The output mesh, vertex and face maps, and the (max, RMS) quadric error."""
-    from ._core import cluster as kern
-
     n_cells = g.keys.size
     label = g.label
     p = data.positions

@@ -33,10 +33,12 @@ from typing import Callable, Optional
 
 import numpy as np
 
+from .api import simplify
 from .errors import LodkitError, OptionError
 from .evaluate import DEFAULT_SAMPLES, Evaluation, Evaluator
 from .io import atomic_write, load
 from .mesh import Mesh, as_mesh
+from .metrics import create
 
 __all__ = ["PEERS", "Comparison", "Run", "MissingDependencyError", "compare"]
 
@@ -256,9 +258,6 @@ def compare(mesh, *, metrics=("qem",), peers=(), ratios=(0.5, 0.1, 0.02), out=No
     for bad options before any work, :class:`MissingDependencyError` when matplotlib (with
     ``out``) or a requested peer is not installed.
     """
-    from .api import simplify
-    from .metrics import create
-
     metric_specs = _method_list(metrics)
     peer_names = _method_list(peers)
     if not metric_specs and not peer_names:

@@ -13,8 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
+from .api import simplify
 from .errors import OptionError
 from .geometry import vertex_normals
+from .io import save
 from .mesh import Mesh
 
 __all__ = ["demo_mesh", "run_demo"]
@@ -115,8 +117,6 @@ def run_demo(out_dir="lodkit-demo", ratios=(0.5, 0.2, 0.05, 0.01), stream=None, 
     returns its rows as dicts: level, ratio, faces, vertices, error (a fraction of the
     bounding-box diagonal; None for the original), seconds, stop_reason, file.
     """
-    from . import save, simplify
-
     stream = sys.stdout if stream is None else stream
     ratios = tuple(float(r) for r in ratios)
     bad = [r for r in ratios if not 0.0 < r <= 1.0]

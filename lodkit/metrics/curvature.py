@@ -17,7 +17,7 @@ import numpy as np
 
 from .._core.curvature_kernel import CurvatureKernel
 from ..curvature import DEFAULT_K, point_curvature
-from ..errors import MetricError
+from ..errors import MetricError, OptionError
 from .base import KernelMetric, MetricContext, Option
 
 
@@ -51,8 +51,6 @@ class Curvature(KernelMetric):
     def validate_options(self, given: dict) -> dict:
         params = super().validate_options(given)
         if params["radius"] is not None and not params["radius"] > 0.0:
-            from ..errors import OptionError
-
             raise OptionError(f"metric {self.name!r}: option 'radius' must be a number > 0 or None, "
                               f"got {given['radius']!r}")
         return params
