@@ -32,7 +32,7 @@ from typing import Union
 import numpy as np
 
 from .errors import MeshError, MeshIOError
-from .mesh import Mesh
+from .mesh import Mesh, as_mesh
 
 __all__ = ["load", "save", "SUPPORTED_FORMATS"]
 
@@ -300,18 +300,17 @@ def load(path: PathLike) -> Mesh:
 
 
 # ---------------------------------------------------------------------------- save
-def _as_mesh(mesh, fmt: str, o3d) -> Mesh:
-    """A lodkit Mesh for writing: Mesh as is; Open3D meshes converted (and validated)."""
-    if isinstance(mesh, Mesh):
-        return mesh
+def _writable_mesh(mesh, fmt: str, o3d) -> Mesh:
+    """A lodkit Mesh for writing: Mesh as is; Open3D meshes (legacy or tensor) converted and
+    validated by :func:`lodkit.mesh.as_mesh`, their uvs dropped first when the format cannot
+    hold them (converting them would only split vertices).  Anything else is a TypeError."""
     if isinstance(mesh, o3d.t.geometry.TriangleMesh):
         mesh = mesh.to_legacy()
-    if isinstance(mesh, o3d.geometry.TriangleMesh):
-        if "uvs" not in _CARRIES[fmt] and mesh.has_triangle_uvs():
-            # the uvs would not be written; converting them would only split vertices
-            mesh = o3d.geometry.TriangleMesh(mesh)
-            mesh.triangle_uvs = o3d.utility.Vector2dVector()
-        return Mesh.from_open3d(mesh)
+    if isinstance(mesh, o3d.geometry.TriangleMesh) and "uvs" not in _CARRIES[fmt] and mesh.has_triangle_uvs():
+        mesh = o3d.geometry.TriangleMesh(mesh)
+        mesh.triangle_uvs = o3d.utility.Vector2dVector()
+    if isinstance(mesh, (Mesh, o3d.geometry.TriangleMesh)):
+        return as_mesh(mesh)
     raise TypeError(
         "save() takes a lodkit.Mesh or an open3d.geometry.TriangleMesh, "
         f"got {type(mesh).__module__}.{type(mesh).__qualname__}"
@@ -386,7 +385,7 @@ def save(mesh, path: PathLike, *, ascii: bool = False) -> None:
     fmt = _format_of(p, "save")
     o3d = _import_open3d()
     try:
-        m = _as_mesh(mesh, fmt, o3d)
+        m = _writable_mesh(mesh, fmt, o3d)
     except MeshError as exc:
         raise type(exc)(f"cannot save {p}: {exc}") from exc
     if m.n_faces == 0:
