@@ -3,25 +3,6 @@ from .halfedge cimport HalfEdgeMesh, HEArrays
 from .heap cimport IndexedHeap
 from .kernel cimport Kernel, KernelMesh, Candidate
 
-cdef enum BoundaryPolicy:
-    BOUNDARY_LOCK = 0
-    BOUNDARY_PRESERVE = 1
-    BOUNDARY_FREE = 2
-
-cdef enum Placement:
-    PLACE_OPTIMAL = 0
-    PLACE_ENDPOINT = 1
-
-cdef enum Operator:
-    OP_EDGE = 0          # candidates are edges: one edge collapse per step
-    OP_TRIANGLE = 1      # candidates are faces: a face collapses to one point (two edge collapses)
-
-cdef enum RunStatus:
-    RUN_TARGET = 0       # face target reached
-    RUN_CHUNK = 1        # max_steps collapses done, call again
-    RUN_EXHAUSTED = 2    # no legal collapse left (or none within max_error)
-    RUN_ERROR = 3        # a native kernel reported an error (see EdgeCollapser.error_message)
-
 # field rules: how a field merges on collapse, how a vertex field gives an edge its value,
 # and how the value enters the cost
 cdef enum FieldMerge:
@@ -56,18 +37,9 @@ cdef enum:
     RULE_OFFSET = 4
     RULE_COLS = 5
 
-# quadric layout: a11 a12 a13 a22 a23 a33 b1 b2 b3 c w   (w = summed face area)
-cdef enum:
-    GMAX_D = 16          # quadrics over attributes: up to 13 attribute channels
-    GMAX_S = 153         # packed size for GMAX_D: D(D+1)/2 + D + 1
-
 cdef enum:
     SEAM_NONE = -1       # EdgeCollapser.seam: not on an attribute seam
     SEAM_STAYS = -2      # a seam copy that may not move nor go (seam end, >2 copies, ...)
-
-cdef enum:
-    QSIZE = 11
-    VSTRIDE = 14         # per-vertex row: quadric (QSIZE) then position (3)
 
 cdef class EdgeCollapser:
     cdef HalfEdgeMesh hm
@@ -178,7 +150,7 @@ cdef class EdgeCollapser:
     cdef int plan(self, int e, int* h_out, int* r_out, double* p, double* cost, double* err) noexcept nogil
     cdef bint geometry_ok(self, int h, int r, int k, const double* p) noexcept nogil
     cdef bint fan_ok(self, int center, int fa, int fb, const double* p, double* dvol) noexcept nogil
-    cdef double face_volume(self, int f) noexcept nogil
+    cdef double face_volume6(self, int f) noexcept nogil
     cdef void recost(self, int e) noexcept nogil
     cdef void recost_he(self, int e, int h, int u, int v) noexcept nogil
     cdef int plan_he(self, int h, int u, int v, int* h_out, int* r_out, double* p, double* cost,

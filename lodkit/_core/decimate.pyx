@@ -20,420 +20,17 @@ from libc.math cimport sqrt, fabs, cos, M_PI, INFINITY
 from .halfedge cimport HalfEdgeMesh, HEArrays, he_next, he_prev, he_dest, he_ring_next, he_is_boundary
 from .heap cimport IndexedHeap
 from .vec3 cimport cross3, dot3, same_point
+from .common cimport (QSIZE, VSTRIDE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, RUN_ERROR, BOUNDARY_LOCK,
+                      BOUNDARY_PRESERVE, BOUNDARY_FREE, PLACE_OPTIMAL, PLACE_ENDPOINT, OP_EDGE, OP_TRIANGLE)
+from .quadric cimport (GMAX_D, GMAX_S, sq, collapse_error, quadric_eval, take_if_lower, quadric_solve,
+                       quadric_solve_truncated, gq_marginal)
+from .checks cimport (angle_exceeds, turned_from_input, new_fold, folds, tri_quality, face_volume,
+                      turns_inside_out)
+from .quadric import face_unit_normals, vertex_quadrics, add_boundary_planes, general_quadric_marginal
 from .kernel cimport (Kernel, KernelMesh, Candidate, chain_place, chain_cost, chain_commit,
                       fill_candidate, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR)
 
 cnp.import_array()
-
-# An ill-conditioned quadric (flat or crease region) has det(A) ~ 0; below this fraction of
-# (trace/3)^3 the 3x3 solve is not trusted and the placement falls back to the edge itself.
-cdef double DET_EPS = 1e-7
-# In the truncated solve, directions whose eigenvalue is below this fraction of the largest
-# are left alone (the quadric barely constrains them; moving along them is guesswork).
-cdef double EIG_EPS = 1e-3
-# A moved face whose normal ends more than ~120 degrees from a neighbour's (and further
-# than before) folds the surface back on itself: refused (cos 120 = -0.5).
-cdef double FOLD_COS = -0.5
-cdef double SQRT3 = 1.7320508075688772
-
-
-cdef inline double sq(double x) noexcept nogil:
-    return x * x
-
-
-cdef inline double collapse_error(double value, double area, double scale) noexcept nogil:
-    """The error reported for a collapse: sqrt(scale * Q(p) / area), the area-weighted RMS
-    distance to the planes the vertex stands for (0 without area or below zero)."""
-    return sqrt(scale * value / area) if area > 0.0 and value > 0.0 else 0.0
-
-
-cdef inline double quadric_eval(const double* q, const double* p) noexcept nogil:
-    cdef double x = p[0], y = p[1], z = p[2]
-    return (q[0] * x * x + 2.0 * q[1] * x * y + 2.0 * q[2] * x * z
-            + q[3] * y * y + 2.0 * q[4] * y * z + q[5] * z * z
-            + 2.0 * (q[6] * x + q[7] * y + q[8] * z) + q[9])
-
-
-cdef inline void take_if_lower(const double* q, const double* x, double* p, double* best) noexcept nogil:
-    """The fallback placement's search: move ``p`` to ``x`` when the quadric is lower there
-    than ``best`` (which then becomes that value)."""
-    cdef double c = quadric_eval(q, x)
-    cdef int i
-    if c < best[0]:
-        best[0] = c
-        for i in range(3):
-            p[i] = x[i]
-
-
-cdef inline bint cofactor_solve(const double* q, double* p, double min_det) noexcept nogil:
-    """Solve A p = -b (A the quadric's 3x3 block) by cofactors; False if |det A| <= min_det."""
-    cdef double a11 = q[0], a12 = q[1], a13 = q[2], a22 = q[3], a23 = q[4], a33 = q[5]
-    cdef double c11 = a22 * a33 - a23 * a23
-    cdef double c12 = a13 * a23 - a12 * a33
-    cdef double c13 = a12 * a23 - a13 * a22
-    cdef double det = a11 * c11 + a12 * c12 + a13 * c13
-    if not (fabs(det) > min_det):
-        return False
-    cdef double c22 = a11 * a33 - a13 * a13
-    cdef double c23 = a12 * a13 - a11 * a23
-    cdef double c33 = a11 * a22 - a12 * a12
-    cdef double inv = -1.0 / det
-    p[0] = (c11 * q[6] + c12 * q[7] + c13 * q[8]) * inv
-    p[1] = (c12 * q[6] + c22 * q[7] + c23 * q[8]) * inv
-    p[2] = (c13 * q[6] + c23 * q[7] + c33 * q[8]) * inv
-    return True
-
-
-cdef inline bint quadric_solve(const double* q, double* p) noexcept nogil:
-    """Minimise the quadric when A is clearly well-conditioned: det(A) above
-    DET_EPS * (trace/3)^3, i.e. roughly an eigenvalue ratio over ~1e-3.  Otherwise False,
-    and ``quadric_solve_truncated`` takes over."""
-    cdef double tr = (q[0] + q[3] + q[5]) / 3.0
-    if not (tr > 0.0):
-        return False
-    return cofactor_solve(q, p, DET_EPS * tr * tr * tr)
-
-
-cdef void sym3_eigen(const double* q, double* w, double* V) noexcept nogil:
-    """Eigen-decomposition of the symmetric 3x3 block of a quadric by cyclic Jacobi
-    rotations: eigenvalues ``w[0..2]``, eigenvectors in the columns of ``V`` (row-major)."""
-    cdef double a[3][3]
-    cdef int i, j, k, sweep, pp, qq
-    cdef double off, theta, t, c, s, tau, apq, app, aqq, akp, akq, vkp, vkq
-    a[0][0] = q[0]; a[0][1] = q[1]; a[0][2] = q[2]
-    a[1][0] = q[1]; a[1][1] = q[3]; a[1][2] = q[4]
-    a[2][0] = q[2]; a[2][1] = q[4]; a[2][2] = q[5]
-    for i in range(3):
-        for j in range(3):
-            V[3 * i + j] = 1.0 if i == j else 0.0
-    for sweep in range(12):
-        off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2]
-        if off <= 1e-20 * (a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2]) or off == 0.0:
-            break
-        for pp in range(2):
-            for qq in range(pp + 1, 3):
-                apq = a[pp][qq]
-                if apq == 0.0:
-                    continue
-                app = a[pp][pp]
-                aqq = a[qq][qq]
-                theta = (aqq - app) / (2.0 * apq)
-                t = 1.0 / (fabs(theta) + sqrt(theta * theta + 1.0))
-                if theta < 0.0:
-                    t = -t
-                c = 1.0 / sqrt(t * t + 1.0)
-                s = t * c
-                for k in range(3):
-                    akp = a[k][pp]
-                    akq = a[k][qq]
-                    a[k][pp] = c * akp - s * akq
-                    a[k][qq] = s * akp + c * akq
-                for k in range(3):
-                    akp = a[pp][k]
-                    akq = a[qq][k]
-                    a[pp][k] = c * akp - s * akq
-                    a[qq][k] = s * akp + c * akq
-                for k in range(3):
-                    vkp = V[3 * k + pp]
-                    vkq = V[3 * k + qq]
-                    V[3 * k + pp] = c * vkp - s * vkq
-                    V[3 * k + qq] = s * vkp + c * vkq
-    for i in range(3):
-        w[i] = a[i][i]
-
-
-cdef void quadric_solve_truncated(const double* q, const double* x0, double* p) noexcept nogil:
-    """Minimise the quadric in the well-determined directions only, staying at ``x0`` along
-    the others (pseudo-inverse about x0, after Lindstrom): on a crease the point slides along
-    the crease line to the spot nearest x0; in a flat region it stays at x0."""
-    cdef double w[3]
-    cdef double V[9]
-    cdef double r[3]
-    cdef double wmax, coef
-    cdef int i, j
-    sym3_eigen(q, w, V)
-    wmax = w[0]
-    if w[1] > wmax:
-        wmax = w[1]
-    if w[2] > wmax:
-        wmax = w[2]
-    # residual -(A x0 + b)
-    r[0] = -(q[0] * x0[0] + q[1] * x0[1] + q[2] * x0[2] + q[6])
-    r[1] = -(q[1] * x0[0] + q[3] * x0[1] + q[4] * x0[2] + q[7])
-    r[2] = -(q[2] * x0[0] + q[4] * x0[1] + q[5] * x0[2] + q[8])
-    for i in range(3):
-        p[i] = x0[i]
-    if wmax <= 0.0:
-        return
-    for j in range(3):
-        if w[j] > EIG_EPS * wmax:
-            coef = (V[j] * r[0] + V[3 + j] * r[1] + V[6 + j] * r[2]) / w[j]
-            for i in range(3):
-                p[i] += coef * V[3 * i + j]
-
-
-cdef int cholesky(double* M, int m, double rel_eps) noexcept nogil:
-    """In-place Cholesky M = L L^T of an m x m SPD matrix (row-major, lower triangle
-    written); 0 if a pivot falls below rel_eps times the largest diagonal entry."""
-    cdef int i, j, k
-    cdef double s, dmax = 0.0
-    for i in range(m):
-        if M[i * m + i] > dmax:
-            dmax = M[i * m + i]
-    if not (dmax > 0.0):
-        return 0
-    for j in range(m):
-        s = M[j * m + j]
-        for k in range(j):
-            s -= M[j * m + k] * M[j * m + k]
-        if not (s > rel_eps * dmax):
-            return 0
-        M[j * m + j] = sqrt(s)
-        for i in range(j + 1, m):
-            s = M[i * m + j]
-            for k in range(j):
-                s -= M[i * m + k] * M[j * m + k]
-            M[i * m + j] = s / M[j * m + j]
-    return 1
-
-
-cdef void cholesky_solve(const double* L, int m, double* x) noexcept nogil:
-    """Solve L L^T y = x in place."""
-    cdef int i, k
-    cdef double s
-    for i in range(m):
-        s = x[i]
-        for k in range(i):
-            s -= L[i * m + k] * x[k]
-        x[i] = s / L[i * m + i]
-    for i in range(m - 1, -1, -1):
-        s = x[i]
-        for k in range(i + 1, m):
-            s -= L[k * m + i] * x[k]
-        x[i] = s / L[i * m + i]
-
-
-cdef bint gq_marginal(const double* g, int D, double* q3, const double* p, double* a) noexcept nogil:
-    """Marginal of a packed D-dimensional quadric over x = [position, attributes]:
-    min over the attributes of Q, a 3D quadric written to q3[0..9] (a11 a12 a13 a22 a23
-    a33 b1 b2 b3 c).  With p given, also the minimising attributes at p into a[0..D-4].
-    Packed layout: the upper triangle of A row by row, then b (D), then c.
-
-    With M = A_aa (the attribute block), Y = M^-1 A_ax and z = M^-1 b_a:
-    A' = A_xx - A_xa Y, b' = b_x - A_xa z, c' = c - b_a . z, and a*(p) = -(z + Y p).
-    If M is singular (an attribute with no information) a tiny ridge is added; if it is
-    zero the attributes are ignored (q3 = the position block) and False is returned."""
-    cdef double A[GMAX_D * GMAX_D]
-    cdef double b[GMAX_D]
-    cdef double M[GMAX_D * GMAX_D]
-    cdef double Y[3 * GMAX_D]        # column j of Y at Y[j * m]
-    cdef double z[GMAX_D]
-    cdef double c, ridge, dmax = 0.0
-    cdef int i, j, k, idx = 0, m = D - 3
-    for i in range(D):
-        for j in range(i, D):
-            A[i * D + j] = g[idx]
-            A[j * D + i] = g[idx]
-            idx += 1
-    for i in range(D):
-        b[i] = g[idx + i]
-    c = g[idx + D]
-    for i in range(m):
-        for j in range(m):
-            M[i * m + j] = A[(3 + i) * D + 3 + j]
-        if M[i * m + i] > dmax:
-            dmax = M[i * m + i]
-    cdef bint ok = dmax > 0.0 and m > 0
-    if ok and not cholesky(M, m, 1e-12):
-        # rank-deficient attribute block: regularise slightly (a direction with no
-        # information then stays near zero change rather than blowing up)
-        ridge = 1e-9 * dmax
-        for i in range(m):
-            for j in range(m):
-                M[i * m + j] = A[(3 + i) * D + 3 + j] + (ridge if i == j else 0.0)
-        ok = cholesky(M, m, 1e-15)
-    # position block
-    q3[0] = A[0]; q3[1] = A[1]; q3[2] = A[2]
-    q3[3] = A[D + 1]; q3[4] = A[D + 2]; q3[5] = A[2 * D + 2]
-    q3[6] = b[0]; q3[7] = b[1]; q3[8] = b[2]; q3[9] = c
-    if not ok:
-        return False
-    for j in range(3):
-        for i in range(m):
-            Y[j * m + i] = A[(3 + i) * D + j]
-        cholesky_solve(M, m, &Y[j * m])
-    for i in range(m):
-        z[i] = b[3 + i]
-    cholesky_solve(M, m, z)
-    # A' = A_xx - A_xa Y ; b' = b_x - A_xa z ; c' = c - b_a . z
-    idx = 0
-    for i in range(3):
-        for j in range(i, 3):
-            for k in range(m):
-                q3[idx] -= A[i * D + 3 + k] * Y[j * m + k]
-            idx += 1
-    for i in range(3):
-        for k in range(m):
-            q3[6 + i] -= A[i * D + 3 + k] * z[k]
-    for k in range(m):
-        q3[9] -= b[3 + k] * z[k]
-    if p != NULL:
-        for i in range(m):
-            a[i] = -(z[i] + Y[i] * p[0] + Y[m + i] * p[1] + Y[2 * m + i] * p[2])
-    return True
-
-
-def general_quadric_marginal(g, int D, p=None):
-    """Python access to the marginal of one packed quadric (for tests): returns the 3D
-    quadric (10,) and, with p, the minimising attributes (D-3,) or None."""
-    cdef double[::1] G = np.ascontiguousarray(g, dtype=np.float64)
-    if not 3 <= D <= GMAX_D or G.shape[0] != D * (D + 1) // 2 + D + 1:
-        raise ValueError(f"a packed quadric of dimension D (3..{GMAX_D}) has D(D+1)/2 + D + 1 entries")
-    cdef double q3[QSIZE]
-    cdef double a[GMAX_D]
-    cdef double pp[3]
-    if p is not None:
-        pp[0], pp[1], pp[2] = p[0], p[1], p[2]
-    ok = gq_marginal(&G[0], D, q3, pp if p is not None else NULL, a)
-    q = np.array([q3[i] for i in range(10)])
-    attrs = np.array([a[i] for i in range(D - 3)]) if (p is not None and ok) else None
-    return q, attrs
-
-
-cdef inline void add_plane(double* q, double nx, double ny, double nz, double d, double w) noexcept nogil:
-    q[0] += w * nx * nx
-    q[1] += w * nx * ny
-    q[2] += w * nx * nz
-    q[3] += w * ny * ny
-    q[4] += w * ny * nz
-    q[5] += w * nz * nz
-    q[6] += w * nx * d
-    q[7] += w * ny * d
-    q[8] += w * nz * d
-    q[9] += w * d * d
-
-
-cdef inline double face_cross(double[:, ::1] P, int a, int b, int c, double* nrm) noexcept nogil:
-    """(b - a) x (c - a) into ``nrm`` (twice the area vector of face a b c); returns its length."""
-    cdef double e1[3]
-    cdef double e2[3]
-    cdef int i
-    for i in range(3):
-        e1[i] = P[b, i] - P[a, i]
-        e2[i] = P[c, i] - P[a, i]
-    cross3(e1, e2, nrm)
-    return sqrt(dot3(nrm, nrm))
-
-
-def face_unit_normals(HalfEdgeMesh hm, positions):
-    """(n_faces * 3,) int16 unit normals of the face slots, scaled by 32767 (zeros for
-    degenerate faces): 6 bytes a face is plenty for a 90-degree test.
-
-    Taken before any collapse: each face slot keeps its identity through the collapses, so
-    these are the normals of the input faces the live faces stand for."""
-    cdef double[:, ::1] P = np.ascontiguousarray(positions, dtype=np.float64)
-    out = np.zeros(3 * hm.n_faces, dtype=np.int16)
-    cdef short[::1] N = out
-    cdef int f, i
-    cdef double nrm[3]
-    cdef double length
-    with nogil:
-        for f in range(hm.n_faces):
-            length = face_cross(P, hm.corner[3 * f], hm.corner[3 * f + 1], hm.corner[3 * f + 2], nrm)
-            if length > 0.0:
-                for i in range(3):
-                    N[3 * f + i] = <short>(nrm[i] / length * 32767.0 + (0.5 if nrm[i] >= 0 else -0.5))
-    return out
-
-
-def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=None):
-    """(n, 11) per-vertex quadrics: a11 a12 a13 a22 a23 a33 b1 b2 b3 c w (written into the
-    first 11 columns of ``out`` when given, e.g. an (n, 14) EdgeCollapser row array).
-
-    Each face adds its plane weighted by its area (Garland-Heckbert); ``w`` sums the areas.
-    With ``boundary_weight > 0`` every boundary edge adds, to both ends, the plane through
-    the edge perpendicular to its face, weighted by ``boundary_weight * length^2`` (a
-    length^2 weight keeps the constraint scale-invariant, like the area weight of faces).
-    """
-    cdef double[:, ::1] P = np.ascontiguousarray(positions, dtype=np.float64)
-    if P.shape[0] != hm.n_vertices or P.shape[1] != 3:
-        raise ValueError(f"positions must have shape ({hm.n_vertices}, 3)")
-    if out is None:
-        out = np.zeros((hm.n_vertices, QSIZE), dtype=np.float64)
-    elif (not isinstance(out, np.ndarray) or out.dtype != np.float64 or out.ndim != 2
-          or out.shape[0] != hm.n_vertices or out.shape[1] < QSIZE or not out.flags.c_contiguous):
-        raise ValueError(f"out must be a C-contiguous float64 array of shape ({hm.n_vertices}, >= {QSIZE})")
-    else:
-        out[:, :QSIZE] = 0.0
-    cdef double[:, ::1] Q = out
-    cdef int f, i, a
-    cdef double nrm[3]
-    cdef double length, area, d
-    with nogil:
-        for f in range(hm.n_faces):
-            if not hm.face_alive[f]:
-                continue
-            a = hm.corner[3 * f]
-            length = face_cross(P, a, hm.corner[3 * f + 1], hm.corner[3 * f + 2], nrm)
-            if length <= 0.0:
-                continue
-            area = 0.5 * length
-            for i in range(3):
-                nrm[i] /= length
-            d = -(nrm[0] * P[a, 0] + nrm[1] * P[a, 1] + nrm[2] * P[a, 2])
-            for i in range(3):
-                add_plane(&Q[hm.corner[3 * f + i], 0], nrm[0], nrm[1], nrm[2], d, area)
-                Q[hm.corner[3 * f + i], 10] += area
-    if boundary_weight > 0.0:
-        add_boundary_planes(hm, P, boundary_weight, out)
-    return out
-
-
-def add_boundary_planes(HalfEdgeMesh hm, positions, double weight, out):
-    """Add to ``out`` (n, >= 10) float64 quadrics, for every boundary edge and to both its
-    ends, the plane through the edge perpendicular to its face, weighted by
-    ``weight * length^2`` (a length^2 weight keeps the constraint scale-invariant, like the
-    area weight of faces)."""
-    cdef double[:, ::1] P = np.ascontiguousarray(positions, dtype=np.float64)
-    cdef double[:, ::1] Q = out
-    if P.shape[0] != hm.n_vertices or Q.shape[0] != hm.n_vertices or Q.shape[1] < 10:
-        raise ValueError(f"positions and out must have {hm.n_vertices} rows (out >= 10 columns)")
-    cdef int f, h, i, a, b, c
-    cdef double e1[3]
-    cdef double nrm[3]
-    cdef double m[3]
-    cdef double length, d, w, el
-    with nogil:
-        for f in range(hm.n_faces):
-            if not hm.face_alive[f]:
-                continue
-            if hm.twin[3 * f] >= 0 and hm.twin[3 * f + 1] >= 0 and hm.twin[3 * f + 2] >= 0:
-                continue
-            length = face_cross(P, hm.corner[3 * f], hm.corner[3 * f + 1], hm.corner[3 * f + 2], nrm)
-            if length <= 0.0:
-                continue
-            for i in range(3):
-                nrm[i] /= length
-            for i in range(3):
-                h = 3 * f + i
-                if hm.twin[h] >= 0:
-                    continue
-                a = hm.corner[h]
-                b = hm.corner[he_next(h)]
-                for c in range(3):
-                    e1[c] = P[b, c] - P[a, c]
-                el = dot3(e1, e1)
-                cross3(e1, nrm, m)
-                length = sqrt(dot3(m, m))
-                if length <= 0.0:
-                    continue
-                for c in range(3):
-                    m[c] /= length
-                d = -(m[0] * P[a, 0] + m[1] * P[a, 1] + m[2] * P[a, 2])
-                w = weight * el
-                add_plane(&Q[a, 0], m[0], m[1], m[2], d, w)
-                add_plane(&Q[b, 0], m[0], m[1], m[2], d, w)
-
 
 cdef inline double apply_field(double cost, double value, const double* rule) noexcept nogil:
     if <int>rule[RULE_MODE] == MODE_SCALE:
@@ -619,7 +216,7 @@ cdef class EdgeCollapser:
         if closed_connected and n:
             for f in range(hm.n_faces):
                 if hm.face_alive[f]:
-                    self.closed_volume += self.face_volume(f)
+                    self.closed_volume += self.face_volume6(f)
         if self.use_heap:
             with nogil:
                 self.rescan()
@@ -1114,23 +711,24 @@ cdef class EdgeCollapser:
                     l1 = dot3(e2, e2)
                     if len1 <= 1e-12 * (l0 + l1):
                         return False                 # the face would degenerate
-                    if dot3(n0, n1) < self.cos_max_angle * len0 * len1:
+                    if angle_exceeds(dot3(n0, n1), self.cos_max_angle, len0, len1):
                         return False                 # the face would turn too far (or flip)
-                    if self.check_orig and (n1[0] * self.N0[3 * f] + n1[1] * self.N0[3 * f + 1]
-                                            + n1[2] * self.N0[3 * f + 2]) < self.cos_orig_angle * 32767.0 * len1:
+                    if self.check_orig and turned_from_input(n1[0] * self.N0[3 * f] + n1[1] * self.N0[3 * f + 1]
+                                                             + n1[2] * self.N0[3 * f + 2],
+                                                             self.cos_orig_angle, 32767.0, len1):
                         return False                 # turned away from the input face it stands for
                     if self.min_quality > 0.0:
                         l2 = 0.0
                         for i in range(3):
                             l2 += sq(self.P[VSTRIDE * b + i] - self.P[VSTRIDE * c + i])
-                        q1 = 2.0 * SQRT3 * len1 / (l0 + l1 + l2)
+                        q1 = tri_quality(len1, l0 + l1 + l2)
                         if q1 < self.min_quality:
                             l0 = 0.0
                             l1 = 0.0
                             for i in range(3):
                                 l0 += sq(self.P[VSTRIDE * b + i] - self.P[VSTRIDE * center + i])
                                 l1 += sq(self.P[VSTRIDE * c + i] - self.P[VSTRIDE * center + i])
-                            q0 = 2.0 * SQRT3 * len0 / (l0 + l1 + l2)
+                            q0 = tri_quality(len0, l0 + l1 + l2)
                             if q1 < q0:
                                 return False         # a sliver, worse than before
                     if self.check_orig:
@@ -1146,10 +744,9 @@ cdef class EdgeCollapser:
                                     e2[i] = self.P[VSTRIDE * x + i] - self.P[VSTRIDE * c + i]
                                 cross3(e1, e2, ng)
                                 lg = sqrt(dot3(ng, ng))
-                                if (dot3(n1, ng) < FOLD_COS * len1 * lg
-                                        and dot3(n1, ng) * len0 < dot3(n0, ng) * len1):
+                                if new_fold(n1, len1, n0, len0, ng, lg):
                                     return False
-                        if prev_ok > 0.0 and dot3(n1, prev_n1) < FOLD_COS * len1 * prev_ok:
+                        if prev_ok > 0.0 and folds(n1, len1, prev_n1, prev_ok):
                             return False
                         for i in range(3):
                             prev_n1[i] = n1[i]
@@ -1170,10 +767,10 @@ cdef class EdgeCollapser:
         if self.closed_volume != 0.0:
             # a closed surface must not be turned inside out (locally valid faces can still
             # enclose a negative volume once the mesh is down to a handful of faces)
-            dvol -= self.face_volume(fa)
+            dvol -= self.face_volume6(fa)
             if fb >= 0:
-                dvol -= self.face_volume(fb)
-            if (self.closed_volume + dvol) * self.closed_volume <= 0.0:
+                dvol -= self.face_volume6(fb)
+            if turns_inside_out(self.closed_volume, dvol):
                 return False
             self.pending_dvol = dvol
         return True
@@ -1238,13 +835,10 @@ cdef class EdgeCollapser:
         self.rerank(k)
         self.rerank(ks)
 
-    cdef double face_volume(self, int f) noexcept nogil:
+    cdef double face_volume6(self, int f) noexcept nogil:
         """Six times the signed volume of the cone from the origin over face ``f``."""
-        cdef double* a = &self.P[VSTRIDE * self.m.corner[3 * f]]
-        cdef double* b = &self.P[VSTRIDE * self.m.corner[3 * f + 1]]
-        cdef double* c = &self.P[VSTRIDE * self.m.corner[3 * f + 2]]
-        return (a[0] * (b[1] * c[2] - b[2] * c[1]) + a[1] * (b[2] * c[0] - b[0] * c[2])
-                + a[2] * (b[0] * c[1] - b[1] * c[0]))
+        return face_volume(&self.P[VSTRIDE * self.m.corner[3 * f]], &self.P[VSTRIDE * self.m.corner[3 * f + 1]],
+                           &self.P[VSTRIDE * self.m.corner[3 * f + 2]])
 
     # ------------------------------------------------------------- heap upkeep
     cdef void recost(self, int e) noexcept nogil:
