@@ -99,3 +99,18 @@ cdef void quadric_solve_truncated(const double* q, const double* x0, double* p) 
 cdef int cholesky(double* M, int m, double rel_eps) noexcept nogil
 cdef void cholesky_solve(const double* L, int m, double* x) noexcept nogil
 cdef bint gq_marginal(const double* g, int D, double* q3, const double* p, double* a) noexcept nogil
+
+
+cdef class AttributeQuadrics:
+    cdef readonly int dim           # D = 3 + attribute channels (0: no quadrics over attributes)
+    cdef int size                   # packed size D(D+1)/2 + D + 1
+    cdef double[:, ::1] gq          # (n, size)
+    cdef double* GQ
+    cdef int[::1] col               # attribute column of each quadric dimension past 3
+    cdef double[:, ::1] box         # (n, 2 (D - 3)): per channel, the least and the largest
+                                    # input value on the faces a slot stands for
+
+    cdef void marginal(self, int u, int v, double* q) noexcept nogil
+    cdef void marginal3(self, int a, int b, int c, double* q) noexcept nogil
+    cdef void commit(self, int r, int k, const double* p, double* A, int n_attr,
+                     bint keep_attributes) noexcept nogil

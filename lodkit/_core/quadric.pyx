@@ -345,3 +345,108 @@ def add_boundary_planes(HalfEdgeMesh hm, positions, double weight, out):
                 w = weight * el
                 add_plane(&Q[a, 0], m[0], m[1], m[2], d, w)
                 add_plane(&Q[b, 0], m[0], m[1], m[2], d, w)
+
+
+cdef class AttributeQuadrics:
+    """Per-vertex quadrics over [position, attributes] (Hoppe's appearance-preserving
+    quadrics), packed (n, D(D+1)/2 + D + 1), with the attribute ``columns`` they span; and
+    per vertex the clamp box of those channels.  ``gq`` None: none (``dim`` 0).  The quadric
+    array is used in place when C-contiguous float64."""
+
+    def __init__(self, HalfEdgeMesh hm, attributes, gq=None, columns=None):
+        cdef int n = hm.n_vertices
+        self.dim = 0
+        self.size = 0
+        self.gq = np.zeros((1, 1))
+        self.GQ = NULL
+        self.col = np.zeros(1, dtype=np.intc)
+        self.box = np.zeros((1, 1))
+        if gq is None:
+            return
+        cdef double[:, ::1] attr = attributes
+        cdef int n_attr = attr.shape[1]
+        cols = np.ascontiguousarray(columns, dtype=np.intc).reshape(-1)
+        D = 3 + cols.shape[0]
+        if D > GMAX_D:
+            raise ValueError(f"quadrics over attributes support at most {GMAX_D - 3} attribute channels")
+        if cols.shape[0] == 0:
+            raise ValueError("attribute_columns must name at least one attribute column")
+        if cols.min() < 0 or cols.max() >= n_attr:
+            raise ValueError(f"attribute_columns must be in 0..{n_attr - 1}")
+        arr = np.ascontiguousarray(gq, dtype=np.float64)
+        S = D * (D + 1) // 2 + D + 1
+        if arr.shape != (n, S):
+            raise ValueError(f"attribute_quadrics must have shape ({n}, {S}) for {D - 3} attribute channels")
+        self.gq = arr
+        self.GQ = &self.gq[0, 0] if n else NULL
+        self.col = cols
+        # the clamp box of a vertex: per channel, the range of the values on the input
+        # faces around it -- the faces its quadric is made of (a vertex placed a little
+        # outside its own neighbours keeps the linear extrapolation the faces allow)
+        vals = np.asarray(attr)[:, cols]
+        self.box = np.ascontiguousarray(np.concatenate([vals, vals], axis=1))
+        cdef double[:, ::1] box = self.box
+        cdef int[::1] gc = self.col
+        cdef int nch = cols.shape[0], f, i, j, ch, a, b
+        cdef double x
+        with nogil:
+            for f in range(hm.n_faces):
+                if not hm.c.face_alive[f]:
+                    continue
+                for i in range(3):
+                    a = hm.c.corner[3 * f + i]
+                    for j in range(3):
+                        b = hm.c.corner[3 * f + j]
+                        for ch in range(nch):
+                            x = attr[b, gc[ch]]
+                            if x < box[a, ch]:
+                                box[a, ch] = x
+                            if x > box[a, nch + ch]:
+                                box[a, nch + ch] = x
+        self.dim = D
+        self.size = S
+
+    cdef void marginal(self, int u, int v, double* q) noexcept nogil:
+        """Sum the attribute quadrics of u and v and write into q[0..9] their marginal in
+        x: min over the attributes a of Q(x, a), itself a 3D quadric (Schur complement)."""
+        cdef double g[GMAX_S]
+        cdef int i, gs = self.size
+        for i in range(gs):
+            g[i] = self.GQ[gs * u + i] + self.GQ[gs * v + i]
+        gq_marginal(g, self.dim, q, NULL, NULL)
+
+    cdef void marginal3(self, int a, int b, int c, double* q) noexcept nogil:
+        """``marginal`` for the summed attribute quadrics of a face's three corners."""
+        cdef double g[GMAX_S]
+        cdef int i, gs = self.size
+        for i in range(gs):
+            g[i] = (self.GQ[gs * a + i] + self.GQ[gs * b + i]) + self.GQ[gs * c + i]
+        gq_marginal(g, self.dim, q, NULL, NULL)
+
+    cdef void commit(self, int r, int k, const double* p, double* A, int n_attr,
+                     bint keep_attributes) noexcept nogil:
+        """Add the attribute quadric of r to k's and give k (row k of the attributes ``A``,
+        ``n_attr`` wide) the attribute values that minimise it at the new position (where
+        that is determined; else the interpolated values stay), each channel clamped to the
+        range of the input values on the faces k now stands for (``box``).  The minimum of a
+        sum of quadrics is no convex combination: unclamped, it can extrapolate (colours a
+        few percent outside anything in the input).  ``keep_attributes``: k's attributes
+        stay as they are (a seam vertex keeps its side's chart at the seam)."""
+        cdef double a[GMAX_D]
+        cdef double q3[QSIZE]
+        cdef double lo, hi
+        cdef int i, gs = self.size, m = self.dim - 3
+        for i in range(gs):
+            self.GQ[gs * k + i] += self.GQ[gs * r + i]
+        for i in range(m):
+            if self.box[r, i] < self.box[k, i]:
+                self.box[k, i] = self.box[r, i]
+            if self.box[r, m + i] > self.box[k, m + i]:
+                self.box[k, m + i] = self.box[r, m + i]
+        if keep_attributes:
+            return
+        if gq_marginal(&self.GQ[gs * k], self.dim, q3, p, a):
+            for i in range(m):
+                lo = self.box[k, i]
+                hi = self.box[k, m + i]
+                A[n_attr * k + self.col[i]] = lo if a[i] < lo else (hi if a[i] > hi else a[i])
