@@ -41,8 +41,8 @@ cdef enum:
 # cimports them folds the same value.
 cdef extern from *:
     """
-    static const double LODKIT_FOLD_COS = -0.5;
-    static const double LODKIT_SQRT3 = 1.7320508075688772;
+    #define LODKIT_FOLD_COS (-0.5)
+    #define LODKIT_SQRT3 1.7320508075688772
     """
     # A face whose normal ends more than ~120 degrees from a neighbour's (and further than
     # before) folds the surface back on itself: refused (cos 120 = -0.5).

@@ -131,9 +131,9 @@ cdef class EdgeCollapser:
         fixed_arr = np.asarray(fixed).reshape(-1)
         if fixed_arr.shape[0] != n:
             raise ValueError(f"fixed must have {n} entries")
-        # bit 0: fixed (may not move nor go); bit 1: on the boundary (kept up to date: after
-        # a collapse the kept vertex is on the boundary iff either end was)
-        self.vflags = (fixed_arr != 0).astype(np.uint8)
+        # VERTEX_FIXED: may not move nor go; VERTEX_BOUNDARY: on the boundary (kept up to
+        # date: after a collapse the kept vertex is on the boundary iff either end was)
+        self.vflags = ((fixed_arr != 0) * VERTEX_FIXED).astype(np.uint8)
         self.moved = np.zeros(n, dtype=np.uint8)
         self.refused = np.zeros(n, dtype=np.uint8)
         self.released = False
@@ -208,10 +208,10 @@ cdef class EdgeCollapser:
         # a seam vertex off the boundary is no seam (nothing to keep apart); one whose
         # partner is fixed stays too, so that both sides always agree
         stays = (arr == SEAM_STAYS)
-        stays[paired] |= ((flags[paired] & 1) != 0) | ((flags[arr[paired]] & 1) != 0)
-        stays[paired] |= ((flags[paired] & 2) == 0) | ((flags[arr[paired]] & 2) == 0)
+        stays[paired] |= ((flags[paired] & VERTEX_FIXED) != 0) | ((flags[arr[paired]] & VERTEX_FIXED) != 0)
+        stays[paired] |= ((flags[paired] & VERTEX_BOUNDARY) == 0) | ((flags[arr[paired]] & VERTEX_BOUNDARY) == 0)
         arr[stays] = SEAM_STAYS
-        flags[stays] |= 1
+        flags[stays] |= VERTEX_FIXED
         self.seam = arr
         self.SP = &self.seam[0]
 
@@ -270,10 +270,10 @@ cdef class EdgeCollapser:
         holds them (a ring walk): saves the edge -> half-edge -> vertex chain of loads."""
         cdef unsigned char gu = self.vflags[u]
         cdef unsigned char gv = self.vflags[v]
-        cdef bint bu = (gu & 2) != 0
-        cdef bint bv = (gv & 2) != 0
-        cdef bint fu = (gu & 1) != 0
-        cdef bint fv = (gv & 1) != 0
+        cdef bint bu = (gu & VERTEX_BOUNDARY) != 0
+        cdef bint bv = (gv & VERTEX_BOUNDARY) != 0
+        cdef bint fu = (gu & VERTEX_FIXED) != 0
+        cdef bint fv = (gv & VERTEX_FIXED) != 0
         cdef double q[QSIZE]
         cdef double qg[QSIZE]
         cdef double cand[3]
@@ -402,8 +402,8 @@ cdef class EdgeCollapser:
         cdef int ub = self.m.corner[hb], vb = he_dest(self.m, hb)     # partner(va), partner(ua)
         # seam vertices whose partner is fixed are fixed themselves (SEAM_STAYS), so both
         # sides agree on what may go
-        cdef bint fu = (self.vflags[ua] & 1) != 0
-        cdef bint fv = (self.vflags[va] & 1) != 0
+        cdef bint fu = (self.vflags[ua] & VERTEX_FIXED) != 0
+        cdef bint fv = (self.vflags[va] & VERTEX_FIXED) != 0
         cdef double q[QSIZE]
         cdef double qg[QSIZE]
         cdef double qb[QSIZE]
@@ -882,7 +882,7 @@ cdef class EdgeCollapser:
             self.rec.faces[self.n_collapses, 0] = h // 3
             self.rec.faces[self.n_collapses, 1] = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
         self.hm.collapse(h, r, dead, merged_into)
-        self.vflags[k] |= self.vflags[r] & 2
+        self.vflags[k] |= self.vflags[r] & VERTEX_BOUNDARY
         if self.closed_volume != 0.0:
             self.closed_volume += dvol
         self.drop_dead(dead)

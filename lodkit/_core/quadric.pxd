@@ -16,7 +16,7 @@ cdef enum:
 
 cdef extern from *:
     """
-    static const double LODKIT_DET_EPS = 1e-7;
+    #define LODKIT_DET_EPS 1e-7
     """
     # An ill-conditioned quadric (flat or crease region) has det(A) ~ 0; below this fraction
     # of (trace/3)^3 the 3x3 solve is not trusted and the placement falls back to the edge.

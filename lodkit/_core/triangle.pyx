@@ -88,8 +88,8 @@ cdef class TriangleCollapser(EdgeCollapser):
             return -1
         for i in range(3):
             v[i] = self.m.corner[3 * f + i]
-            fx[i] = (self.vflags[v[i]] & 1) != 0 or (self.SP != NULL and self.SP[v[i]] != SEAM_NONE)
-            bd[i] = (self.vflags[v[i]] & 2) != 0
+            fx[i] = (self.vflags[v[i]] & VERTEX_FIXED) != 0 or (self.SP != NULL and self.SP[v[i]] != SEAM_NONE)
+            bd[i] = (self.vflags[v[i]] & VERTEX_BOUNDARY) != 0
             if bd[i]:
                 nb += 1
         if self.opt.boundary == BOUNDARY_PRESERVE and nb == 1:
