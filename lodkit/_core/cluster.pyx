@@ -3,7 +3,7 @@
 choices, each one pass over the faces or vertices without the GIL (lodkit.cluster drives
 them; numpy does the grid keys, labels and face re-forming around them).
 
-Quadric rows are packed as in lodkit._core.decimate.vertex_quadrics:
+Quadric rows are packed as in lodkit._core.quadric.vertex_quadrics:
 a11 a12 a13 a22 a23 a33 b1 b2 b3 c w  (w: summed face areas).
 """
 import numpy as np

@@ -10,6 +10,8 @@ back on output restores the input's non-manifold configuration exactly.
 import numpy as np
 cimport numpy as cnp
 
+from .common cimport MAX_VALENCE
+
 cnp.import_array()
 
 
@@ -419,8 +421,8 @@ cdef class HalfEdgeMesh:
         link, faces, closed = self.star(v)
         cdef int k = len(link)
         tri_arr = np.ascontiguousarray(triangles, dtype=np.intc).reshape(-1, 3)
-        if k > 64:
-            raise ValueError(f"vertex {v} has {k} neighbours (at most 64)")
+        if k > MAX_VALENCE:
+            raise ValueError(f"vertex {v} has {k} neighbours (at most {MAX_VALENCE})")
         if tri_arr.shape[0] != k - 2:
             raise ValueError(f"a hole of {k} link vertices takes {k - 2} triangles, got {tri_arr.shape[0]}")
         if not triangulation_ok(tri_arr, k, closed):
@@ -431,7 +433,7 @@ cdef class HalfEdgeMesh:
         cdef int[::1] Fs = np.asarray(faces + [0], dtype=np.intc)
         cdef int[::1] tri = np.ascontiguousarray(tri_arr.reshape(-1)) if tri_arr.size else np.zeros(1, dtype=np.intc)
         cdef int[::1] slots = np.full(max(k - 2, 1), -1, dtype=np.intc)
-        cdef int[::1] dead = np.zeros(64, dtype=np.intc)
+        cdef int[::1] dead = np.zeros(MAX_VALENCE, dtype=np.intc)
         replace_star(self, v, &L[0], &Fs[0], k, closed, &tri[0], k - 2, &slots[0], &dead[0])
         return np.asarray(slots)[:k - 2].copy()
 
@@ -488,17 +490,17 @@ cdef class HalfEdgeMesh:
 
 cdef int replace_star(HalfEdgeMesh hm, int v, const int* link, const int* face, int k, bint closed,
                       const int* tri, int n_tris, int* slot_of, int* dead_edges) noexcept nogil:
-    """See halfedge.pxd.  O(k^2) for the diagonals' pairing (k <= 64), plus the fans of the
+    """See halfedge.pxd.  O(k^2) for the diagonals' pairing (k <= MAX_VALENCE), plus the fans of the
     link vertices to re-anchor their v_he."""
     cdef HEArrays* m = &hm.c
     cdef int nf = k if closed else k - 1
-    cdef int T[64]          # outer twin of link edge i (-1 on a boundary)
-    cdef int E[64]          # edge id of link edge i
-    cdef int S[64]          # spoke edge ids (all die; reused for the new edges)
-    cdef int used[64]
-    cdef int dh[192]        # new half-edges that are no link edge, with their ends
-    cdef int da[192]
-    cdef int db[192]
+    cdef int T[MAX_VALENCE]          # outer twin of link edge i (-1 on a boundary)
+    cdef int E[MAX_VALENCE]          # edge id of link edge i
+    cdef int S[MAX_VALENCE]          # spoke edge ids (all die; reused for the new edges)
+    cdef int used[MAX_VALENCE]
+    cdef int dh[3 * MAX_VALENCE]        # new half-edges that are no link edge, with their ends
+    cdef int da[3 * MAX_VALENCE]
+    cdef int db[3 * MAX_VALENCE]
     cdef int nd = 0, pool = 0, i, j, t, c, f, h, a, b, x, nxt, n_dead = 0, hv = -1
     for i in range(nf):
         f = face[i]

@@ -20,7 +20,7 @@ cdef class QEMKernel(Kernel):
     cdef double weight
 
     def prepare(self, ctx, options):
-        from .decimate import add_boundary_planes
+        from .quadric import add_boundary_planes
 
         q = np.ascontiguousarray(ctx.face_quadrics[:, :10], dtype=np.float64).copy()
         if ctx.settings.get("boundary") == "preserve" and ctx.settings.get("boundary_weight", 0.0) > 0.0:

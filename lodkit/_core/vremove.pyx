@@ -26,22 +26,19 @@ from .halfedge cimport HalfEdgeMesh, HEArrays, he_next, he_prev, he_dest, he_rin
 from .heap cimport IndexedHeap
 from .vec3 cimport cross3, dot3
 from .kernel cimport KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VERTEX_FIXED, VERTEX_BOUNDARY
-from .removal cimport RemovalKernel, Star, Removal, MAX_VALENCE
+from .removal cimport RemovalKernel, Star, Removal
+from . cimport common
+from .common cimport MAX_VALENCE, BOUNDARY_LOCK, BOUNDARY_PRESERVE, BOUNDARY_FREE
+from .checks cimport (angle_exceeds, turned_from_input, new_fold, folds, tri_quality, face_volume,
+                      turns_inside_out)
 
 cnp.import_array()
 
-# statuses of run() (as EdgeCollapser's, plus R_GROW)
-cdef enum:
-    R_TARGET = 0
-    R_CHUNK = 1
-    R_EXHAUSTED = 2
-    R_ERROR = 3
-    R_GROW = 4          # record=True: the record buffers are full; run() grows them and goes on
-
-RUN_TARGET = R_TARGET
-RUN_CHUNK = R_CHUNK
-RUN_EXHAUSTED = R_EXHAUSTED
-RUN_ERROR = R_ERROR
+# statuses of run(): common.pxd's RunStatus (RUN_GROW stays inside run())
+RUN_TARGET = common.RUN_TARGET
+RUN_CHUNK = common.RUN_CHUNK
+RUN_EXHAUSTED = common.RUN_EXHAUSTED
+RUN_ERROR = common.RUN_ERROR
 
 # per-vertex state (VertexRemover.states): why a vertex is not removed (yet)
 cdef enum:
@@ -59,12 +56,6 @@ cdef enum:
 
 STATE_NAMES = ("none", "candidate", "kernel", "max_error", "topology", "geometry", "quality",
                "volume", "valence", "fixed")
-
-# A new face whose normal makes more than ~120 degrees with a neighbour's (and more than the
-# old face did) folds the surface back on itself (the collapse driver's FOLD_COS).
-cdef double FOLD_COS = -0.5
-cdef double SQRT3 = 1.7320508075688772
-
 
 cdef class MedianFilter:
     """The median of a changing set of (id, value) pairs, without re-sorting: the smaller
@@ -230,12 +221,6 @@ cdef class MedianFilter:
         return True
 
 
-cdef inline double face_volume(const double* a, const double* b, const double* c) noexcept nogil:
-    """Six times the signed volume of the cone from the origin over triangle a b c."""
-    return (a[0] * (b[1] * c[2] - b[2] * c[1]) + a[1] * (b[2] * c[0] - b[0] * c[2])
-            + a[2] * (b[0] * c[1] - b[1] * c[0]))
-
-
 cdef inline double tri_normal(const double* a, const double* b, const double* c, double* n,
                               double* sumsq) noexcept nogil:
     """(b - a) x (c - a) into ``n``; returns its length; ``sumsq`` gets the summed squared
@@ -321,7 +306,7 @@ cdef class VertexRemover:
     cdef long long rec_cap          # capacity of rec_link
 
     def __init__(self, HalfEdgeMesh hm, positions, RemovalKernel kernel, fixed,
-                 int boundary=1, double max_normal_angle=90.0, double min_quality=0.0,
+                 int boundary=BOUNDARY_PRESERVE, double max_normal_angle=90.0, double min_quality=0.0,
                  double max_error=INFINITY, bint record=False, bint closed_connected=False):
         cdef int n = hm.n_vertices
         if kernel is None:
@@ -336,7 +321,7 @@ cdef class VertexRemover:
         fixed_arr = np.asarray(fixed).reshape(-1)
         if fixed_arr.shape[0] != n:
             raise ValueError(f"fixed must have {n} entries")
-        if boundary not in (0, 1, 2):
+        if boundary not in (BOUNDARY_LOCK, BOUNDARY_PRESERVE, BOUNDARY_FREE):
             raise ValueError(f"unknown boundary policy {boundary}")
         if not (0.0 < max_normal_angle <= 180.0):
             raise ValueError("max_normal_angle must be in (0, 180] degrees")
@@ -344,7 +329,7 @@ cdef class VertexRemover:
         flags = (fixed_arr != 0).astype(np.uint8) * VERTEX_FIXED
         bnd = hm.boundary_vertices
         flags[bnd] |= VERTEX_BOUNDARY
-        if boundary == 0:
+        if boundary == BOUNDARY_LOCK:
             flags[bnd] |= VERTEX_FIXED
         self.vflags = np.ascontiguousarray(flags, dtype=np.uint8)
         self.kernel = kernel
@@ -708,7 +693,7 @@ cdef class VertexRemover:
             used[i] = 0
             for j in range(3):
                 N[j] += nold[3 * i + j]
-            q = 2.0 * SQRT3 * lold[i] / ss if ss > 0.0 else 0.0
+            q = tri_quality(lold[i], ss) if ss > 0.0 else 0.0
             if q < qmin_old:
                 qmin_old = q
             if self.closed_volume != 0.0:
@@ -721,7 +706,7 @@ cdef class VertexRemover:
             lnew[t] = tri_normal(&self.P[3 * a], &self.P[3 * b], &self.P[3 * c], &nnew[3 * t], &ss)
             if not lnew[t] > 1e-12 * ss:
                 return ST_GEOMETRY            # degenerate
-            if lN > 0.0 and dot3(&nnew[3 * t], N) < self.cos_max_angle * lnew[t] * lN:
+            if lN > 0.0 and angle_exceeds(dot3(&nnew[3 * t], N), self.cos_max_angle, lnew[t], lN):
                 return ST_GEOMETRY            # turned too far from the star's mean normal
             # the face slot it takes: of the old faces' slots left, the one whose input face
             # is best aligned with it (greedy, in triangle order); it must stay within
@@ -738,9 +723,9 @@ cdef class VertexRemover:
                     best = i
             used[best] = 1
             self.slot_plan[t] = s.face[best]
-            if self.check_orig and dbest < self.cos_orig_angle * lnew[t]:
+            if self.check_orig and turned_from_input(dbest, self.cos_orig_angle, 1.0, lnew[t]):
                 return ST_GEOMETRY
-            q = 2.0 * SQRT3 * lnew[t] / ss
+            q = tri_quality(lnew[t], ss)
             if q < qmin_new:
                 qmin_new = q
             if self.closed_volume != 0.0:
@@ -753,7 +738,7 @@ cdef class VertexRemover:
                 b = self.rem.tri[3 * t + (c + 1) % 3]
                 if b != (a + 1) % k or (not s.closed and a == k - 1):
                     continue
-                if lold[a] > 0.0 and dot3(&nnew[3 * t], &nold[3 * a]) < self.cos_max_angle * lnew[t] * lold[a]:
+                if lold[a] > 0.0 and angle_exceeds(dot3(&nnew[3 * t], &nold[3 * a]), self.cos_max_angle, lnew[t], lold[a]):
                     return ST_GEOMETRY
                 if not self.check_orig:
                     continue
@@ -762,19 +747,18 @@ cdef class VertexRemover:
                     continue
                 x3 = self.m.corner[he_prev(out)]
                 lg = tri_normal(&self.P[3 * s.link[b]], &self.P[3 * s.link[a]], &self.P[3 * x3], ng, &ss)
-                if lg > 0.0 and (dot3(&nnew[3 * t], ng) < FOLD_COS * lnew[t] * lg
-                                 and dot3(&nnew[3 * t], ng) * lold[a] < dot3(&nold[3 * a], ng) * lnew[t]):
+                if lg > 0.0 and new_fold(&nnew[3 * t], lnew[t], &nold[3 * a], lold[a], ng, lg):
                     return ST_GEOMETRY
         if self.check_orig:
             # no fold between two new faces across a diagonal
             for t in range(k - 2):
                 for j in range(t + 1, k - 2):
-                    if self.share_edge(t, j) and dot3(&nnew[3 * t], &nnew[3 * j]) < FOLD_COS * lnew[t] * lnew[j]:
+                    if self.share_edge(t, j) and folds(&nnew[3 * t], lnew[t], &nnew[3 * j], lnew[j]):
                         return ST_GEOMETRY
         if self.min_quality > 0.0 and k > 2 and qmin_new < self.min_quality and qmin_new < qmin_old:
             return ST_QUALITY
         if self.closed_volume != 0.0:
-            if (self.closed_volume + dvol) * self.closed_volume <= 0.0:
+            if turns_inside_out(self.closed_volume, dvol):
                 return ST_VOLUME
         self.pending_dvol = dvol
         return ST_CANDIDATE
@@ -847,22 +831,22 @@ cdef class VertexRemover:
             if self.gated:
                 self.sync_median()
             if steps >= max_steps:
-                return R_CHUNK
+                return common.RUN_CHUNK
             if self.record and self.rec_off[self.n_collapses] + MAX_VALENCE > self.rec_cap:
-                return R_GROW
+                return common.RUN_GROW
             if self.heap.pop_fast(&v, &key) < 0:
                 if self.removals_since_rescan == 0:
-                    return R_EXHAUSTED
+                    return common.RUN_EXHAUSTED
                 self.rescan()
                 if self.failed:
-                    return R_ERROR
+                    return common.RUN_ERROR
                 continue
             if self.star_local and self.state[v] == ST_CANDIDATE:
                 st = self.recall(v)
             else:
                 st = self.evaluate(v)
             if st < 0:
-                return R_ERROR
+                return common.RUN_ERROR
             if st != ST_CANDIDATE:
                 self.set_state(v, st)
                 continue
@@ -878,7 +862,7 @@ cdef class VertexRemover:
                 self.kernel.fail(b"evaluate() returned triangles that are no oriented triangulation "
                                  b"of the hole (k - 2 triangles over the link indices; removal.pxd)")
                 self.failed = True
-                return R_ERROR
+                return common.RUN_ERROR
             if not self.topology_ok():
                 self.refuse(v, ST_TOPOLOGY)
                 continue
@@ -887,9 +871,9 @@ cdef class VertexRemover:
                 self.refuse(v, st)
                 continue
             if self.perform() < 0:
-                return R_ERROR
+                return common.RUN_ERROR
             steps += 1
-        return R_TARGET
+        return common.RUN_TARGET
 
     # ------------------------------------------------------------- Python API
     def run(self, int target_faces, int max_steps=2**31 - 1):
@@ -904,7 +888,7 @@ cdef class VertexRemover:
             with nogil:
                 status = self.run_c(target_faces, left)
             left -= self.n_collapses - before
-            if status != R_GROW:
+            if status != common.RUN_GROW:
                 return status
             self._alloc_records(2 * self.rec_cap + 64)
 

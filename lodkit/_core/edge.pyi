@@ -1,0 +1,132 @@
+"""Type stubs for lodkit._core.edge (Cython)."""
+from typing import Iterable, Optional, TypedDict
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .halfedge import HalfEdgeMesh
+from .kernel import Kernel
+
+class Records:
+    """The collapse sequence of an EdgeCollapser (``record=True``)."""
+
+    def __init__(self, n: int, n_attr: int, on: bool) -> None: ...
+    def rows(self, n: int) -> dict[str, NDArray]:
+        """The first n records as a dict of arrays (copies)."""
+
+class _Plan(TypedDict):
+    """What :meth:`EdgeCollapser.plan_all` returns: one row per edge that may collapse."""
+
+    edge: NDArray[np.intc]
+    u: NDArray[np.intc]
+    v: NDArray[np.intc]
+    removed: NDArray[np.intc]
+    kept: NDArray[np.intc]
+    position: NDArray[np.float64]
+    cost: NDArray[np.float64]
+    error: NDArray[np.float64]
+
+class EdgeCollapser:
+    """Greedy QEM edge collapse over a HalfEdgeMesh, modified in place.
+
+    Field rules are (k, 5) float rows: merge, value, mode, weight, offset (codes in
+    fields.pxd: merge max 0, min 1, sum 2, keep 3, mean 4; value max 0, min 1, sum 2,
+    kept 3, removed 4, mean 5; mode scale 0, add 1).
+    """
+
+    n_collapses: int
+    max_error_done: float
+    n_rejected_error: int
+    n_rejected_topology: int
+    n_rejected_geometry: int
+    n_vetoed: int
+    """Candidates refused by a kernel since the last rescan (or plan_all)."""
+    failed: bool
+    """A kernel returned KERNEL_ERROR: see ``error_message``."""
+    n_seam_pairs: int
+    """Seam edges collapsed together with their partner edge (two collapses each)."""
+    def __init__(
+        self,
+        hm: HalfEdgeMesh,
+        positions: Optional[ArrayLike],
+        quadrics: ArrayLike,
+        attributes: Optional[ArrayLike],
+        fixed: ArrayLike,
+        placement: int = ...,
+        boundary: int = ...,
+        max_normal_angle: float = ...,
+        min_quality: float = ...,
+        max_error: float = ...,
+        record: bool = ...,
+        closed_connected: bool = ...,
+        quadric_weight: float = ...,
+        error_scale: float = ...,
+        vertex_fields: Optional[ArrayLike] = ...,
+        vertex_rules: Optional[ArrayLike] = ...,
+        edge_fields: Optional[ArrayLike] = ...,
+        edge_rules: Optional[ArrayLike] = ...,
+        kernels: Iterable[Kernel] = ...,
+        use_heap: bool = ...,
+        attribute_quadrics: Optional[ArrayLike] = ...,
+        attribute_columns: Optional[ArrayLike] = ...,
+        steps: Optional[ArrayLike] = ...,
+        seam_partners: Optional[ArrayLike] = ...,
+    ) -> None:
+        """quadric_weight: factor of the quadric in the cost (0: the quadric only places);
+        error_scale: error = sqrt(error_scale * Q(p) / area); vertex_fields (n, k) and
+        edge_fields (n_edges, k) with their (k, 5) rules (C-contiguous float64 arrays are
+        used, and merged, in place); kernels: chained in order; use_heap=False for the pass
+        driver (plan_all / collapse_pass) instead of ``run``; attribute_quadrics (n, S)
+        packed D-dimensional quadrics over [x, y, z, attributes] with attribute_columns, the
+        D - 3 columns of ``attributes`` they range over (placement by their marginal);
+        steps: (k, 3) rows (kind, first, end) ordering fields and kernels; seam_partners
+        (n,) int: each seam vertex's partner slot, -1 off the seams, -2 a seam copy that
+        stays (see lodkit.api._seam_partners)."""
+    def _setup_seams(self, partners: Optional[ArrayLike]) -> None: ...
+    def run(self, target_faces: int, max_steps: int = ...) -> int:
+        """0: target reached, 1: step budget used, 2: no legal collapse left, 3: a kernel failed."""
+    def plan_all(self) -> Optional[_Plan]:
+        """Plan every live edge (batch driver); None if a kernel failed."""
+    def collapse_pass(self, edges: ArrayLike, positions: Optional[ArrayLike] = ..., target_faces: int = ...) -> int:
+        """Collapse, in the order given, the edges no earlier collapse of this pass touched;
+        the number of collapses, or -1 if a kernel failed.  Here: RuntimeError (the pass
+        driver is :class:`lodkit._core.passes.PassCollapser`)."""
+    @property
+    def error_message(self) -> str:
+        """The message of the kernel that failed ('' if none did)."""
+    @property
+    def vertex_field_values(self) -> NDArray[np.float64]:
+        """(n, k) current vertex fields (merged on collapse)."""
+    @property
+    def edge_field_values(self) -> NDArray[np.float64]:
+        """(n_edges, k) current edge fields (merged on collapse)."""
+    def release(self) -> None:
+        """Free the heap, quadrics and input normals after the run."""
+    def plan_edge(self, u: int, v: int) -> Optional[tuple[int, int, NDArray[np.float64], float, float]]:
+        """(removed, kept, position, cost, error) for edge (u, v), or None."""
+    def plan_face(self, f: int) -> Optional[tuple[int, int, int, NDArray[np.float64], float, float]]:
+        """Triangle collapse only (:class:`lodkit._core.triangle.TriangleCollapser`): here
+        RuntimeError."""
+    def check_face(self, f: int) -> bool:
+        """Triangle collapse only: here RuntimeError."""
+    @property
+    def n_tri_collapses(self) -> int:
+        """Triangle collapses done (0 here)."""
+    @property
+    def n_tri_refused_second(self) -> int:
+        """Triangle candidates refused at the second collapse's checks (0 here)."""
+    @property
+    def n_alive_faces(self) -> int: ...
+    @property
+    def seam_partners(self) -> Optional[NDArray[np.intc]]:
+        """Each slot's seam partner (-1 none, -2 stays) as used, or None without seams."""
+    @property
+    def positions(self) -> NDArray[np.float64]: ...
+    @property
+    def attributes(self) -> NDArray[np.float64]: ...
+    @property
+    def moved_vertices(self) -> NDArray[np.bool_]: ...
+    @property
+    def quadrics(self) -> NDArray[np.float64]: ...
+    def records(self) -> dict[str, NDArray]:
+        """The collapse sequence: removed, kept, position, cost, error, moved."""

@@ -1,0 +1,1188 @@
+# cython: language_level=3
+"""Greedy edge-collapse driver with Garland-Heckbert quadrics: the collapser's state and
+one edge collapse, checked.
+
+The loop (``EdgeCollapser.run_c``) reads as the pipeline of the papers:
+
+    pop the cheapest edge -> re-plan it (cost, placement, which end goes) -> check the
+    link condition -> check the moved faces (normal flip, quality) -> collapse -> add the
+    quadrics -> re-cost the edges around the kept vertex.
+
+Everything is allocated in ``__init__``; ``run_c`` runs without the GIL and never allocates.
+A candidate that fails a check leaves the heap; it comes back when one of its ends is touched
+again, and, when the heap runs dry, a full rescan gives every live edge another chance -- so
+"no valid collapse left" is only reported after a rescan that found none.
+
+The other edge-collapse drivers subclass it: triangle collapse (``triangle.pyx``: the
+candidates are faces) and the pass driver of batch metrics (``passes.pyx``).
+``lodkit._core.decimate.EdgeCollapser`` picks the class from ``operator`` and ``use_heap``.
+Quadric maths: quadric.pxd; the checks' expressions: checks.pxd; fields: fields.pxd.
+"""
+import numpy as np
+cimport numpy as cnp
+from libc.math cimport sqrt, cos, M_PI, INFINITY
+
+from .halfedge cimport HalfEdgeMesh, HEArrays, he_next, he_prev, he_dest, he_ring_next, he_is_boundary
+from .heap cimport IndexedHeap
+from .vec3 cimport cross3, dot3, same_point
+from .kernel cimport (Kernel, KernelMesh, Candidate, chain_place, chain_commit, fill_candidate,
+                      KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VERTEX_FIXED, VERTEX_BOUNDARY)
+from .common cimport (QSIZE, VSTRIDE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, RUN_ERROR, BOUNDARY_LOCK,
+                      BOUNDARY_PRESERVE, BOUNDARY_FREE, PLACE_OPTIMAL, PLACE_ENDPOINT)
+from .quadric cimport (AttributeQuadrics, sq, collapse_error, quadric_eval, take_if_lower, quadric_solve,
+                       quadric_solve_truncated)
+from .checks cimport (angle_exceeds, turned_from_input, new_fold, folds, tri_quality, face_volume,
+                      turns_inside_out)
+from .fields cimport FieldSet, chain_cost_range, chain_failed, STEP_VFIELD, STEP_EFIELD
+from .quadric import face_unit_normals
+
+cnp.import_array()
+
+cdef class Records:
+    """The collapse sequence: ``n`` rows (``on``) or one unused row."""
+
+    def __init__(self, int n, int n_attr, bint on):
+        cdef int nrec = n if on else 1
+        self.on = on
+        self.removed = np.empty(nrec, dtype=np.intc)
+        self.kept = np.empty(nrec, dtype=np.intc)
+        self.pos = np.empty((nrec, 3), dtype=np.float64)
+        self.cost = np.empty(nrec, dtype=np.float64)
+        self.error = np.empty(nrec, dtype=np.float64)
+        self.moved = np.empty(nrec, dtype=np.uint8)
+        self.faces = np.empty((nrec, 2), dtype=np.intc)
+        self.pair_open = np.zeros(nrec, dtype=np.uint8)
+        self.attr = np.empty((nrec, n_attr), dtype=np.float64)
+
+    def rows(self, int n):
+        """The first ``n`` records as a dict of arrays (copies)."""
+        return {
+            "removed": np.asarray(self.removed)[:n].copy(),
+            "kept": np.asarray(self.kept)[:n].copy(),
+            "position": np.asarray(self.pos)[:n].copy(),
+            "cost": np.asarray(self.cost)[:n].copy(),
+            "error": np.asarray(self.error)[:n].copy(),
+            "moved": np.asarray(self.moved)[:n].astype(bool),
+            # for progressive meshes (lodkit.progressive): the vertex slots, the faces each
+            # collapse removed, pairs' first halves and the kept vertex's attributes
+            "removed_slot": np.asarray(self.removed)[:n].copy(),
+            "kept_slot": np.asarray(self.kept)[:n].copy(),
+            "faces": np.asarray(self.faces)[:n].copy(),
+            "pair_open": np.asarray(self.pair_open)[:n].astype(bool),
+            "attributes": np.asarray(self.attr)[:n].copy(),
+        }
+
+
+cdef class EdgeCollapser:
+    """Greedy QEM edge collapse over a :class:`HalfEdgeMesh` (modified in place).
+
+    positions : (n, 3) float64, preferably normalised (centred, unit bbox diagonal)
+    quadrics  : (n, 11) float64 from :func:`vertex_quadrics`
+    attributes: (n, k) float64 or None, interpolated along the edge at each collapse
+                (C-contiguous float64 arrays are used in place, not copied)
+    fixed     : (n,) uint8, 1 = the vertex may not move nor be removed
+    placement : 0 optimal, 1 endpoint (half-edge collapse)
+    boundary  : 0 lock (boundary vertices are fixed), 1 preserve, 2 free
+    closed_connected : the surface is closed and connected: refuse collapses that would
+                turn it inside out (its signed volume is tracked)
+    seam_partners : (n,) int or None: attribute seams.  For a vertex slot on a seam (a
+                coincident copy on the other side of a pair of boundary chains) its
+                partner slot; -1 off the seams; -2 for a seam copy that must stay where
+                and as it is (it is made fixed).  A seam vertex never moves, and keeps its
+                attributes; a seam edge collapses only together with its partner edge,
+                keeping the same end on both sides (``perform_pair``); any other collapse
+                keeps a seam vertex in place.
+    """
+
+    def __init__(self, HalfEdgeMesh hm, positions, quadrics, attributes, fixed,
+                 int placement=PLACE_OPTIMAL, int boundary=BOUNDARY_PRESERVE,
+                 double max_normal_angle=90.0, double min_quality=0.0,
+                 double max_error=INFINITY, bint record=False, bint closed_connected=False,
+                 double quadric_weight=1.0, double error_scale=1.0,
+                 vertex_fields=None, vertex_rules=None, edge_fields=None, edge_rules=None,
+                 kernels=(), bint use_heap=True, attribute_quadrics=None, attribute_columns=None,
+                 steps=None, seam_partners=None):
+        cdef int n = hm.n_vertices
+        self.hm = hm
+        # One row per vertex: the quadric (11 doubles) then the position (3), so that a
+        # plan touches two cache-line pairs, not four scattered lines.  A (n, 14) array is
+        # used in place (no copy); an (n, 11) one is joined with ``positions``.
+        q_arr = np.asarray(quadrics)
+        if q_arr.ndim == 2 and q_arr.shape[1] == VSTRIDE and q_arr.dtype == np.float64 and q_arr.flags.c_contiguous:
+            self.vdata = q_arr
+        else:
+            if q_arr.ndim != 2 or q_arr.shape[1] != QSIZE:
+                raise ValueError(f"quadrics must have shape ({n}, {QSIZE}) or ({n}, {VSTRIDE})")
+            pos_arr = np.asarray(positions, dtype=np.float64)
+            if pos_arr.shape != (n, 3):
+                raise ValueError(f"positions must have shape ({n}, 3)")
+            joined = np.empty((q_arr.shape[0], VSTRIDE), dtype=np.float64)
+            joined[:, :QSIZE] = q_arr
+            joined[:, QSIZE:] = pos_arr
+            self.vdata = joined
+        if self.vdata.shape[0] != n:
+            raise ValueError(f"quadrics must have {n} rows")
+        if attributes is None:
+            attributes = np.zeros((n, 0))
+        self.attr = np.ascontiguousarray(attributes, dtype=np.float64)
+        if self.attr.shape[0] != n:
+            raise ValueError(f"attributes must have {n} rows")
+        self.n_attr = self.attr.shape[1]
+        fixed_arr = np.asarray(fixed).reshape(-1)
+        if fixed_arr.shape[0] != n:
+            raise ValueError(f"fixed must have {n} entries")
+        # VERTEX_FIXED: may not move nor go; VERTEX_BOUNDARY: on the boundary (kept up to
+        # date: after a collapse the kept vertex is on the boundary iff either end was)
+        self.vflags = ((fixed_arr != 0) * VERTEX_FIXED).astype(np.uint8)
+        self.moved = np.zeros(n, dtype=np.uint8)
+        self.refused = np.zeros(n, dtype=np.uint8)
+        self.released = False
+        if placement not in (PLACE_OPTIMAL, PLACE_ENDPOINT):
+            raise ValueError(f"unknown placement {placement}")
+        if boundary not in (BOUNDARY_LOCK, BOUNDARY_PRESERVE, BOUNDARY_FREE):
+            raise ValueError(f"unknown boundary policy {boundary}")
+        if not (0.0 < max_normal_angle <= 180.0):
+            raise ValueError("max_normal_angle must be in (0, 180] degrees")
+        self.opt.placement = placement
+        self.opt.boundary = boundary
+        self.opt.cos_max_angle = cos(max_normal_angle * M_PI / 180.0)
+        self.opt.min_quality = min_quality
+        self.opt.max_error = max_error
+        # the collapse sequence (a progressive mesh) is only kept on request: 48 bytes/vertex
+        self.rec = Records(n, self.n_attr, record)
+        self.n_collapses = 0
+        self.max_error_done = 0.0
+        self.opt.cos_orig_angle = cos(min(max_normal_angle, 90.0) * M_PI / 180.0)
+        self.opt.check_orig = max_normal_angle < 180.0
+        self.face_n0 = face_unit_normals(hm, np.asarray(self.vdata)[:, QSIZE:])
+        self.N0 = &self.face_n0[0] if hm.n_faces else NULL
+        # the pass driver needs none; triangle collapse ranks faces
+        self.heap = IndexedHeap(self.n_candidates() if use_heap else 0)
+        self.m = &hm.c
+        # The volume guard is on for a closed, connected surface (the common case): six
+        # times its signed volume, kept up to date collapse by collapse.
+        self.closed_volume = 0.0
+        self.Q = &self.vdata[0, 0] if n else NULL
+        self.P = &self.vdata[0, QSIZE] if n else NULL
+        cdef int v
+        for v in range(n):
+            if self.m.v_he[v] >= 0 and he_is_boundary(self.m, v):
+                # under the 'lock' policy a boundary vertex is also fixed
+                self.vflags[v] |= (VERTEX_FIXED | VERTEX_BOUNDARY) if boundary == BOUNDARY_LOCK else VERTEX_BOUNDARY
+        self.A = &self.attr[0, 0] if n and self.n_attr else NULL
+        self._setup_seams(seam_partners)
+        self._setup_metric(quadric_weight, error_scale, vertex_fields, vertex_rules,
+                           edge_fields, edge_rules, kernels, use_heap, steps)
+        self.aq = AttributeQuadrics(hm, self.attr, attribute_quadrics, attribute_columns)
+        cdef int f
+        if closed_connected and n:
+            for f in range(hm.n_faces):
+                if hm.face_alive[f]:
+                    self.closed_volume += self.face_volume6(f)
+        if self.opt.use_heap:
+            with nogil:
+                self.rescan()
+
+    cdef int n_candidates(self):
+        """The heap's capacity: one candidate per edge."""
+        return self.hm.n_edges
+
+    def _setup_seams(self, partners):
+        cdef int n = self.hm.n_vertices
+        self.n_seam_pairs = 0
+        self.seam = np.full(1, SEAM_NONE, dtype=np.intc)
+        self.SP = NULL
+        if partners is None:
+            return
+        arr = np.array(partners, dtype=np.intc).reshape(-1)
+        if arr.shape[0] != n:
+            raise ValueError(f"seam_partners must have {n} entries")
+        if n == 0 or (arr == SEAM_NONE).all():
+            return
+        if arr.min() < SEAM_STAYS or arr.max() >= n:
+            raise ValueError(f"seam_partners must hold vertex slots 0..{n - 1}, -1 or -2")
+        paired = np.flatnonzero(arr >= 0)
+        if (arr[arr[paired]] != paired).any() or (arr[paired] == paired).any():
+            raise ValueError("seam_partners must pair distinct vertex slots both ways")
+        flags = np.asarray(self.vflags)
+        # a seam vertex off the boundary is no seam (nothing to keep apart); one whose
+        # partner is fixed stays too, so that both sides always agree
+        stays = (arr == SEAM_STAYS)
+        stays[paired] |= ((flags[paired] & VERTEX_FIXED) != 0) | ((flags[arr[paired]] & VERTEX_FIXED) != 0)
+        stays[paired] |= ((flags[paired] & VERTEX_BOUNDARY) == 0) | ((flags[arr[paired]] & VERTEX_BOUNDARY) == 0)
+        arr[stays] = SEAM_STAYS
+        flags[stays] |= VERTEX_FIXED
+        self.seam = arr
+        self.SP = &self.seam[0]
+
+    def _setup_metric(self, double quadric_weight, double error_scale, vertex_fields, vertex_rules,
+                      edge_fields, edge_rules, kernels, bint use_heap, steps=None):
+        cdef int n = self.hm.n_vertices
+        if not (quadric_weight >= 0.0) or not (error_scale > 0.0):
+            raise ValueError("quadric_weight must be >= 0 and error_scale > 0")
+        self.opt.quadric_weight = quadric_weight
+        self.opt.error_scale = error_scale
+        cdef Kernel k
+        kernels = list(kernels)
+        self.fields = FieldSet(n, self.hm.n_edges, vertex_fields, vertex_rules, edge_fields, edge_rules,
+                               steps, len(kernels))
+        for k in kernels:            # type-checks each one
+            if k is None:
+                raise TypeError("kernels must be lodkit._core.kernel.Kernel instances")
+        self.kernel = kernels[0] if kernels else None
+        self.kernel_places = False
+        self.wide_recost = False
+        self.wide_kernel = None
+        if self.kernel is not None:
+            self.kernel._chain(kernels[1:])
+            for k in kernels:
+                self.kernel_places |= k.places
+                self.wide_recost |= k.wide
+            wide = [k for k in kernels if k.wide]
+            if len(wide) == 1:
+                self.wide_kernel = wide[0]
+        self.edge_stamp = np.zeros(self.hm.n_edges if self.wide_recost else 1, dtype=np.intc)
+        self.recost_counter = 0
+        self.kmesh.he = self.m
+        self.kmesh.positions = self.P
+        self.kmesh.stride = VSTRIDE
+        self.kmesh.flags = &self.vflags[0] if n else NULL
+        self.kmesh.n_vertices = n
+        self.kmesh.n_faces = self.hm.n_faces
+        self.opt.has_extras = self.fields.n_vfields > 0 or self.fields.n_efields > 0 or self.kernel is not None
+        self.opt.use_heap = use_heap
+        self.n_vetoed = 0
+        self.failed = False
+
+    # ------------------------------------------------------------- planning
+    cdef int plan(self, int e, int* h_out, int* r_out, int* hs_out, double* p, double* cost,
+                  double* err) noexcept nogil:
+        """Cost and placement of collapsing edge ``e``; -1 if it may not collapse at all.
+        ``h_out``: the half-edge to collapse, ``r_out``: the vertex that goes, ``hs_out``:
+        for a seam edge the partner side's half-edge (the pair collapses together), else -1;
+        ``err`` (or NULL): the geometric error."""
+        cdef int h = self.m.edge_he[e]
+        return self.plan_he(h, self.m.corner[h], he_dest(self.m, h), h_out, r_out, hs_out, p, cost, err)
+
+    cdef int plan_he(self, int h, int u, int v, int* h_out, int* r_out, int* hs_out, double* p,
+                     double* cost, double* err) noexcept nogil:
+        """``plan`` for the edge of half-edge ``h`` running u -> v, when the caller already
+        holds them (a ring walk): saves the edge -> half-edge -> vertex chain of loads."""
+        cdef unsigned char gu = self.vflags[u]
+        cdef unsigned char gv = self.vflags[v]
+        cdef bint bu = (gu & VERTEX_BOUNDARY) != 0
+        cdef bint bv = (gv & VERTEX_BOUNDARY) != 0
+        cdef bint fu = (gu & VERTEX_FIXED) != 0
+        cdef bint fv = (gv & VERTEX_FIXED) != 0
+        cdef double q[QSIZE]
+        cdef double qg[QSIZE]
+        cdef double cand[3]
+        cdef double best, c, t, denom, d0, d1
+        cdef double du[3]
+        cdef int i, keep, hs
+        hs_out[0] = -1
+        if self.SP != NULL:
+            if self.SP[u] != SEAM_NONE or self.SP[v] != SEAM_NONE:
+                if self.SP[u] >= 0 and self.SP[v] >= 0 and self.m.twin[h] < 0:
+                    hs = self.seam_mate(h, u, v)
+                    if hs >= 0:
+                        return self.plan_seam(h, hs, h_out, r_out, hs_out, p, cost, err)
+                # any other collapse keeps a seam vertex where it is (its partner could
+                # not follow); a seam vertex that stays is fixed already
+                if self.SP[u] != SEAM_NONE:
+                    fu = True
+                if self.SP[v] != SEAM_NONE:
+                    fv = True
+        if bu and bv and self.m.twin[h] >= 0:
+            return -1                     # would pinch the surface (link condition)
+        if self.opt.boundary == BOUNDARY_PRESERVE:
+            # Li et al.: a boundary vertex never moves into the interior
+            if bu and not bv:
+                fu = True
+            elif bv and not bu:
+                fv = True
+        if fu and fv:
+            return -1
+        for i in range(QSIZE):
+            q[i] = self.Q[VSTRIDE * u + i] + self.Q[VSTRIDE * v + i]
+        if self.aq.dim > 0:
+            # quadrics over attributes: place by the marginal quadric in x (the attributes
+            # minimised out), keep the plain one (qg) to measure the geometric error
+            for i in range(QSIZE):
+                qg[i] = q[i]
+            self.aq.marginal(u, v, q)
+        h_out[0] = h
+        if fu or fv:
+            keep = u if fu else v
+            for i in range(3):
+                p[i] = self.P[VSTRIDE * keep + i]
+            r_out[0] = v if fu else u
+            c = quadric_eval(q, p)
+        elif self.opt.placement == PLACE_ENDPOINT:
+            d0 = quadric_eval(q, &self.P[VSTRIDE * u])
+            d1 = quadric_eval(q, &self.P[VSTRIDE * v])
+            keep = u if (d0 < d1 or (d0 == d1 and u < v)) else v
+            for i in range(3):
+                p[i] = self.P[VSTRIDE * keep + i]
+            r_out[0] = v if keep == u else u
+            c = d0 if keep == u else d1
+        else:
+            if quadric_solve(q, p):
+                c = quadric_eval(q, p)
+            else:
+                # fallback: the best of the truncated solve about the midpoint, both ends,
+                # the midpoint and the minimum along the edge
+                for i in range(3):
+                    du[i] = self.P[VSTRIDE * v + i] - self.P[VSTRIDE * u + i]
+                    cand[i] = self.P[VSTRIDE * u + i] + 0.5 * du[i]
+                quadric_solve_truncated(q, cand, p)
+                best = quadric_eval(q, p)
+                take_if_lower(q, &self.P[VSTRIDE * u], p, &best)
+                take_if_lower(q, &self.P[VSTRIDE * v], p, &best)
+                take_if_lower(q, cand, p, &best)
+                # Q(u + t du) = alpha t^2 + 2 beta t + const  ->  t* = -beta / alpha
+                denom = (q[0] * du[0] * du[0] + 2 * q[1] * du[0] * du[1] + 2 * q[2] * du[0] * du[2]
+                         + q[3] * du[1] * du[1] + 2 * q[4] * du[1] * du[2] + q[5] * du[2] * du[2])
+                if denom > 0.0:
+                    t = -((q[0] * self.P[VSTRIDE * u + 0] + q[1] * self.P[VSTRIDE * u + 1] + q[2] * self.P[VSTRIDE * u + 2] + q[6]) * du[0]
+                          + (q[1] * self.P[VSTRIDE * u + 0] + q[3] * self.P[VSTRIDE * u + 1] + q[4] * self.P[VSTRIDE * u + 2] + q[7]) * du[1]
+                          + (q[2] * self.P[VSTRIDE * u + 0] + q[4] * self.P[VSTRIDE * u + 1] + q[5] * self.P[VSTRIDE * u + 2] + q[8]) * du[2]) / denom
+                    if 0.0 < t < 1.0:
+                        for i in range(3):
+                            cand[i] = self.P[VSTRIDE * u + i] + t * du[i]
+                        take_if_lower(q, cand, p, &best)
+                c = best
+            # the kept slot is the end nearer to the new position (provenance); only the
+            # collapse itself and the metric's fields / kernels need it, not QEM's ranking
+            if err != NULL or self.opt.has_extras:
+                d0 = 0.0
+                d1 = 0.0
+                for i in range(3):
+                    d0 += (p[i] - self.P[VSTRIDE * u + i]) * (p[i] - self.P[VSTRIDE * u + i])
+                    d1 += (p[i] - self.P[VSTRIDE * v + i]) * (p[i] - self.P[VSTRIDE * v + i])
+                r_out[0] = v if (d0 < d1 or (d0 == d1 and u < v)) else u
+        if c < 0.0:
+            c = 0.0
+        if self.opt.has_extras:
+            keep = self.metric_cost(h, u, v, fu, fv, q, &qg[0] if self.aq.dim > 0 else &q[0], r_out, p, &c, err)
+            cost[0] = c
+            return keep
+        if err != NULL:
+            err[0] = collapse_error(quadric_eval(qg, p) if self.aq.dim > 0 else c, q[10], self.opt.error_scale)
+        cost[0] = self.opt.quadric_weight * c
+        return 0
+
+    cdef int seam_mate(self, int h, int u, int v) noexcept nogil:
+        """The partner of seam edge ``h`` (u -> v, a boundary half-edge between two paired
+        seam vertices): the boundary half-edge partner(v) -> partner(u) on the other side
+        of the seam, or -1 if there is none (the seam chains part there)."""
+        cdef int vs = self.SP[v]
+        cdef int hs = self.m.v_he[vs]          # a boundary vertex's fan starts at its border
+        if self.m.twin[hs] < 0 and he_dest(self.m, hs) == self.SP[u]:
+            return hs
+        return -1
+
+    cdef int plan_seam(self, int h, int hs, int* h_out, int* r_out, int* hs_out, double* p,
+                       double* cost, double* err) noexcept nogil:
+        """Plan seam edge ``h`` together with its partner ``hs`` on the other side: one
+        collapse on each side, removing the same position and keeping the other, which
+        stays where it is (endpoint placement: the seam stays a sub-polyline of the
+        input's, and the two sides cannot part).  The cost is that of both collapses: the
+        summed quadrics of both sides (attribute quadrics: the sum of each side's marginal,
+        as each side keeps its own attributes).  The plan is the same from either edge
+        (the side of the smaller edge id is side a), and ``hs_out`` gets side b's
+        half-edge.  Returns 0, or -1 / -2 as ``plan_he``."""
+        cdef int ha = h, hb = hs
+        if self.m.edge[hs] < self.m.edge[h]:
+            ha = hs
+            hb = h
+        hs_out[0] = hb
+        h_out[0] = ha
+        cdef int ua = self.m.corner[ha], va = he_dest(self.m, ha)
+        cdef int ub = self.m.corner[hb], vb = he_dest(self.m, hb)     # partner(va), partner(ua)
+        # seam vertices whose partner is fixed are fixed themselves (SEAM_STAYS), so both
+        # sides agree on what may go
+        cdef bint fu = (self.vflags[ua] & VERTEX_FIXED) != 0
+        cdef bint fv = (self.vflags[va] & VERTEX_FIXED) != 0
+        cdef double q[QSIZE]
+        cdef double qg[QSIZE]
+        cdef double qb[QSIZE]
+        cdef double c, d0, d1
+        cdef int i, keep, rc
+        if fu and fv:
+            return -1
+        for i in range(QSIZE):
+            q[i] = (self.Q[VSTRIDE * ua + i] + self.Q[VSTRIDE * va + i]) + (self.Q[VSTRIDE * ub + i] + self.Q[VSTRIDE * vb + i])
+        if self.aq.dim > 0:
+            for i in range(QSIZE):
+                qg[i] = q[i]
+            self.aq.marginal(ua, va, q)
+            self.aq.marginal(ub, vb, qb)
+            for i in range(10):
+                q[i] += qb[i]
+        if fu:
+            keep = ua
+        elif fv:
+            keep = va
+        else:
+            d0 = quadric_eval(q, &self.P[VSTRIDE * ua])
+            d1 = quadric_eval(q, &self.P[VSTRIDE * va])
+            keep = ua if (d0 < d1 or (d0 == d1 and ua < va)) else va
+        for i in range(3):
+            p[i] = self.P[VSTRIDE * keep + i]
+        r_out[0] = va if keep == ua else ua
+        c = quadric_eval(q, p)
+        if c < 0.0:
+            c = 0.0
+        if self.opt.has_extras:
+            # fields and kernels see side a's collapse; a kernel may swap the ends but not
+            # move the kept one (the seam would part)
+            rc = self.metric_cost(ha, ua, va, fu, fv, q, &qg[0] if self.aq.dim > 0 else &q[0], r_out, p, &c, err)
+            if rc != 0:
+                return rc
+            keep = va if r_out[0] == ua else ua
+            if not same_point(p, &self.P[VSTRIDE * keep]):
+                self.n_vetoed += 1
+                return -1
+            cost[0] = c
+            return 0
+        if err != NULL:
+            err[0] = collapse_error(quadric_eval(qg, p) if self.aq.dim > 0 else c, q[10], self.opt.error_scale)
+        cost[0] = self.opt.quadric_weight * c
+        return 0
+
+    cdef int metric_cost(self, int h, int u, int v, int fu, int fv, const double* q, const double* qg,
+                         int* r_out, double* p, double* c, double* err) noexcept nogil:
+        """The rest of the metric after the quadric: a kernel may re-place, then the
+        quadric cost (times its weight), the fields in order, the kernels in order.
+        ``c`` holds the quadric value at ``p`` on entry, the total cost on return.
+        Returns 0, -1 (a kernel vetoed) or -2 (a kernel failed: ``self.failed``)."""
+        cdef Candidate cand
+        cdef double cq = c[0]
+        cdef double total, e_err
+        cdef int* step
+        cdef int i, j, rc, e = self.m.edge[h]
+        cdef int kept = v if r_out[0] == u else u
+        if self.kernel is not None:
+            fill_candidate(&cand, &self.kmesh, e, h, u, v, r_out[0], kept, p, 0.0, 0.0)
+            if self.kernel_places:
+                rc = chain_place(self.kernel, &cand)
+                if rc != KERNEL_OK:
+                    return self.kernel_refused(rc)
+                if not ((cand.removed == u and cand.kept == v) or (cand.removed == v and cand.kept == u)):
+                    self.kernel.fail(b"place() set removed/kept to vertices that are not the edge's ends")
+                    self.failed = True
+                    return -2
+                # the fixed rules bind a kernel too: a fixed end stays, where it is
+                if (fu and cand.removed == u) or (fv and cand.removed == v):
+                    self.n_vetoed += 1
+                    return -1
+                if (fu or fv) and not same_point(cand.p, &self.P[VSTRIDE * cand.kept]):
+                    self.n_vetoed += 1
+                    return -1
+                r_out[0] = cand.removed
+                kept = cand.kept
+                if not same_point(cand.p, p):
+                    p[0] = cand.p[0]
+                    p[1] = cand.p[1]
+                    p[2] = cand.p[2]
+                    cq = quadric_eval(q, p)
+                    if cq < 0.0:
+                        cq = 0.0
+        e_err = collapse_error(quadric_eval(qg, p) if qg != q else cq, q[10], self.opt.error_scale)
+        if err != NULL:
+            err[0] = e_err
+        total = self.opt.quadric_weight * cq
+        # fields and kernels in the order the metrics were listed (steps: kind, first, end)
+        for i in range(self.fields.n_steps):
+            step = &self.fields.steps[i, 0]
+            if step[0] == STEP_VFIELD:
+                for j in range(step[1], step[2]):
+                    total = self.fields.vertex_cost(total, j, kept, v if kept == u else u)
+            elif step[0] == STEP_EFIELD:
+                for j in range(step[1], step[2]):
+                    total = self.fields.edge_cost(total, j, e)
+            else:
+                # removed / kept / p in cand are current: set above, or by place() and copied out
+                cand.cost = total
+                cand.error = e_err
+                if step[1] == 0 and self.kernel._next is None:
+                    rc = self.kernel.cost(&cand)
+                else:
+                    rc = chain_cost_range(self.kernel, &cand, step[1], step[2] - step[1])
+                if rc != KERNEL_OK:
+                    return self.kernel_refused(rc)
+                total = cand.cost
+        if total != total:
+            total = INFINITY          # a NaN cost ranks last rather than breaking the heap order
+        c[0] = total
+        return 0
+
+    cdef int kernel_refused(self, int rc) noexcept nogil:
+        if rc == KERNEL_VETO:
+            self.n_vetoed += 1
+            return -1
+        self.failed = True            # KERNEL_ERROR, or anything else a kernel should not return
+        if not chain_failed(self.kernel):
+            self.kernel.fail(b"a kernel returned an unknown status (not KERNEL_OK, KERNEL_VETO nor KERNEL_ERROR)")
+        return -2
+
+    # ------------------------------------------------------------- checks
+    cdef bint fan_ok(self, int center, int fa, int fb, int skip_c, int skip_d, const double* p,
+                     double* dvol) noexcept nogil:
+        """Do the faces around ``center`` (except fa, fb) stay valid when it moves to p?
+        Adds to ``dvol`` six times the change of the enclosed volume.  Faces ``skip_c`` /
+        ``skip_d`` (-1: none; a triangle collapse's first step) count for the volume only."""
+        cdef int start = self.m.v_he[center]
+        cdef int y = start
+        cdef int f, b, c, i
+        cdef double e1[3]
+        cdef double e2[3]
+        cdef double n0[3]
+        cdef double n1[3]
+        cdef double l0, l1, l2, len0, len1, q0, q1, lg, prev_ok
+        cdef double bc[3]
+        cdef double ng[3]
+        cdef double prev_n1[3]
+        cdef double prev_len1 = 0.0
+        cdef int t, g, x
+        prev_n1[0] = prev_n1[1] = prev_n1[2] = 0.0
+        while True:
+            f = y // 3
+            if f == fa or f == fb:
+                prev_len1 = 0.0
+            elif f == skip_c or f == skip_d:
+                # a triangle collapse's first step: this face dies in the second one, its
+                # passing shape does not matter, its volume change does
+                if self.closed_volume != 0.0:
+                    b = he_dest(self.m, y)
+                    c = self.m.corner[he_prev(y)]
+                    cross3(&self.P[VSTRIDE * b], &self.P[VSTRIDE * c], bc)
+                    dvol[0] += ((p[0] - self.P[VSTRIDE * center]) * bc[0] + (p[1] - self.P[VSTRIDE * center + 1]) * bc[1]
+                                + (p[2] - self.P[VSTRIDE * center + 2]) * bc[2])
+                prev_len1 = 0.0
+            else:
+                b = he_dest(self.m, y)
+                c = self.m.corner[he_prev(y)]
+                for i in range(3):
+                    e1[i] = self.P[VSTRIDE * b + i] - self.P[VSTRIDE * center + i]
+                    e2[i] = self.P[VSTRIDE * c + i] - self.P[VSTRIDE * center + i]
+                cross3(e1, e2, n0)
+                if self.closed_volume != 0.0:
+                    # change of the cone from the origin over this face: (p - old) . (b x c)
+                    cross3(&self.P[VSTRIDE * b], &self.P[VSTRIDE * c], bc)
+                    dvol[0] += ((p[0] - self.P[VSTRIDE * center]) * bc[0] + (p[1] - self.P[VSTRIDE * center + 1]) * bc[1]
+                                + (p[2] - self.P[VSTRIDE * center + 2]) * bc[2])
+                len0 = sqrt(dot3(n0, n0))
+                prev_ok = prev_len1
+                prev_len1 = 0.0                      # set again below if this face is checked
+                if len0 > 0.0:
+                    for i in range(3):
+                        e1[i] = self.P[VSTRIDE * b + i] - p[i]
+                        e2[i] = self.P[VSTRIDE * c + i] - p[i]
+                    cross3(e1, e2, n1)
+                    len1 = sqrt(dot3(n1, n1))
+                    l0 = dot3(e1, e1)
+                    l1 = dot3(e2, e2)
+                    if len1 <= 1e-12 * (l0 + l1):
+                        return False                 # the face would degenerate
+                    if angle_exceeds(dot3(n0, n1), self.opt.cos_max_angle, len0, len1):
+                        return False                 # the face would turn too far (or flip)
+                    if self.opt.check_orig and turned_from_input(n1[0] * self.N0[3 * f] + n1[1] * self.N0[3 * f + 1]
+                                                             + n1[2] * self.N0[3 * f + 2],
+                                                             self.opt.cos_orig_angle, 32767.0, len1):
+                        return False                 # turned away from the input face it stands for
+                    if self.opt.min_quality > 0.0:
+                        l2 = 0.0
+                        for i in range(3):
+                            l2 += sq(self.P[VSTRIDE * b + i] - self.P[VSTRIDE * c + i])
+                        q1 = tri_quality(len1, l0 + l1 + l2)
+                        if q1 < self.opt.min_quality:
+                            l0 = 0.0
+                            l1 = 0.0
+                            for i in range(3):
+                                l0 += sq(self.P[VSTRIDE * b + i] - self.P[VSTRIDE * center + i])
+                                l1 += sq(self.P[VSTRIDE * c + i] - self.P[VSTRIDE * center + i])
+                            q0 = tri_quality(len0, l0 + l1 + l2)
+                            if q1 < q0:
+                                return False         # a sliver, worse than before
+                    if self.opt.check_orig:
+                        # no new fold: the face must not bend back onto the neighbour across
+                        # its far edge b-c, nor onto the previous face of the fan
+                        t = self.m.twin[he_next(y)]
+                        if t >= 0:
+                            g = t // 3
+                            if g != fa and g != fb and g != skip_c and g != skip_d:
+                                x = self.m.corner[he_prev(t)]
+                                for i in range(3):
+                                    e1[i] = self.P[VSTRIDE * b + i] - self.P[VSTRIDE * c + i]
+                                    e2[i] = self.P[VSTRIDE * x + i] - self.P[VSTRIDE * c + i]
+                                cross3(e1, e2, ng)
+                                lg = sqrt(dot3(ng, ng))
+                                if new_fold(n1, len1, n0, len0, ng, lg):
+                                    return False
+                        if prev_ok > 0.0 and folds(n1, len1, prev_n1, prev_ok):
+                            return False
+                        for i in range(3):
+                            prev_n1[i] = n1[i]
+                        prev_len1 = len1
+            y = he_ring_next(self.m, y)
+            if y < 0 or y == start:
+                return True
+
+    cdef bint geometry_ok(self, int h, int r, int k, const double* p, int skip_c, int skip_d,
+                          double* dvol_out) noexcept nogil:
+        """The moved faces' checks for collapsing half-edge ``h`` (``r`` goes, ``k`` moves to
+        ``p``), faces ``skip_c`` / ``skip_d`` judged for their volume only (-1: none); on
+        success ``dvol_out`` gets six times the change of the enclosed volume."""
+        cdef int fa = h // 3
+        cdef int fb = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
+        cdef double dvol = 0.0
+        if not self.fan_ok(r, fa, fb, skip_c, skip_d, p, &dvol):
+            return False
+        if not same_point(p, &self.P[VSTRIDE * k]):
+            if not self.fan_ok(k, fa, fb, skip_c, skip_d, p, &dvol):
+                return False
+        if self.closed_volume != 0.0:
+            # a closed surface must not be turned inside out (locally valid faces can still
+            # enclose a negative volume once the mesh is down to a handful of faces)
+            dvol -= self.face_volume6(fa)
+            if fb >= 0:
+                dvol -= self.face_volume6(fb)
+            if turns_inside_out(self.closed_volume, dvol):
+                return False
+        dvol_out[0] = dvol
+        return True
+
+    cdef bint ring_has(self, int v, int a, int b) noexcept nogil:
+        """Is ``a`` or ``b`` a neighbour of ``v``?"""
+        cdef int start = self.m.v_he[v]
+        cdef int y = start
+        cdef int w, ny
+        while True:
+            w = he_dest(self.m, y)
+            if w == a or w == b:
+                return True
+            ny = he_ring_next(self.m, y)
+            if ny < 0:
+                w = self.m.corner[he_prev(y)]
+                return w == a or w == b
+            if ny == start:
+                return False
+            y = ny
+
+    cdef bint pair_ok(self, int h, int r, int k, int hs, int rs, int ks, const double* p,
+                      double* dvol) noexcept nogil:
+        """May seam edge h (r -> k) and its partner hs (rs -> ks) collapse together?
+        If so ``dvol[0..1]`` get each side's volume change; if not, the refusal is counted
+        (topology or geometry).  The two sides must not touch (no edge from one side's ends
+        to the other's): then the first collapse changes nothing the second one's checks
+        look at, and both can be checked before either is done."""
+        if (not self.hm.link_ok(h) or not self.hm.link_ok(hs)
+                or self.ring_has(r, rs, ks) or self.ring_has(k, rs, ks)):
+            self.n_rejected_topology += 1
+            return False
+        if not self.geometry_ok(h, r, k, p, -1, -1, &dvol[0]):
+            self.n_rejected_geometry += 1
+            return False
+        if not self.geometry_ok(hs, rs, ks, p, -1, -1, &dvol[1]):
+            self.n_rejected_geometry += 1
+            return False
+        return True
+
+    cdef void perform_pair(self, int h, int r, int hs, int rs, const double* p, double cost,
+                           double err, const double* dvol) noexcept nogil:
+        """Collapse seam edge h (removing r) and its partner hs (removing rs), then
+        re-rank around both kept vertices (once both sides are done: a seam edge's cost
+        reads both sides).  Both collapses are recorded."""
+        cdef int k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
+        cdef int ks = he_dest(self.m, hs) if self.m.corner[hs] == rs else self.m.corner[hs]
+        self.perform(h, r, p, cost, err, -1.0, dvol[0], False)
+        if self.rec.on:
+            self.rec.pair_open[self.n_collapses - 1] = 1
+        if not self.failed:
+            self.perform(hs, rs, p, cost, err, -1.0, dvol[1], False)
+        if self.failed:
+            return
+        self.n_seam_pairs += 1
+        self.rerank(k)
+        self.rerank(ks)
+
+    cdef double face_volume6(self, int f) noexcept nogil:
+        """Six times the signed volume of the cone from the origin over face ``f``."""
+        return face_volume(&self.P[VSTRIDE * self.m.corner[3 * f]], &self.P[VSTRIDE * self.m.corner[3 * f + 1]],
+                           &self.P[VSTRIDE * self.m.corner[3 * f + 2]])
+
+    # ------------------------------------------------------------- heap upkeep
+    cdef void recost(self, int e) noexcept nogil:
+        """Re-rank edge ``e`` after a change around it (or drop it if it may not collapse)."""
+        cdef int h = self.m.edge_he[e]
+        self.recost_he(e, h, self.m.corner[h], he_dest(self.m, h))
+
+    cdef void recost_he(self, int e, int h, int u, int v) noexcept nogil:
+        cdef int hh, r, hs
+        cdef double p[3]
+        cdef double cost
+        if self.plan_he(h, u, v, &hh, &r, &hs, p, &cost, NULL) == 0:       # ranking only
+            if hs >= 0:
+                # a seam pair is ranked once, as the edge of side a (plan_seam's h_out)
+                self.heap.push_fast(self.m.edge[hh], cost)
+                self.heap.remove_fast(self.m.edge[hs])
+            else:
+                self.heap.push_fast(e, cost)
+        else:
+            self.heap.remove_fast(e)
+            if hs >= 0:
+                self.heap.remove_fast(self.m.edge[hs])
+                self.heap.remove_fast(self.m.edge[hh])
+
+    cdef void recost_ring(self, int v) noexcept nogil:
+        """Re-cost the edges around ``v``; around each neighbour that had a candidate
+        refused by a check, give its refused edges (those out of the heap) another chance:
+        the collapse at ``v`` may have made them legal."""
+        cdef int start = self.m.v_he[v]
+        cdef int y = start
+        cdef int ny, w, hp
+        self.refused[v] = 0
+        while True:
+            w = he_dest(self.m, y)
+            self.recost_he(self.m.edge[y], y, v, w)
+            self.retry_refused(w)
+            ny = he_ring_next(self.m, y)
+            if ny < 0:
+                hp = he_prev(y)
+                w = self.m.corner[hp]
+                self.recost_he(self.m.edge[hp], hp, w, v)
+                self.retry_refused(w)
+                return
+            if ny == start:
+                return
+            y = ny
+
+    cdef void recost_wide(self, int v) noexcept nogil:
+        """Re-rank every edge around ``v`` and around each of its neighbours, once each (for
+        kernels whose costs depend on the stars of the ends: ``Kernel.wide``)."""
+        cdef int start = self.m.v_he[v]
+        cdef int y = start
+        cdef int ny, i
+        self.recost_counter += 1
+        self.refused[v] = 0
+        self.recost_around(v, self.recost_counter)
+        if self.wide_kernel is not None and self.wide_kernel.n_changed >= 0:
+            # the kernel named the vertices whose stars changed
+            for i in range(self.wide_kernel.n_changed):
+                self.recost_around(self.wide_kernel.changed[i], self.recost_counter)
+            return
+        while True:
+            self.recost_around(he_dest(self.m, y), self.recost_counter)
+            ny = he_ring_next(self.m, y)
+            if ny < 0:
+                self.recost_around(self.m.corner[he_prev(y)], self.recost_counter)
+                return
+            if ny == start:
+                return
+            y = ny
+
+    cdef void recost_around(self, int w, int stamp) noexcept nogil:
+        cdef int start = self.m.v_he[w]
+        cdef int y = start
+        cdef int ny, e
+        self.refused[w] = 0
+        while True:
+            e = self.m.edge[y]
+            if self.edge_stamp[e] != stamp:
+                self.edge_stamp[e] = stamp
+                self.recost_he(e, y, w, he_dest(self.m, y))
+            ny = he_ring_next(self.m, y)
+            if ny < 0:
+                y = he_prev(y)
+                e = self.m.edge[y]
+                if self.edge_stamp[e] != stamp:
+                    self.edge_stamp[e] = stamp
+                    self.recost_he(e, y, self.m.corner[y], w)
+                return
+            if ny == start:
+                return
+            y = ny
+
+    cdef void retry_refused(self, int w) noexcept nogil:
+        cdef int start, y, ny, e
+        if not self.refused[w]:
+            return
+        self.refused[w] = 0
+        start = self.m.v_he[w]
+        y = start
+        while True:
+            e = self.m.edge[y]
+            if not self.heap.contains_fast(e):
+                self.recost(e)
+            ny = he_ring_next(self.m, y)
+            if ny < 0:
+                e = self.m.edge[he_prev(y)]
+                if not self.heap.contains_fast(e):
+                    self.recost(e)
+                return
+            if ny == start:
+                return
+            y = ny
+
+    cdef void rescan(self) noexcept nogil:
+        """Rebuild the heap from every live candidate edge."""
+        cdef int e, h, r, hs
+        cdef double p[3]
+        cdef double cost
+        self.heap.clear_fast()
+        self.n_vetoed = 0
+        for e in range(self.hm.n_edges):
+            if self.m.edge_alive[e] and self.plan(e, &h, &r, &hs, p, &cost, NULL) == 0:
+                if hs >= 0 and self.m.edge[h] != e:
+                    continue              # side b of a seam pair: ranked as side a's edge
+                self.heap.append_unordered(e, cost)
+            if self.failed:
+                break
+        self.heap.heapify_fast()
+        self.collapses_since_rescan = 0
+        self.n_rejected_error = 0
+        self.n_rejected_topology = 0
+        self.n_rejected_geometry = 0
+
+    # ------------------------------------------------------------- the collapse
+    cdef void drop_dead(self, const int* dead) noexcept nogil:
+        """After a collapse: drop its dead edges (-1: none) from the heap."""
+        cdef int i
+        if self.opt.use_heap:
+            for i in range(3):
+                if dead[i] >= 0:
+                    self.heap.remove_fast(dead[i])
+
+    cdef void perform(self, int h, int r, const double* p, double cost, double err, double t_attr,
+                      double dvol, bint rerank) noexcept nogil:
+        """Collapse half-edge ``h``, removing ``r``; the kept end moves to ``p``.  ``t_attr``:
+        the kept end's weight in the attributes' mix (< 0: from where p falls along the edge);
+        ``dvol``: the enclosed volume's change (``geometry_ok``); ``rerank``: re-rank the
+        candidates around the kept vertex now (False: the caller does it once a pair of
+        collapses is done)."""
+        cdef int dead[3]
+        cdef int merged_into[2]
+        cdef int k, i, j
+        cdef double t = 0.0, len2 = 0.0
+        cdef Candidate cand
+        k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
+        # where p falls along r -> k decides how the attributes mix (for a triangle collapse
+        # perform_tri gives the weight: barycentric over the face)
+        if t_attr >= 0.0:
+            t = t_attr
+        else:
+            for i in range(3):
+                len2 += sq(self.P[VSTRIDE * k + i] - self.P[VSTRIDE * r + i])
+                t += (p[i] - self.P[VSTRIDE * r + i]) * (self.P[VSTRIDE * k + i] - self.P[VSTRIDE * r + i])
+            t = t / len2 if len2 > 0.0 else 1.0
+            t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
+        if self.rec.on:
+            self.rec.faces[self.n_collapses, 0] = h // 3
+            self.rec.faces[self.n_collapses, 1] = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
+        self.hm.collapse(h, r, dead, merged_into)
+        self.vflags[k] |= self.vflags[r] & VERTEX_BOUNDARY
+        if self.closed_volume != 0.0:
+            self.closed_volume += dvol
+        self.drop_dead(dead)
+        if self.fields.n_vfields or self.fields.n_efields:
+            self.fields.merge(r, k, dead, merged_into)
+        for i in range(QSIZE):
+            self.Q[VSTRIDE * k + i] += self.Q[VSTRIDE * r + i]
+        for i in range(self.n_attr):
+            self.A[self.n_attr * k + i] = (1.0 - t) * self.A[self.n_attr * r + i] + t * self.A[self.n_attr * k + i]
+        if self.aq.dim > 0:
+            # a seam vertex keeps its attributes: its side's chart at the seam
+            self.aq.commit(r, k, p, self.A, self.n_attr, self.SP != NULL and self.SP[k] != SEAM_NONE)
+        if not same_point(p, &self.P[VSTRIDE * k]):
+            for i in range(3):
+                self.P[VSTRIDE * k + i] = p[i]
+            self.moved[k] = 1
+        if self.rec.on:
+            i = self.n_collapses
+            self.rec.removed[i] = r
+            self.rec.kept[i] = k
+            self.rec.pos[i, 0] = p[0]
+            self.rec.pos[i, 1] = p[1]
+            self.rec.pos[i, 2] = p[2]
+            self.rec.cost[i] = cost
+            self.rec.error[i] = err
+            self.rec.moved[i] = self.moved[k]
+            for j in range(self.n_attr):
+                self.rec.attr[i, j] = self.A[self.n_attr * k + j]
+        self.n_collapses += 1
+        if err > self.max_error_done:
+            self.max_error_done = err
+        self.collapses_since_rescan += 1
+        if self.kernel is not None:
+            # both ends are k now: u, v are not meaningful, removed / kept are
+            fill_candidate(&cand, &self.kmesh, dead[0], h, r, k, r, k, p, cost, err)
+            if chain_commit(self.kernel, &cand) == KERNEL_ERROR:
+                self.failed = True
+                return
+        if rerank:
+            self.rerank(k)
+
+    cdef void rerank(self, int k) noexcept nogil:
+        """Heap driver, after a collapse kept ``k``: re-rank the edges whose cost changed
+        (around k, or around its neighbours too for wide kernels)."""
+        if not self.opt.use_heap:
+            return
+        if self.wide_recost:
+            self.recost_wide(k)
+        else:
+            self.recost_ring(k)
+
+    cdef bint pop_candidate(self, int* item) noexcept nogil:
+        """Pop the cheapest candidate (edge, or face for triangle collapse) into ``item``.
+        When the heap is empty, rescan and pop again, unless nothing collapsed since the
+        last rescan; False: no candidate is left."""
+        cdef double key
+        while self.heap.pop_fast(item, &key) < 0:
+            if self.collapses_since_rescan == 0:
+                return False
+            self.rescan()
+        return True
+
+    cdef int run_c(self, int target_faces, int max_steps) noexcept nogil:
+        cdef int e, h, r, k, hs, rs, ks, steps = 0
+        cdef double cost, err
+        cdef double p[3]
+        cdef double dvol[2]
+        while self.hm.n_alive_faces > target_faces:
+            if steps >= max_steps:
+                return RUN_CHUNK
+            if not self.pop_candidate(&e):
+                return RUN_EXHAUSTED
+            if self.plan(e, &h, &r, &hs, p, &cost, &err) < 0:
+                if self.failed:
+                    return RUN_ERROR
+                continue
+            if err > self.opt.max_error:
+                self.n_rejected_error += 1
+                continue
+            k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
+            if hs >= 0:
+                # a seam edge: both sides together or neither
+                rs = self.SP[r]
+                ks = self.SP[k]
+                if not self.pair_ok(h, r, k, hs, rs, ks, p, dvol):
+                    self.refused[r] = 1
+                    self.refused[k] = 1
+                    self.refused[rs] = 1
+                    self.refused[ks] = 1
+                    continue
+                self.perform_pair(h, r, hs, rs, p, cost, err, dvol)
+                if self.failed:
+                    return RUN_ERROR
+                steps += 1
+                continue
+            if not self.hm.link_ok(h):
+                self.n_rejected_topology += 1
+                self.refused[r] = 1
+                self.refused[k] = 1
+                continue
+            if not self.geometry_ok(h, r, k, p, -1, -1, &dvol[0]):
+                self.n_rejected_geometry += 1
+                self.refused[r] = 1
+                self.refused[k] = 1
+                continue
+            self.perform(h, r, p, cost, err, -1.0, dvol[0], True)
+            if self.failed:
+                return RUN_ERROR
+            steps += 1
+        return RUN_TARGET
+
+    # ------------------------------------------------------------- Python API
+    def run(self, int target_faces, int max_steps=2**31 - 1):
+        """Collapse until ``target_faces`` live faces remain, ``max_steps`` collapses are done,
+        or nothing legal is left.  Returns 0 (target), 1 (step budget) or 2 (exhausted)."""
+        cdef int status
+        if self.released:
+            raise RuntimeError("this EdgeCollapser was released")
+        with nogil:
+            status = self.run_c(target_faces, max_steps)
+        return status
+
+    def plan_all(self):
+        """Plan every live edge (batch driver): a dict of ``edge``, ``u``, ``v``,
+        ``removed``, ``kept`` (int32 vertex slots), ``position`` (k, 3), ``cost`` and
+        ``error``, one row per edge that may collapse (within ``max_error``), or None if a
+        kernel failed."""
+        if self.released:
+            raise RuntimeError("this EdgeCollapser was released")
+        cdef int ne = self.hm.n_edges
+        cdef int e, h, r, hs, rc, k = 0
+        cdef double cost, err
+        cdef double p[3]
+        out_e = np.empty(ne, dtype=np.intc)
+        out_u = np.empty(ne, dtype=np.intc)
+        out_v = np.empty(ne, dtype=np.intc)
+        out_r = np.empty(ne, dtype=np.intc)
+        out_p = np.empty((ne, 3), dtype=np.float64)
+        out_c = np.empty(ne, dtype=np.float64)
+        out_x = np.empty(ne, dtype=np.float64)
+        cdef int[::1] OE = out_e
+        cdef int[::1] OU = out_u
+        cdef int[::1] OV = out_v
+        cdef int[::1] OR = out_r
+        cdef double[:, ::1] OP = out_p
+        cdef double[::1] OC = out_c
+        cdef double[::1] OX = out_x
+        self.n_vetoed = 0
+        self.n_rejected_error = 0
+        with nogil:
+            for e in range(ne):
+                if not self.m.edge_alive[e]:
+                    continue
+                rc = self.plan(e, &h, &r, &hs, p, &cost, &err)
+                if rc < 0:
+                    if self.failed:
+                        break
+                    continue
+                if hs >= 0 and self.m.edge[h] != e:
+                    continue              # side b of a seam pair: listed as side a's edge
+                if err > self.opt.max_error:
+                    self.n_rejected_error += 1
+                    continue
+                OE[k] = e
+                OU[k] = self.m.corner[h]
+                OV[k] = he_dest(self.m, h)
+                OR[k] = r
+                OP[k, 0] = p[0]
+                OP[k, 1] = p[1]
+                OP[k, 2] = p[2]
+                OC[k] = cost
+                OX[k] = err
+                k += 1
+        if self.failed:
+            return None
+        u = out_u[:k].copy()
+        v = out_v[:k].copy()
+        removed = out_r[:k].copy()
+        return {"edge": out_e[:k].copy(), "u": u, "v": v, "removed": removed,
+                "kept": np.where(removed == u, v, u).astype(np.intc),
+                "position": out_p[:k].copy(), "cost": out_c[:k].copy(), "error": out_x[:k].copy()}
+
+    def collapse_pass(self, edges, positions=None, int target_faces=0):
+        """The pass driver's step (``lodkit._core.passes.PassCollapser``, made with
+        ``use_heap=False``)."""
+        if self.released:
+            raise RuntimeError("this EdgeCollapser was released")
+        raise RuntimeError("collapse_pass needs an EdgeCollapser made with use_heap=False")
+
+    def plan_face(self, int f):
+        """Triangle collapse only (``lodkit._core.triangle.TriangleCollapser``)."""
+        if self.released:
+            raise RuntimeError("this EdgeCollapser was released")
+        raise RuntimeError("plan_face needs an EdgeCollapser made with operator=1 (triangle)")
+
+    def check_face(self, int f):
+        """Triangle collapse only (``lodkit._core.triangle.TriangleCollapser``)."""
+        if self.released:
+            raise RuntimeError("this EdgeCollapser was released")
+        raise RuntimeError("check_face needs an EdgeCollapser made with operator=1 (triangle)")
+
+    @property
+    def n_tri_collapses(self):
+        """Triangle collapses done (0: not a triangle collapser)."""
+        return 0
+
+    @property
+    def n_tri_refused_second(self):
+        """Triangle candidates refused at the second collapse's checks (0: not a triangle
+        collapser)."""
+        return 0
+
+    @property
+    def error_message(self):
+        """The message of the kernel that failed ('' if none did)."""
+        k = self.kernel
+        while k is not None:
+            if k.failed:
+                return k.message
+            k = k._next_kernel()
+        return ""
+
+    @property
+    def vertex_field_values(self):
+        """(n, k) current vertex fields (merged on collapse)."""
+        return self.fields.vertex_values
+
+    @property
+    def edge_field_values(self):
+        return self.fields.edge_values
+
+    def release(self):
+        """Free the heap, the quadrics and the input normals once the run is over (the
+        positions, attributes and records stay readable); ``run`` may not be called again."""
+        if self.released:
+            return
+        self.released = True
+        self.heap = IndexedHeap(0)
+        self.face_n0 = np.zeros(3, dtype=np.int16)
+        self.N0 = &self.face_n0[0]
+        self.pos_out = np.ascontiguousarray(np.asarray(self.vdata)[:, QSIZE:])
+        self.vdata = np.zeros((1, VSTRIDE))
+        self.Q = &self.vdata[0, 0]
+        self.P = &self.vdata[0, QSIZE]
+
+    def plan_edge(self, int u, int v):
+        """``(removed, kept, position, cost, error)`` for edge (u, v), or None if it may not
+        collapse.  Checks nothing but the fixed/boundary rules; for tests."""
+        if self.released:
+            raise RuntimeError("this EdgeCollapser was released")
+        h = self.hm._find_halfedge(u, v)
+        if h < 0:
+            raise ValueError(f"({u}, {v}) is not an edge")
+        cdef int hh, r, hs
+        cdef double p[3]
+        cdef double cost, err
+        if self.plan(self.hm.edge[h], &hh, &r, &hs, p, &cost, &err) < 0:
+            return None
+        k = self.hm.dest(hh) if self.hm.corner[hh] == r else self.hm.corner[hh]
+        return r, k, np.array([p[0], p[1], p[2]]), cost, err
+
+    @property
+    def n_alive_faces(self):
+        return self.hm.n_alive_faces
+
+    @property
+    def seam_partners(self):
+        """(n,) int32: each vertex slot's seam partner, -1 off the seams, -2 a seam copy
+        that stays (as given, with the fixed rules applied); None without seams."""
+        if self.SP == NULL:
+            return None
+        return np.asarray(self.seam).copy()
+
+    @property
+    def positions(self):
+        """(n, 3) current positions (a view while running, a copy after ``release``)."""
+        if self.released:
+            return self.pos_out
+        return np.asarray(self.vdata)[:, QSIZE:]
+
+    @property
+    def attributes(self):
+        return np.asarray(self.attr)
+
+    @property
+    def moved_vertices(self):
+        return np.asarray(self.moved).astype(bool)
+
+    @property
+    def quadrics(self):
+        """(n, 11) current quadrics (a view)."""
+        if self.released:
+            raise RuntimeError("this EdgeCollapser was released")
+        return np.asarray(self.vdata)[:, :QSIZE]
+
+    def records(self):
+        """The collapse sequence: dict of removed, kept (vertex slots), position (n, 3),
+        cost, error and moved (False: the position is the kept vertex's input position),
+        one row per collapse in the order they were done.  Needs
+        ``record=True`` at construction."""
+        if not self.rec.on:
+            raise RuntimeError("this EdgeCollapser was made with record=False")
+        return self.rec.rows(self.n_collapses)

@@ -1,0 +1,41 @@
+"""Type stubs for lodkit._core.quadric (Cython)."""
+from typing import Optional
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .halfedge import HalfEdgeMesh
+
+def face_unit_normals(hm: HalfEdgeMesh, positions: ArrayLike) -> NDArray[np.int16]:
+    """(n_faces * 3,) int16 unit normals of the face slots, scaled by 32767 (zeros for
+    degenerate faces)."""
+
+def vertex_quadrics(
+    hm: HalfEdgeMesh, positions: ArrayLike, boundary_weight: float = ..., out: Optional[NDArray[np.float64]] = ...
+) -> NDArray[np.float64]:
+    """(n, 11) area-weighted plane quadrics (a11 a12 a13 a22 a23 a33 b1 b2 b3 c w)."""
+
+def general_quadric_marginal(
+    g: ArrayLike, D: int, p: Optional[ArrayLike] = ...
+) -> tuple[NDArray[np.float64], Optional[NDArray[np.float64]]]:
+    """The marginal of one packed D-dimensional quadric (3 <= D <= 16): its 3D quadric (10,)
+    and, with ``p``, the attributes (D - 3,) that minimise it there (None without ``p`` or
+    when the attribute block is singular).  For tests."""
+
+def add_boundary_planes(hm: HalfEdgeMesh, positions: ArrayLike, weight: float, out: NDArray[np.float64]) -> None:
+    """Add to ``out`` (n, >= 10), for every boundary edge and to both its ends, the plane
+    through the edge perpendicular to its face, weighted by ``weight * length^2``."""
+
+class AttributeQuadrics:
+    """Per-vertex quadrics over [position, attributes] (packed (n, D(D+1)/2 + D + 1)) over
+    the attribute ``columns``, with each vertex's clamp box; ``gq`` None: none."""
+
+    dim: int
+    """D = 3 + attribute channels (0: no quadrics over attributes)."""
+    def __init__(
+        self,
+        hm: HalfEdgeMesh,
+        attributes: NDArray[np.float64],
+        gq: Optional[ArrayLike] = ...,
+        columns: Optional[ArrayLike] = ...,
+    ) -> None: ...

@@ -1,0 +1,452 @@
+# cython: language_level=3
+"""Quadric maths that is not inline (quadric.pxd) and the quadric builders over a mesh:
+per-vertex plane quadrics, boundary planes, the input faces' unit normals.  Used by the edge
+collapse drivers and vertex removal; Python reaches the builders through
+``lodkit._core.decimate`` as well."""
+import numpy as np
+cimport numpy as cnp
+from libc.math cimport sqrt, fabs
+
+from .common cimport QSIZE
+from .halfedge cimport HalfEdgeMesh, he_next
+from .vec3 cimport cross3, dot3
+
+cnp.import_array()
+
+# In the truncated solve, directions whose eigenvalue is below this fraction of the largest
+# are left alone (the quadric barely constrains them; moving along them is guesswork).
+cdef double EIG_EPS = 1e-3
+
+
+cdef void sym3_eigen(const double* q, double* w, double* V) noexcept nogil:
+    """Eigen-decomposition of the symmetric 3x3 block of a quadric by cyclic Jacobi
+    rotations: eigenvalues ``w[0..2]``, eigenvectors in the columns of ``V`` (row-major)."""
+    cdef double a[3][3]
+    cdef int i, j, k, sweep, pp, qq
+    cdef double off, theta, t, c, s, tau, apq, app, aqq, akp, akq, vkp, vkq
+    a[0][0] = q[0]; a[0][1] = q[1]; a[0][2] = q[2]
+    a[1][0] = q[1]; a[1][1] = q[3]; a[1][2] = q[4]
+    a[2][0] = q[2]; a[2][1] = q[4]; a[2][2] = q[5]
+    for i in range(3):
+        for j in range(3):
+            V[3 * i + j] = 1.0 if i == j else 0.0
+    for sweep in range(12):
+        off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2]
+        if off <= 1e-20 * (a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2]) or off == 0.0:
+            break
+        for pp in range(2):
+            for qq in range(pp + 1, 3):
+                apq = a[pp][qq]
+                if apq == 0.0:
+                    continue
+                app = a[pp][pp]
+                aqq = a[qq][qq]
+                theta = (aqq - app) / (2.0 * apq)
+                t = 1.0 / (fabs(theta) + sqrt(theta * theta + 1.0))
+                if theta < 0.0:
+                    t = -t
+                c = 1.0 / sqrt(t * t + 1.0)
+                s = t * c
+                for k in range(3):
+                    akp = a[k][pp]
+                    akq = a[k][qq]
+                    a[k][pp] = c * akp - s * akq
+                    a[k][qq] = s * akp + c * akq
+                for k in range(3):
+                    akp = a[pp][k]
+                    akq = a[qq][k]
+                    a[pp][k] = c * akp - s * akq
+                    a[qq][k] = s * akp + c * akq
+                for k in range(3):
+                    vkp = V[3 * k + pp]
+                    vkq = V[3 * k + qq]
+                    V[3 * k + pp] = c * vkp - s * vkq
+                    V[3 * k + qq] = s * vkp + c * vkq
+    for i in range(3):
+        w[i] = a[i][i]
+
+
+cdef void quadric_solve_truncated(const double* q, const double* x0, double* p) noexcept nogil:
+    """Minimise the quadric in the well-determined directions only, staying at ``x0`` along
+    the others (pseudo-inverse about x0, after Lindstrom): on a crease the point slides along
+    the crease line to the spot nearest x0; in a flat region it stays at x0."""
+    cdef double w[3]
+    cdef double V[9]
+    cdef double r[3]
+    cdef double wmax, coef
+    cdef int i, j
+    sym3_eigen(q, w, V)
+    wmax = w[0]
+    if w[1] > wmax:
+        wmax = w[1]
+    if w[2] > wmax:
+        wmax = w[2]
+    # residual -(A x0 + b)
+    r[0] = -(q[0] * x0[0] + q[1] * x0[1] + q[2] * x0[2] + q[6])
+    r[1] = -(q[1] * x0[0] + q[3] * x0[1] + q[4] * x0[2] + q[7])
+    r[2] = -(q[2] * x0[0] + q[4] * x0[1] + q[5] * x0[2] + q[8])
+    for i in range(3):
+        p[i] = x0[i]
+    if wmax <= 0.0:
+        return
+    for j in range(3):
+        if w[j] > EIG_EPS * wmax:
+            coef = (V[j] * r[0] + V[3 + j] * r[1] + V[6 + j] * r[2]) / w[j]
+            for i in range(3):
+                p[i] += coef * V[3 * i + j]
+
+
+cdef int cholesky(double* M, int m, double rel_eps) noexcept nogil:
+    """In-place Cholesky M = L L^T of an m x m SPD matrix (row-major, lower triangle
+    written); 0 if a pivot falls below rel_eps times the largest diagonal entry."""
+    cdef int i, j, k
+    cdef double s, dmax = 0.0
+    for i in range(m):
+        if M[i * m + i] > dmax:
+            dmax = M[i * m + i]
+    if not (dmax > 0.0):
+        return 0
+    for j in range(m):
+        s = M[j * m + j]
+        for k in range(j):
+            s -= M[j * m + k] * M[j * m + k]
+        if not (s > rel_eps * dmax):
+            return 0
+        M[j * m + j] = sqrt(s)
+        for i in range(j + 1, m):
+            s = M[i * m + j]
+            for k in range(j):
+                s -= M[i * m + k] * M[j * m + k]
+            M[i * m + j] = s / M[j * m + j]
+    return 1
+
+
+cdef void cholesky_solve(const double* L, int m, double* x) noexcept nogil:
+    """Solve L L^T y = x in place."""
+    cdef int i, k
+    cdef double s
+    for i in range(m):
+        s = x[i]
+        for k in range(i):
+            s -= L[i * m + k] * x[k]
+        x[i] = s / L[i * m + i]
+    for i in range(m - 1, -1, -1):
+        s = x[i]
+        for k in range(i + 1, m):
+            s -= L[k * m + i] * x[k]
+        x[i] = s / L[i * m + i]
+
+
+cdef bint gq_marginal(const double* g, int D, double* q3, const double* p, double* a) noexcept nogil:
+    """Marginal of a packed D-dimensional quadric over x = [position, attributes]:
+    min over the attributes of Q, a 3D quadric written to q3[0..9] (a11 a12 a13 a22 a23
+    a33 b1 b2 b3 c).  With p given, also the minimising attributes at p into a[0..D-4].
+    Packed layout: the upper triangle of A row by row, then b (D), then c.
+
+    With M = A_aa (the attribute block), Y = M^-1 A_ax and z = M^-1 b_a:
+    A' = A_xx - A_xa Y, b' = b_x - A_xa z, c' = c - b_a . z, and a*(p) = -(z + Y p).
+    If M is singular (an attribute with no information) a tiny ridge is added; if it is
+    zero the attributes are ignored (q3 = the position block) and False is returned."""
+    cdef double A[GMAX_D * GMAX_D]
+    cdef double b[GMAX_D]
+    cdef double M[GMAX_D * GMAX_D]
+    cdef double Y[3 * GMAX_D]        # column j of Y at Y[j * m]
+    cdef double z[GMAX_D]
+    cdef double c, ridge, dmax = 0.0
+    cdef int i, j, k, idx = 0, m = D - 3
+    for i in range(D):
+        for j in range(i, D):
+            A[i * D + j] = g[idx]
+            A[j * D + i] = g[idx]
+            idx += 1
+    for i in range(D):
+        b[i] = g[idx + i]
+    c = g[idx + D]
+    for i in range(m):
+        for j in range(m):
+            M[i * m + j] = A[(3 + i) * D + 3 + j]
+        if M[i * m + i] > dmax:
+            dmax = M[i * m + i]
+    cdef bint ok = dmax > 0.0 and m > 0
+    if ok and not cholesky(M, m, 1e-12):
+        # rank-deficient attribute block: regularise slightly (a direction with no
+        # information then stays near zero change rather than blowing up)
+        ridge = 1e-9 * dmax
+        for i in range(m):
+            for j in range(m):
+                M[i * m + j] = A[(3 + i) * D + 3 + j] + (ridge if i == j else 0.0)
+        ok = cholesky(M, m, 1e-15)
+    # position block
+    q3[0] = A[0]; q3[1] = A[1]; q3[2] = A[2]
+    q3[3] = A[D + 1]; q3[4] = A[D + 2]; q3[5] = A[2 * D + 2]
+    q3[6] = b[0]; q3[7] = b[1]; q3[8] = b[2]; q3[9] = c
+    if not ok:
+        return False
+    for j in range(3):
+        for i in range(m):
+            Y[j * m + i] = A[(3 + i) * D + j]
+        cholesky_solve(M, m, &Y[j * m])
+    for i in range(m):
+        z[i] = b[3 + i]
+    cholesky_solve(M, m, z)
+    # A' = A_xx - A_xa Y ; b' = b_x - A_xa z ; c' = c - b_a . z
+    idx = 0
+    for i in range(3):
+        for j in range(i, 3):
+            for k in range(m):
+                q3[idx] -= A[i * D + 3 + k] * Y[j * m + k]
+            idx += 1
+    for i in range(3):
+        for k in range(m):
+            q3[6 + i] -= A[i * D + 3 + k] * z[k]
+    for k in range(m):
+        q3[9] -= b[3 + k] * z[k]
+    if p != NULL:
+        for i in range(m):
+            a[i] = -(z[i] + Y[i] * p[0] + Y[m + i] * p[1] + Y[2 * m + i] * p[2])
+    return True
+
+
+def general_quadric_marginal(g, int D, p=None):
+    """Python access to the marginal of one packed quadric (for tests): returns the 3D
+    quadric (10,) and, with p, the minimising attributes (D-3,) or None."""
+    cdef double[::1] G = np.ascontiguousarray(g, dtype=np.float64)
+    if not 3 <= D <= GMAX_D or G.shape[0] != D * (D + 1) // 2 + D + 1:
+        raise ValueError(f"a packed quadric of dimension D (3..{GMAX_D}) has D(D+1)/2 + D + 1 entries")
+    cdef double q3[QSIZE]
+    cdef double a[GMAX_D]
+    cdef double pp[3]
+    if p is not None:
+        pp[0], pp[1], pp[2] = p[0], p[1], p[2]
+    ok = gq_marginal(&G[0], D, q3, pp if p is not None else NULL, a)
+    q = np.array([q3[i] for i in range(10)])
+    attrs = np.array([a[i] for i in range(D - 3)]) if (p is not None and ok) else None
+    return q, attrs
+
+
+
+cdef inline double face_cross(double[:, ::1] P, int a, int b, int c, double* nrm) noexcept nogil:
+    """(b - a) x (c - a) into ``nrm`` (twice the area vector of face a b c); returns its length."""
+    cdef double e1[3]
+    cdef double e2[3]
+    cdef int i
+    for i in range(3):
+        e1[i] = P[b, i] - P[a, i]
+        e2[i] = P[c, i] - P[a, i]
+    cross3(e1, e2, nrm)
+    return sqrt(dot3(nrm, nrm))
+
+
+def face_unit_normals(HalfEdgeMesh hm, positions):
+    """(n_faces * 3,) int16 unit normals of the face slots, scaled by 32767 (zeros for
+    degenerate faces): 6 bytes a face is plenty for a 90-degree test.
+
+    Taken before any collapse: each face slot keeps its identity through the collapses, so
+    these are the normals of the input faces the live faces stand for."""
+    cdef double[:, ::1] P = np.ascontiguousarray(positions, dtype=np.float64)
+    out = np.zeros(3 * hm.n_faces, dtype=np.int16)
+    cdef short[::1] N = out
+    cdef int f, i
+    cdef double nrm[3]
+    cdef double length
+    with nogil:
+        for f in range(hm.n_faces):
+            length = face_cross(P, hm.corner[3 * f], hm.corner[3 * f + 1], hm.corner[3 * f + 2], nrm)
+            if length > 0.0:
+                for i in range(3):
+                    N[3 * f + i] = <short>(nrm[i] / length * 32767.0 + (0.5 if nrm[i] >= 0 else -0.5))
+    return out
+
+
+def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=None):
+    """(n, 11) per-vertex quadrics: a11 a12 a13 a22 a23 a33 b1 b2 b3 c w (written into the
+    first 11 columns of ``out`` when given, e.g. an (n, 14) EdgeCollapser row array).
+
+    Each face adds its plane weighted by its area (Garland-Heckbert); ``w`` sums the areas.
+    With ``boundary_weight > 0`` every boundary edge adds, to both ends, the plane through
+    the edge perpendicular to its face, weighted by ``boundary_weight * length^2`` (a
+    length^2 weight keeps the constraint scale-invariant, like the area weight of faces).
+    """
+    cdef double[:, ::1] P = np.ascontiguousarray(positions, dtype=np.float64)
+    if P.shape[0] != hm.n_vertices or P.shape[1] != 3:
+        raise ValueError(f"positions must have shape ({hm.n_vertices}, 3)")
+    if out is None:
+        out = np.zeros((hm.n_vertices, QSIZE), dtype=np.float64)
+    elif (not isinstance(out, np.ndarray) or out.dtype != np.float64 or out.ndim != 2
+          or out.shape[0] != hm.n_vertices or out.shape[1] < QSIZE or not out.flags.c_contiguous):
+        raise ValueError(f"out must be a C-contiguous float64 array of shape ({hm.n_vertices}, >= {QSIZE})")
+    else:
+        out[:, :QSIZE] = 0.0
+    cdef double[:, ::1] Q = out
+    cdef int f, i, a
+    cdef double nrm[3]
+    cdef double length, area, d
+    with nogil:
+        for f in range(hm.n_faces):
+            if not hm.face_alive[f]:
+                continue
+            a = hm.corner[3 * f]
+            length = face_cross(P, a, hm.corner[3 * f + 1], hm.corner[3 * f + 2], nrm)
+            if length <= 0.0:
+                continue
+            area = 0.5 * length
+            for i in range(3):
+                nrm[i] /= length
+            d = -(nrm[0] * P[a, 0] + nrm[1] * P[a, 1] + nrm[2] * P[a, 2])
+            for i in range(3):
+                add_plane(&Q[hm.corner[3 * f + i], 0], nrm[0], nrm[1], nrm[2], d, area)
+                Q[hm.corner[3 * f + i], 10] += area
+    if boundary_weight > 0.0:
+        add_boundary_planes(hm, P, boundary_weight, out)
+    return out
+
+
+def add_boundary_planes(HalfEdgeMesh hm, positions, double weight, out):
+    """Add to ``out`` (n, >= 10) float64 quadrics, for every boundary edge and to both its
+    ends, the plane through the edge perpendicular to its face, weighted by
+    ``weight * length^2`` (a length^2 weight keeps the constraint scale-invariant, like the
+    area weight of faces)."""
+    cdef double[:, ::1] P = np.ascontiguousarray(positions, dtype=np.float64)
+    cdef double[:, ::1] Q = out
+    if P.shape[0] != hm.n_vertices or Q.shape[0] != hm.n_vertices or Q.shape[1] < 10:
+        raise ValueError(f"positions and out must have {hm.n_vertices} rows (out >= 10 columns)")
+    cdef int f, h, i, a, b, c
+    cdef double e1[3]
+    cdef double nrm[3]
+    cdef double m[3]
+    cdef double length, d, w, el
+    with nogil:
+        for f in range(hm.n_faces):
+            if not hm.face_alive[f]:
+                continue
+            if hm.twin[3 * f] >= 0 and hm.twin[3 * f + 1] >= 0 and hm.twin[3 * f + 2] >= 0:
+                continue
+            length = face_cross(P, hm.corner[3 * f], hm.corner[3 * f + 1], hm.corner[3 * f + 2], nrm)
+            if length <= 0.0:
+                continue
+            for i in range(3):
+                nrm[i] /= length
+            for i in range(3):
+                h = 3 * f + i
+                if hm.twin[h] >= 0:
+                    continue
+                a = hm.corner[h]
+                b = hm.corner[he_next(h)]
+                for c in range(3):
+                    e1[c] = P[b, c] - P[a, c]
+                el = dot3(e1, e1)
+                cross3(e1, nrm, m)
+                length = sqrt(dot3(m, m))
+                if length <= 0.0:
+                    continue
+                for c in range(3):
+                    m[c] /= length
+                d = -(m[0] * P[a, 0] + m[1] * P[a, 1] + m[2] * P[a, 2])
+                w = weight * el
+                add_plane(&Q[a, 0], m[0], m[1], m[2], d, w)
+                add_plane(&Q[b, 0], m[0], m[1], m[2], d, w)
+
+
+cdef class AttributeQuadrics:
+    """Per-vertex quadrics over [position, attributes] (Hoppe's appearance-preserving
+    quadrics), packed (n, D(D+1)/2 + D + 1), with the attribute ``columns`` they span; and
+    per vertex the clamp box of those channels.  ``gq`` None: none (``dim`` 0).  The quadric
+    array is used in place when C-contiguous float64."""
+
+    def __init__(self, HalfEdgeMesh hm, attributes, gq=None, columns=None):
+        cdef int n = hm.n_vertices
+        self.dim = 0
+        self.size = 0
+        self.gq = np.zeros((1, 1))
+        self.GQ = NULL
+        self.col = np.zeros(1, dtype=np.intc)
+        self.box = np.zeros((1, 1))
+        if gq is None:
+            return
+        cdef double[:, ::1] attr = attributes
+        cdef int n_attr = attr.shape[1]
+        cols = np.ascontiguousarray(columns, dtype=np.intc).reshape(-1)
+        D = 3 + cols.shape[0]
+        if D > GMAX_D:
+            raise ValueError(f"quadrics over attributes support at most {GMAX_D - 3} attribute channels")
+        if cols.shape[0] == 0:
+            raise ValueError("attribute_columns must name at least one attribute column")
+        if cols.min() < 0 or cols.max() >= n_attr:
+            raise ValueError(f"attribute_columns must be in 0..{n_attr - 1}")
+        arr = np.ascontiguousarray(gq, dtype=np.float64)
+        S = D * (D + 1) // 2 + D + 1
+        if arr.shape != (n, S):
+            raise ValueError(f"attribute_quadrics must have shape ({n}, {S}) for {D - 3} attribute channels")
+        self.gq = arr
+        self.GQ = &self.gq[0, 0] if n else NULL
+        self.col = cols
+        # the clamp box of a vertex: per channel, the range of the values on the input
+        # faces around it -- the faces its quadric is made of (a vertex placed a little
+        # outside its own neighbours keeps the linear extrapolation the faces allow)
+        vals = np.asarray(attr)[:, cols]
+        self.box = np.ascontiguousarray(np.concatenate([vals, vals], axis=1))
+        cdef double[:, ::1] box = self.box
+        cdef int[::1] gc = self.col
+        cdef int nch = cols.shape[0], f, i, j, ch, a, b
+        cdef double x
+        with nogil:
+            for f in range(hm.n_faces):
+                if not hm.c.face_alive[f]:
+                    continue
+                for i in range(3):
+                    a = hm.c.corner[3 * f + i]
+                    for j in range(3):
+                        b = hm.c.corner[3 * f + j]
+                        for ch in range(nch):
+                            x = attr[b, gc[ch]]
+                            if x < box[a, ch]:
+                                box[a, ch] = x
+                            if x > box[a, nch + ch]:
+                                box[a, nch + ch] = x
+        self.dim = D
+        self.size = S
+
+    cdef void marginal(self, int u, int v, double* q) noexcept nogil:
+        """Sum the attribute quadrics of u and v and write into q[0..9] their marginal in
+        x: min over the attributes a of Q(x, a), itself a 3D quadric (Schur complement)."""
+        cdef double g[GMAX_S]
+        cdef int i, gs = self.size
+        for i in range(gs):
+            g[i] = self.GQ[gs * u + i] + self.GQ[gs * v + i]
+        gq_marginal(g, self.dim, q, NULL, NULL)
+
+    cdef void marginal3(self, int a, int b, int c, double* q) noexcept nogil:
+        """``marginal`` for the summed attribute quadrics of a face's three corners."""
+        cdef double g[GMAX_S]
+        cdef int i, gs = self.size
+        for i in range(gs):
+            g[i] = (self.GQ[gs * a + i] + self.GQ[gs * b + i]) + self.GQ[gs * c + i]
+        gq_marginal(g, self.dim, q, NULL, NULL)
+
+    cdef void commit(self, int r, int k, const double* p, double* A, int n_attr,
+                     bint keep_attributes) noexcept nogil:
+        """Add the attribute quadric of r to k's and give k (row k of the attributes ``A``,
+        ``n_attr`` wide) the attribute values that minimise it at the new position (where
+        that is determined; else the interpolated values stay), each channel clamped to the
+        range of the input values on the faces k now stands for (``box``).  The minimum of a
+        sum of quadrics is no convex combination: unclamped, it can extrapolate (colours a
+        few percent outside anything in the input).  ``keep_attributes``: k's attributes
+        stay as they are (a seam vertex keeps its side's chart at the seam)."""
+        cdef double a[GMAX_D]
+        cdef double q3[QSIZE]
+        cdef double lo, hi
+        cdef int i, gs = self.size, m = self.dim - 3
+        for i in range(gs):
+            self.GQ[gs * k + i] += self.GQ[gs * r + i]
+        for i in range(m):
+            if self.box[r, i] < self.box[k, i]:
+                self.box[k, i] = self.box[r, i]
+            if self.box[r, m + i] > self.box[k, m + i]:
+                self.box[k, m + i] = self.box[r, m + i]
+        if keep_attributes:
+            return
+        if gq_marginal(&self.GQ[gs * k], self.dim, q3, p, a):
+            for i in range(m):
+                lo = self.box[k, i]
+                hi = self.box[k, m + i]
+                A[n_attr * k + self.col[i]] = lo if a[i] < lo else (hi if a[i] > hi else a[i])
