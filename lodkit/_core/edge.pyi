@@ -81,7 +81,7 @@ class EdgeCollapser:
         D - 3 columns of ``attributes`` they range over (placement by their marginal);
         steps: (k, 3) rows (kind, first, end) ordering fields and kernels; seam_partners
         (n,) int: each seam vertex's partner slot, -1 off the seams, -2 a seam copy that
-        stays (see lodkit.api._seam_partners)."""
+        stays (see lodkit._pipeline.seam_partners)."""
     def _setup_seams(self, partners: Optional[ArrayLike]) -> None: ...
     def run(self, target_faces: int, max_steps: int = ...) -> int:
         """0: target reached, 1: step budget used, 2: no legal collapse left, 3: a kernel failed."""
