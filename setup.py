@@ -6,7 +6,7 @@ from Cython.Build import cythonize
 from setuptools import Extension, setup
 
 MODULES = ["heap", "halfedge", "kernel", "decimate", "qem_kernel", "melod_kernel", "curvature_kernel", "testkernels",
-           "removal", "retriangulate", "vremove", "schroeder_kernel", "volume_kernel", "cluster"]
+           "passdriver", "removal", "retriangulate", "vremove", "schroeder_kernel", "volume_kernel", "cluster"]
 # LODKIT_BUILD_ONLY=a,b builds only those modules (development: others may be mid-edit)
 _only = [m for m in os.environ.get("LODKIT_BUILD_ONLY", "").split(",") if m]
 if _only:
@@ -19,7 +19,8 @@ extensions = [
         include_dirs=[numpy.get_include()],
         define_macros=[("NPY_NO_DEPRECATED_API", "NPY_1_7_API_VERSION")],
         # -fno-math-errno: sqrt compiles to one instruction (nothing here reads errno)
-        extra_compile_args=["-O3", "-fno-math-errno"],
+        extra_compile_args=["-O3", "-fno-math-errno"] + (["-fopenmp"] if name == "passdriver" else []),
+        extra_link_args=["-fopenmp"] if name == "passdriver" else [],
     )
     for name in MODULES
 ]
