@@ -1,5 +1,6 @@
 """Build the Cython extensions. Everything else lives in pyproject.toml."""
 import os
+import tempfile
 
 import numpy
 from Cython.Build import cythonize
@@ -12,6 +13,37 @@ _only = [m for m in os.environ.get("LODKIT_BUILD_ONLY", "").split(",") if m]
 if _only:
     MODULES = [m for m in MODULES if m in _only]
 
+# Modules with OpenMP loops (cython.parallel.prange).  Without OpenMP they build and run
+# with one thread, with the same output (docs/performance.md, "Threads").
+OPENMP_MODULES = {"passes"}
+
+
+def openmp_flags():
+    """-fopenmp when this compiler builds and links an OpenMP program, else none;
+    LODKIT_OPENMP=0 turns it off."""
+    if os.environ.get("LODKIT_OPENMP", "1") == "0":
+        return []
+    from setuptools._distutils.ccompiler import new_compiler
+    from setuptools._distutils.errors import CompileError, LinkError
+    from setuptools._distutils.sysconfig import customize_compiler
+
+    cc = new_compiler()
+    customize_compiler(cc)
+    with tempfile.TemporaryDirectory() as tmp:
+        src = os.path.join(tmp, "omp_probe.c")
+        with open(src, "w") as f:
+            f.write("#include <omp.h>\nint main(void) { return omp_get_max_threads() > 0 ? 0 : 1; }\n")
+        try:
+            objs = cc.compile([src], output_dir=tmp, extra_postargs=["-fopenmp"])
+            cc.link_executable(objs, os.path.join(tmp, "omp_probe"), extra_postargs=["-fopenmp"])
+        except (CompileError, LinkError, OSError):
+            print("lodkit: no OpenMP with this compiler; the pass driver will run one thread")
+            return []
+    return ["-fopenmp"]
+
+
+_omp = openmp_flags() if OPENMP_MODULES & set(MODULES) else []
+
 extensions = [
     Extension(
         f"lodkit._core.{name}",
@@ -19,7 +51,8 @@ extensions = [
         include_dirs=[numpy.get_include()],
         define_macros=[("NPY_NO_DEPRECATED_API", "NPY_1_7_API_VERSION")],
         # -fno-math-errno: sqrt compiles to one instruction (nothing here reads errno)
-        extra_compile_args=["-O3", "-fno-math-errno"],
+        extra_compile_args=["-O3", "-fno-math-errno"] + (_omp if name in OPENMP_MODULES else []),
+        extra_link_args=_omp if name in OPENMP_MODULES else [],
     )
     for name in MODULES
 ]

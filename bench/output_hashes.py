@@ -107,7 +107,8 @@ def run_case(mesh, ratio, kwargs) -> dict:
         r = lodkit.simplify(mesh, **kw)
     except Exception as exc:  # an error is an output too: it must stay the same
         return {"raised": f"{type(exc).__name__}: {exc}", "all": f"{type(exc).__name__}: {exc}"}
-    report = {k: v for k, v in r.report.items() if k not in ("settings",)}
+    # settings (and keys added since the baseline) say how, not what: not hashed
+    report = {k: v for k, v in r.report.items() if k not in ("settings", "memory_order")}
     out = {
         "vertices": digest(r.mesh.vertices),
         "faces": digest(r.mesh.faces),
@@ -124,8 +125,8 @@ def run_case(mesh, ratio, kwargs) -> dict:
     return out
 
 
-def progressive_case(mesh) -> dict:
-    pm = lodkit.progressive(mesh)
+def progressive_case(mesh, extra) -> dict:
+    pm = lodkit.progressive(mesh, **extra)
     lod = pm.at(faces=max(4, mesh.n_faces // 20))
     m = lod.mesh if hasattr(lod, "mesh") else lod
     return {"all": digest([m.vertices, m.faces])}
@@ -136,12 +137,15 @@ def main(argv=None) -> int:
     ap.add_argument("--out", required=True)
     ap.add_argument("--compare", help="a JSON file from an earlier run to compare with")
     ap.add_argument("--only", help="comma-separated case labels")
+    ap.add_argument("--kwargs", default="{}", help="JSON of simplify() keywords added to every case, "
+                    'e.g. \'{"driver": "greedy"}\'')
     args = ap.parse_args(argv)
     directory = MESH_DIR
     if not directory.is_dir():
         print("the shared meshes are not here", file=sys.stderr)
         return 2
     only = set(args.only.split(",")) if args.only else None
+    extra = json.loads(args.kwargs)
     results = {}
     t0 = time.perf_counter()
     for name, ratios in MESHES.items():
@@ -150,9 +154,9 @@ def main(argv=None) -> int:
             if only and label not in only:
                 continue
             for ratio in ratios:
-                results[f"{name}:{label}:{ratio}"] = run_case(mesh, ratio, kwargs)
+                results[f"{name}:{label}:{ratio}"] = run_case(mesh, ratio, {**kwargs, **extra})
         if not only or "progressive" in only:
-            results[f"{name}:progressive"] = progressive_case(mesh)
+            results[f"{name}:progressive"] = progressive_case(mesh, extra)
     Path(args.out).write_text(json.dumps(results, indent=1, sort_keys=True))
     print(f"{len(results)} cases in {time.perf_counter() - t0:.1f} s -> {args.out}")
     if args.compare:

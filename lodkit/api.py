@@ -18,7 +18,7 @@ from .drivers import DRIVERS
 from .mesh import as_mesh, is_open3d
 from .metrics import create as create_metrics
 from .settings import (BOUNDARY_POLICIES, OPERATORS, PLACEMENTS, SETTING_DEFAULTS, check_settings,
-                       resolve_operator, resolve_settings, resolve_target)
+                       resolve_driver, resolve_operator, resolve_settings, resolve_target, resolve_threads)
 
 __all__ = ["SimplifyResult", "simplify", "prepare", "Prepared", "STOP_TARGET", "STOP_MAX_ERROR",
            "STOP_NO_COLLAPSE", "SETTING_DEFAULTS", "PLACEMENTS", "BOUNDARY_POLICIES", "OPERATORS",
@@ -72,6 +72,8 @@ def simplify(
     record: bool = False,
     pair_threshold: Optional[float] = None,
     operator: str = "edge",
+    driver: Optional[str] = None,
+    threads: Optional[int] = None,
 ) -> SimplifyResult:
     """Simplify a triangle mesh by greedy edge collapse with quadric error metrics (or by
     triangle collapse or vertex removal: ``operator``).
@@ -118,6 +120,15 @@ def simplify(
                        needs a "removal" metric such as "schroeder" or "volume", which runs
                        alone; docs/algorithms.md, "Vertex removal").  A removal metric implies
                        "vertex_removal": ``metric="schroeder"`` alone removes vertices
+    driver           : how edge collapse picks its collapses: "pass" (default: error-limited
+                       passes over independent sets of collapses, in memory order, ranked
+                       on ``threads`` threads; docs/algorithms.md, "The pass driver") or
+                       "greedy" (always the cheapest collapse next, from an indexed heap: the
+                       reference order of the papers).  Triangle collapse and batch metrics
+                       run their own loops and ignore it
+    threads          : threads for the pass driver's ranking (default: ``$LODKIT_THREADS``,
+                       else the cores this process may use).  The output is the same for any
+                       number of threads
 
     An open3d.geometry.TriangleMesh in gives one out.  Per-vertex normals, colours and uvs
     are carried along (interpolated on the collapsed edge at the new position).  Attribute
@@ -132,16 +143,19 @@ def simplify(
     settings = resolve_settings(metrics, placement=placement, boundary=boundary,
                                 boundary_weight=boundary_weight,
                                 max_normal_angle=max_normal_angle, min_quality=min_quality)
+    settings["driver"] = resolve_driver(driver)
+    settings["threads"] = resolve_threads(threads)
     check_settings(settings, max_error)
     target = resolve_target(src.n_faces, target_faces, target_ratio, max_error)
-    driver = DRIVERS[operator]
-    driver.check(metrics, pair_threshold)
+    runner = DRIVERS[operator]
+    runner.check(metrics, pair_threshold)
 
     work = _pipeline.start(src, settings, locked=locked, pair_threshold=pair_threshold,
-                           absolute=absolute, fix_seams=driver.FIX_SEAMS)
+                           absolute=absolute, fix_seams=runner.FIX_SEAMS,
+                           memory_order=runner.memory_order(metrics, settings))
     ctx = _pipeline.metric_context(work, settings)
-    compiled = driver.setup(metrics, ctx, work)
-    run = driver.run(work, compiled, settings, target=target, record=record, progress=progress,
+    compiled = runner.setup(metrics, ctx, work)
+    run = runner.run(work, compiled, settings, target=target, record=record, progress=progress,
                      max_error=_pipeline.error_limit(max_error, work, absolute))
     out_mesh, vertex_map, face_map = _pipeline.extract(work, run)
 
@@ -155,5 +169,5 @@ def simplify(
         n_collapses=run.n_collapses,
         elapsed=time.perf_counter() - t0,
         report=_pipeline.report(work, run, metrics, settings, target),
-        collapses=driver.records(work, run, scale) if record else None,
+        collapses=runner.records(work, run, scale) if record else None,
     )

@@ -1,5 +1,6 @@
 """Numpy geometry shared by every lodkit module: face vectors and normals, vertex normals,
-triangle quality, welding of coincident positions and plane quadrics.
+triangle quality, welding of coincident positions, plane quadrics, and the Morton order
+that lays a mesh out in memory along a space-filling curve.
 
 One home for these, so a face normal means the same thing everywhere: every other module
 imports them from here.  Arrays are float64 positions (n, 3) and int faces (m, 3).
@@ -11,7 +12,7 @@ import math
 import numpy as np
 
 __all__ = ["face_vectors", "face_normals", "triangle_quality", "vertex_sums", "vertex_normals",
-           "weld_positions", "plane_quadrics"]
+           "weld_positions", "plane_quadrics", "morton_codes", "morton_order"]
 
 
 def face_vectors(positions, faces) -> np.ndarray:
@@ -93,3 +94,36 @@ def plane_quadrics(P: np.ndarray, faces: np.ndarray, n: int) -> np.ndarray:
     for k, part in enumerate(parts):
         Q[:, k] = np.bincount(corners, weights=np.tile(area * part, 3), minlength=n)
     return Q
+
+
+_MORTON_BITS = 21            # per axis: 3 x 21 = 63 bits of one uint64 code
+
+
+def _spread_bits(x: np.ndarray) -> np.ndarray:
+    """The low 21 bits of each x with two zero bits after each one (x = b20..b1b0 ->
+    b20 0 0 ... b1 0 0 b0): the axis's share of a 3D Morton code."""
+    x = x.astype(np.uint64) & np.uint64(0x1FFFFF)
+    for shift, mask in ((32, 0x1F00000000FFFF), (16, 0x1F0000FF0000FF), (8, 0x100F00F00F00F00F),
+                        (4, 0x10C30C30C30C30C3), (2, 0x1249249249249249)):
+        x = (x | (x << np.uint64(shift))) & np.uint64(mask)
+    return x
+
+
+def morton_codes(points: np.ndarray) -> np.ndarray:
+    """(n,) uint64 Morton (Z-order) codes of (n, 3) points, each axis quantised to 2^21
+    steps over the points' bounding box: points close in space get close codes, so sorting
+    by code puts neighbours near each other in memory."""
+    P = np.asarray(points, dtype=np.float64)
+    if P.shape[0] == 0:
+        return np.zeros(0, dtype=np.uint64)
+    lo, hi = P.min(axis=0), P.max(axis=0)
+    ext = np.where(hi > lo, hi - lo, 1.0)
+    top = float((1 << _MORTON_BITS) - 1)
+    q = np.clip((P - lo) / ext * top, 0.0, top).astype(np.uint64)
+    return _spread_bits(q[:, 0]) | (_spread_bits(q[:, 1]) << np.uint64(1)) | (_spread_bits(q[:, 2]) << np.uint64(2))
+
+
+def morton_order(points: np.ndarray) -> np.ndarray:
+    """(n,) int32 permutation sorting ``points`` along their Morton curve (ties, such as
+    coincident points, keep their order: a stable sort)."""
+    return np.argsort(morton_codes(points), kind="stable").astype(np.int32)

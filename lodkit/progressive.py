@@ -97,7 +97,8 @@ def progressive(mesh, metric="qem", *, min_faces: int = 0, max_error: Optional[f
     if not rec or "kept_slot" not in rec:
         raise OptionError(f"metric {result.report.get('metrics')}: this simplification driver keeps no "
                           "edge-collapse records, which progressive meshes are made of")
-    prep = prepare(src)        # deterministic: the same vertex and face slots the run used
+    # deterministic: the same vertex and face slots the run used
+    prep = prepare(src, memory_order=result.report["memory_order"])
     scale = prep.scale if absolute else 1.0
     data = {
         "vertices": src.vertices,
@@ -217,6 +218,10 @@ class ProgressiveMesh:
         self._identity = np.arange(n_slots, dtype=np.int32)
         iv = d["input_vertex"]
         self._welded = not (iv.size > 1 and np.all(iv[1:] > iv[:-1]))
+        inf = d["input_face"]
+        # face slots laid out in another order than the input's (a memory-ordered run): the
+        # output lists faces in input order, as lodkit._pipeline.extract does
+        self._faces_reordered = bool(inf.size > 1 and not np.all(inf[1:] > inf[:-1]))
         self._slot_attr = None
         self._cursor = None
         self._events = None
@@ -392,6 +397,10 @@ class ProgressiveMesh:
         """The output mesh from live face slots (with their corner slots) and live vertex
         slots, as lodkit._pipeline.extract builds it."""
         d = self._d
+        face_map = d["input_face"][face_idx].astype(np.int64)
+        if self._faces_reordered:
+            by_input = np.argsort(face_map, kind="stable")
+            face_map, corners = face_map[by_input], corners[by_input]
         iv = d["input_vertex"]
         inputs = iv[slots]
         if self._welded:
@@ -414,8 +423,7 @@ class ProgressiveMesh:
         mesh = _trusted_mesh(verts, out_faces, attrs)
         if self._open3d:
             mesh = mesh.to_open3d()
-        return Level(mesh, vertex_map.astype(np.int64),
-                     d["input_face"][face_idx].astype(np.int64),
+        return Level(mesh, vertex_map.astype(np.int64), face_map,
                      float(self.errors_per_step[s]), int(s))
 
     # ------------------------------------------------------------------ the cursor

@@ -3,6 +3,7 @@ them, and their checks.  Every check raises :class:`lodkit.OptionError` naming t
 
     resolve_operator(operator, metrics) -> "edge" | "triangle" | "vertex_removal"
     resolve_settings(metrics, **given)  -> {setting: (value, where it came from)}
+    resolve_driver(driver), resolve_threads(threads) -> (value, where it came from)
     check_settings(settings, max_error)
     resolve_target(n_faces, target_faces, target_ratio, max_error) -> face target
     locked_mask(locked, n)              -> (n,) bool
@@ -10,13 +11,15 @@ them, and their checks.  Every check raises :class:`lodkit.OptionError` naming t
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 
 from .errors import OptionError
 
 __all__ = ["SETTING_DEFAULTS", "PLACEMENTS", "BOUNDARY_POLICIES", "OPERATORS", "COLLAPSE_OPERATORS",
-           "resolve_operator", "resolve_settings", "check_settings", "resolve_target", "locked_mask"]
+           "EDGE_DRIVERS", "resolve_operator", "resolve_settings", "resolve_driver", "resolve_threads",
+           "check_settings", "resolve_target", "locked_mask"]
 
 #: simplify()'s own defaults for the settings a metric may prefer other values of
 SETTING_DEFAULTS = {
@@ -36,6 +39,11 @@ COLLAPSE_OPERATORS = {"edge": 0, "triangle": 1}
 
 #: simplify(operator=): the operators, each run by its driver (lodkit.drivers.DRIVERS)
 OPERATORS = ("edge", "triangle", "vertex_removal")
+
+#: simplify(driver=): how edge collapse picks its collapses -- "pass": error-limited passes
+#: over independent sets in memory order (lodkit/_core/passdriver.pyx; the default), or
+#: "greedy": always the cheapest candidate, from an indexed heap (the reference order)
+EDGE_DRIVERS = ("pass", "greedy")
 
 
 def resolve_operator(operator, metrics) -> str:
@@ -76,6 +84,33 @@ def resolve_settings(metrics, **given) -> dict:
         else:
             out[key] = (default, "lodkit")
     return out
+
+
+def resolve_driver(driver) -> tuple:
+    """(driver, where it came from): the caller's ``driver=`` or the default, "pass"."""
+    if driver is None:
+        return EDGE_DRIVERS[0], "lodkit"
+    if not isinstance(driver, str) or driver not in EDGE_DRIVERS:
+        raise OptionError(f"driver must be one of {', '.join(EDGE_DRIVERS)}, got {driver!r}")
+    return driver, "caller"
+
+
+def resolve_threads(threads) -> tuple:
+    """(threads, where it came from): the caller's ``threads=``, else ``$LODKIT_THREADS``,
+    else the cores this process may run on.  The output does not depend on it."""
+    if threads is not None:
+        if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+            raise OptionError(f"threads must be a positive integer, got {threads!r}")
+        return int(threads), "caller"
+    env = os.environ.get("LODKIT_THREADS", "").strip()
+    if env:
+        if not env.isdigit() or int(env) < 1:
+            raise OptionError(f"LODKIT_THREADS must be a positive integer, got {env!r}")
+        return int(env), "LODKIT_THREADS"
+    try:
+        return max(len(os.sched_getaffinity(0)), 1), "cores"
+    except (AttributeError, OSError):        # not Linux
+        return max(os.cpu_count() or 1, 1), "cores"
 
 
 def check_settings(settings: dict, max_error) -> None:

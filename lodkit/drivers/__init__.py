@@ -5,6 +5,7 @@ Every driver module offers the same names, which ``simplify`` calls in this orde
     FIX_SEAMS                      True when the driver cannot keep an attribute seam closed
                                    (every seam copy is then fixed)
     check(metrics, pair_threshold) raise when the operator cannot run these options
+    memory_order(metrics, settings) True when the driver wants the slots in Morton order
     setup(metrics, ctx, work)      the metrics, compiled for the core (lodkit._compile)
     run(work, compiled, settings, *, target, max_error, record, progress) -> lodkit._pipeline.Run
     records(work, run, scale)      the operation record in input vertex indices (record=True)

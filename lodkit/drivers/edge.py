@@ -1,6 +1,8 @@
-"""Edge collapse (``operator="edge"``): the core's EdgeCollapser, run greedily from its heap,
-or, with batch metrics, by the Python pass driver (:func:`run_passes`).  Triangle collapse
-(lodkit.drivers.triangle) runs through :func:`run_collapser` too."""
+"""Edge collapse (``operator="edge"``): the core's EdgeCollapser, run by the core's pass
+driver (``driver="pass"``, the default: lodkit/_core/passdriver.pyx), greedily from its heap
+(``driver="greedy"``), or, with batch metrics, by the Python pass driver
+(:func:`run_passes`).  Triangle collapse (lodkit.drivers.triangle) runs through
+:func:`run_collapser` too."""
 from __future__ import annotations
 
 import math
@@ -9,13 +11,14 @@ import numpy as np
 
 from .._compile import Compiled, batch_result, compile_metrics
 from .._core.decimate import EdgeCollapser
+from .._core.passdriver import PassDriver
 from .._pipeline import (RUN_EXHAUSTED, RUN_TARGET, STOP_MAX_ERROR, STOP_NO_COLLAPSE, STOP_TARGET, Run, Work,
                          closed_connected, progress_bar, run_chunked)
 from ..errors import MetricError
 from ..metrics import Batch
 from ..settings import BOUNDARY_POLICIES, COLLAPSE_OPERATORS, PLACEMENTS
 
-__all__ = ["FIX_SEAMS", "check", "setup", "run", "run_collapser", "run_passes", "records"]
+__all__ = ["FIX_SEAMS", "check", "memory_order", "setup", "run", "run_collapser", "run_passes", "records"]
 
 #: seam copies that can be paired collapse together with their partner: only the others stay
 FIX_SEAMS = False
@@ -23,6 +26,18 @@ FIX_SEAMS = False
 
 def check(metrics, pair_threshold) -> None:
     """Edge collapse runs every metric kind but removal (which implies vertex removal)."""
+
+
+def _core_passes(metrics, settings, operator: str = "edge") -> bool:
+    """Does the core's pass driver run? Edge collapse under ``driver="pass"``, unless a batch
+    metric is there (batch metrics have their own pass loop, :func:`run_passes`)."""
+    return (operator == "edge" and settings["driver"][0] == "pass"
+            and not any(m.kind == "batch" for m in metrics))
+
+
+def memory_order(metrics, settings) -> bool:
+    """The pass driver walks the slots in order: it wants them along a Morton curve."""
+    return _core_passes(metrics, settings)
 
 
 def setup(metrics, ctx, work: Work) -> Compiled:
@@ -40,13 +55,14 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
     """Build the EdgeCollapser over ``work`` and run it to ``target`` faces (or until no
     collapse within ``max_error`` is left)."""
     hm = work.prep.hm
+    passes = work.prep.memory_order and operator == "edge" and not compiled.batch
     collapser = EdgeCollapser(
         hm, None, work.vdata, work.attributes, work.fixed,
         placement=PLACEMENTS[settings["placement"][0]], boundary=BOUNDARY_POLICIES[settings["boundary"][0]],
         max_normal_angle=float(settings["max_normal_angle"][0]), min_quality=float(settings["min_quality"][0]),
         max_error=max_error, record=bool(record),
         closed_connected=closed_connected(hm),
-        use_heap=not compiled.batch, seam_partners=work.seams, operator=COLLAPSE_OPERATORS[operator],
+        use_heap=not compiled.batch and not passes, seam_partners=work.seams, operator=COLLAPSE_OPERATORS[operator],
         **compiled.core,
     )
     raise_if_failed(collapser, compiled)
@@ -55,6 +71,11 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
     n_passes = 0
     if compiled.batch:
         status, rejected_error, n_passes = run_passes(collapser, compiled, work, target, bar)
+    elif passes:
+        driver = PassDriver(collapser, threads=int(settings["threads"][0]))
+        status = run_chunked(driver, hm, target, bar)
+        rejected_error = collapser.n_rejected_error
+        n_passes = driver.n_passes
     else:
         status = run_chunked(collapser, hm, target, bar)
         rejected_error = collapser.n_rejected_error

@@ -8,7 +8,12 @@ from .._compile import Compiled
 from .._pipeline import Run, Work
 from .edge import FIX_SEAMS, check, records, run_collapser, setup
 
-__all__ = ["FIX_SEAMS", "check", "setup", "run", "records"]
+__all__ = ["FIX_SEAMS", "check", "memory_order", "setup", "run", "records"]
+
+
+def memory_order(metrics, settings) -> bool:
+    """Triangle collapse runs from the heap in the greedy order, on the slots as loaded."""
+    return False
 
 
 def run(work: Work, compiled: Compiled, settings: dict, *, target: int, max_error: float, record: bool,

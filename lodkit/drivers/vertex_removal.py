@@ -30,6 +30,11 @@ def check(metrics, pair_threshold) -> None:
                           f"(got {names})")
 
 
+def memory_order(metrics, settings) -> bool:
+    """The removal driver keeps its greedy heap order on the slots as loaded."""
+    return False
+
+
 def setup(metrics, ctx, work: Work):
     """(the metric, its prepared RemovalKernel)."""
     return metrics[0], removal_kernel(metrics[0], ctx)
