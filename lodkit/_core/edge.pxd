@@ -117,4 +117,6 @@ cdef class EdgeCollapser:
     cdef void drop_dead(self, const int* dead) noexcept nogil
     cdef void perform(self, int h, int r, const double* p, double cost, double err, double t_attr,
                       double dvol, bint rerank) noexcept nogil
+    cdef int perform_local(self, int h, int r, const double* p, double cost, double err, double t_attr,
+                           int row, int* dead) noexcept nogil
     cdef int run_c(self, int target_faces, int max_steps) noexcept nogil

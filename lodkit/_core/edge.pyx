@@ -863,10 +863,38 @@ cdef class EdgeCollapser:
         candidates around the kept vertex now (False: the caller does it once a pair of
         collapses is done)."""
         cdef int dead[3]
+        cdef int k
+        cdef Candidate cand
+        cdef int faces = 2 if self.m.twin[h] >= 0 else 1
+        k = self.perform_local(h, r, p, cost, err, t_attr, self.n_collapses, dead)
+        self.hm.n_alive_faces -= faces
+        self.hm.n_alive_vertices -= 1
+        if self.closed_volume != 0.0:
+            self.closed_volume += dvol
+        self.drop_dead(dead)
+        self.n_collapses += 1
+        if err > self.max_error_done:
+            self.max_error_done = err
+        self.collapses_since_rescan += 1
+        if self.kernel is not None:
+            # both ends are k now: u, v are not meaningful, removed / kept are
+            fill_candidate(&cand, &self.kmesh, dead[0], h, r, k, r, k, p, cost, err)
+            if chain_commit(self.kernel, &cand) == KERNEL_ERROR:
+                self.failed = True
+                return
+        if rerank:
+            self.rerank(k)
+
+    cdef int perform_local(self, int h, int r, const double* p, double cost, double err, double t_attr,
+                           int row, int* dead) noexcept nogil:
+        """The part of a collapse that stays inside the closed 1-rings of its ends: the
+        half-edges, the kept vertex's flags, fields, quadric, attributes and position, and
+        record ``row``.  No counter, heap or kernel is touched, so collapses of disjoint
+        closed 1-rings can run at once (the pass driver); :meth:`perform` does the rest.
+        Returns the kept vertex; ``dead`` gets the dead edges."""
         cdef int merged_into[2]
         cdef int k, i, j
         cdef double t = 0.0, len2 = 0.0
-        cdef Candidate cand
         k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
         # where p falls along r -> k decides how the attributes mix (for a triangle collapse
         # perform_tri gives the weight: barycentric over the face)
@@ -879,13 +907,10 @@ cdef class EdgeCollapser:
             t = t / len2 if len2 > 0.0 else 1.0
             t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
         if self.rec.on:
-            self.rec.faces[self.n_collapses, 0] = h // 3
-            self.rec.faces[self.n_collapses, 1] = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
-        self.hm.collapse(h, r, dead, merged_into)
+            self.rec.faces[row, 0] = h // 3
+            self.rec.faces[row, 1] = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
+        self.hm.collapse_uncounted(h, r, dead, merged_into)
         self.vflags[k] |= self.vflags[r] & VERTEX_BOUNDARY
-        if self.closed_volume != 0.0:
-            self.closed_volume += dvol
-        self.drop_dead(dead)
         if self.fields.n_vfields or self.fields.n_efields:
             self.fields.merge(r, k, dead, merged_into)
         for i in range(QSIZE):
@@ -900,29 +925,17 @@ cdef class EdgeCollapser:
                 self.P[VSTRIDE * k + i] = p[i]
             self.moved[k] = 1
         if self.rec.on:
-            i = self.n_collapses
-            self.rec.removed[i] = r
-            self.rec.kept[i] = k
-            self.rec.pos[i, 0] = p[0]
-            self.rec.pos[i, 1] = p[1]
-            self.rec.pos[i, 2] = p[2]
-            self.rec.cost[i] = cost
-            self.rec.error[i] = err
-            self.rec.moved[i] = self.moved[k]
+            self.rec.removed[row] = r
+            self.rec.kept[row] = k
+            self.rec.pos[row, 0] = p[0]
+            self.rec.pos[row, 1] = p[1]
+            self.rec.pos[row, 2] = p[2]
+            self.rec.cost[row] = cost
+            self.rec.error[row] = err
+            self.rec.moved[row] = self.moved[k]
             for j in range(self.n_attr):
-                self.rec.attr[i, j] = self.A[self.n_attr * k + j]
-        self.n_collapses += 1
-        if err > self.max_error_done:
-            self.max_error_done = err
-        self.collapses_since_rescan += 1
-        if self.kernel is not None:
-            # both ends are k now: u, v are not meaningful, removed / kept are
-            fill_candidate(&cand, &self.kmesh, dead[0], h, r, k, r, k, p, cost, err)
-            if chain_commit(self.kernel, &cand) == KERNEL_ERROR:
-                self.failed = True
-                return
-        if rerank:
-            self.rerank(k)
+                self.rec.attr[row, j] = self.A[self.n_attr * k + j]
+        return k
 
     cdef void rerank(self, int k) noexcept nogil:
         """Heap driver, after a collapse kept ``k``: re-rank the edges whose cost changed

@@ -15,6 +15,19 @@ from .common cimport MAX_VALENCE
 cnp.import_array()
 
 
+cdef inline int _take_neighbour(int* ring, int n, int w, int u, int v) noexcept nogil:
+    """1 if w (not u nor v) is in ring[:n], which then forgets it (a neighbour counts once,
+    even across parallel edges); else 0."""
+    cdef int i, found = 0
+    if w == u or w == v:
+        return 0
+    for i in range(n):
+        if ring[i] == w:
+            ring[i] = -1
+            found = 1
+    return found
+
+
 cdef class HalfEdgeMesh:
     """Half-edge connectivity of a triangle mesh.  Build with :func:`build`."""
 
@@ -121,18 +134,15 @@ cdef class HalfEdgeMesh:
         cdef int hb = self.c.twin[h]
         cdef int su = self.source(u)
         cdef int sv = self.source(v)
-        cdef int common, expected, x
-        if hb < 0:
-            if self.c.twin[he_next(h)] < 0 and self.c.twin[he_prev(h)] < 0:
-                return False
-            expected = 1
-        else:
-            if self.is_boundary(u) and self.is_boundary(v):
-                return False
-            if (self.source(self.c.corner[he_prev(h)])
-                    == self.source(self.c.corner[he_prev(hb)])):
-                return False    # both faces share their third vertex: a two-face pillow
-            expected = 2
+        cdef int common, x
+        cdef int expected = self._link_expected(h)
+        if expected < 0:
+            return False
+        if not self.has_copies:
+            # no split copies: the scratch-free count, which threads may run at once
+            common = self._count_common_local(u, v)
+            if common >= 0:
+                return self._link_tail(h, common, expected, -1)
         self.stamp_counter += 1
         if self.stamp_counter == 0x7fffffff:
             self.stamp[:] = 0
@@ -149,13 +159,75 @@ cdef class HalfEdgeMesh:
             while x >= 0 and x != v:
                 common += self._count_marked(x, su, sv)
                 x = self.next_copy[x]
-        if common != expected:
+        if not self._link_tail(h, common, expected, valence_u):
             return False
-        if hb >= 0 and valence_u == 3 and self.valence(v) == 3 and not self.is_boundary(u) and not self.is_boundary(v):
-            return False    # the two ends and their common neighbours form a tetrahedron
         if self.has_copies and self._faces_would_coincide(u, v):
             return False    # the welded mesh would get two faces on the same three vertices
         return True
+
+    cdef int _link_expected(self, int h) noexcept nogil:
+        """The common neighbours the link condition wants for the edge of ``h`` (1 on the
+        boundary, 2 inside), or -1 where the edge may not collapse whatever the counts: an
+        isolated triangle, an interior edge between two boundary vertices (it would pinch the
+        surface), two faces sharing their third vertex (a two-face pillow)."""
+        cdef int hb = self.c.twin[h]
+        if hb < 0:
+            if self.c.twin[he_next(h)] < 0 and self.c.twin[he_prev(h)] < 0:
+                return -1
+            return 1
+        if self.is_boundary(self.c.corner[h]) and self.is_boundary(self.dest(h)):
+            return -1
+        if (self.source(self.c.corner[he_prev(h)])
+                == self.source(self.c.corner[he_prev(hb)])):
+            return -1
+        return 2
+
+    cdef bint _link_tail(self, int h, int common, int expected, int valence_u) noexcept nogil:
+        """The rest of the link condition once the common neighbours are counted: exactly
+        ``expected`` of them, and no tetrahedron (``valence_u`` < 0: count it here)."""
+        cdef int u = self.c.corner[h]
+        cdef int v = self.dest(h)
+        if common != expected:
+            return False
+        if self.c.twin[h] >= 0 and not self.is_boundary(u) and not self.is_boundary(v):
+            if valence_u < 0:
+                valence_u = self.valence(u)
+            if valence_u == 3 and self.valence(v) == 3:
+                return False    # the two ends and their common neighbours form a tetrahedron
+        return True
+
+    cdef int _count_common_local(self, int u, int v) noexcept nogil:
+        """The neighbours of u that are also neighbours of v (u, v themselves not counted,
+        each once), without the shared stamp array, so threads can ask at once; -1 when u has
+        more than MAX_VALENCE neighbours (then the stamps count).  Slots are vertices here
+        (no split copies)."""
+        cdef int ring[MAX_VALENCE + 1]
+        cdef int n = 0, common = 0, nx
+        cdef int start = self.c.v_he[u]
+        cdef int x = start
+        while True:
+            if n >= MAX_VALENCE:
+                return -1
+            ring[n] = self.dest(x)
+            n += 1
+            nx = self.ring_next(x)
+            if nx < 0:
+                ring[n] = self.c.corner[he_prev(x)]     # the boundary fan's last neighbour
+                n += 1
+                break
+            x = nx
+            if x == start:
+                break
+        start = self.c.v_he[v]
+        x = start
+        while True:
+            common += _take_neighbour(ring, n, self.dest(x), u, v)
+            nx = self.ring_next(x)
+            if nx < 0:
+                return common + _take_neighbour(ring, n, self.c.corner[he_prev(x)], u, v)
+            x = nx
+            if x == start:
+                return common
 
     cdef bint _faces_would_coincide(self, int u, int v) noexcept nogil:
         """Is there a face (u, b, c) and a face (v, b, c), by input vertex, over all copies of
@@ -194,7 +266,17 @@ cdef class HalfEdgeMesh:
                 return False
 
     cdef int collapse(self, int h, int removed, int* dead_edges, int* merged_into) noexcept nogil:
+        """Collapse the edge of ``h`` (see :meth:`collapse_uncounted`) and count what went."""
+        cdef int faces = 2 if self.c.twin[h] >= 0 else 1
+        cdef int k = self.collapse_uncounted(h, removed, dead_edges, merged_into)
+        self.n_alive_faces -= faces
+        self.n_alive_vertices -= 1
+        return k
+
+    cdef int collapse_uncounted(self, int h, int removed, int* dead_edges, int* merged_into) noexcept nogil:
         """Collapse the edge of ``h``; ``removed`` (one of its ends) goes, the other stays.
+        The live counts are not updated (the caller does: collapses of disjoint closed
+        1-rings may run on several threads at once, and write nothing outside them).
 
         Returns the kept vertex.  ``dead_edges`` receives the ids of the edges that vanish
         (the collapsed edge, then one per removed face; -1 for unused slots).  When not NULL,
@@ -258,10 +340,8 @@ cdef class HalfEdgeMesh:
             self.c.edge_he[es[i]] = ts[i] if ts[i] >= 0 else td[i]
             self.c.edge_alive[dead_edges[1 + i]] = 0
             self.c.face_alive[x // 3] = 0
-            self.n_alive_faces -= 1
         self.c.edge_alive[dead_edges[0]] = 0
         self.c.vertex_alive[r] = 0
-        self.n_alive_vertices -= 1
         # 3. re-anchor v_he of k and of the opposite vertices where it went with a removed
         #    face (or, for k, where it inherits r's border): the glued edge k-c has a
         #    half-edge k -> c and/or c -> k, and either gives one leaving each end

@@ -1,16 +1,45 @@
 # cython: language_level=3
-"""The pass driver of batch metrics (``use_heap=False``): Python ranks every candidate at once
+"""Edge collapse in passes (``use_heap=False``): :class:`PassCollapser` and two drivers.
+
+**The pass driver** (:class:`PassDriver`, ``simplify(driver="pass")``, the default).  Each
+pass
+
+1. *ranks* every candidate whose cost may have changed since it was last ranked (an edge of
+   a vertex a collapse kept, or a refused edge of one of its neighbours) -- on several
+   threads when the metric has no native kernel;
+2. *limits* the pass: of the V ranked candidates within ``max_error``, the K = ceil(V /
+   fraction) cheapest may go (a histogram of the costs finds the K-th, then only those are
+   sorted, by (cost, edge id));
+3. *performs*, in that order, each of them whose ends no earlier collapse of the pass
+   touched, with every check of the greedy driver (link condition, flips, folds, quality,
+   volume, boundary policy, locks, seams); a collapse marks its kept vertex and 1-ring (the
+   2-ring for wide kernels) touched, so every collapse of a pass sees the costs it was
+   ranked with.
+
+The schedule depends on the mesh and the settings, never on the face target: a run to a
+smaller target does the same collapses in the same order, then more, so a progressive mesh
+cut at N faces is ``simplify(target_faces=N)``.  Ranking writes one slot per edge and all
+else runs in a fixed order on one thread: the output is the same for any thread count.
+docs/algorithms.md ("The pass driver") says why the limit is chosen so.
+
+**The batch pass driver** (:func:`collapse_pass_c`): Python ranks every candidate at once
 (``EdgeCollapser.plan_all`` and a vectorised cost), then one ``collapse_pass`` tries the
 edges in that order, skipping those with an end an earlier collapse of the same pass touched
 (the kept vertex and its 1-ring; the 2-ring for wide kernels), so that every collapse sees the
 costs it was ranked with.  Each collapse is re-planned and checked as the heap driver's."""
+cimport cython
+from cython.parallel cimport prange
+from libc.math cimport isnan
+from libc.stdlib cimport qsort
+from libc.string cimport memcpy, memset
 import numpy as np
 cimport numpy as cnp
 
-from .halfedge cimport he_prev, he_dest, he_ring_next
+from .halfedge cimport HEArrays, he_prev, he_dest, he_ring_next
 from .kernel cimport Candidate, chain_cost, fill_candidate, KERNEL_OK, VERTEX_FIXED, VERTEX_BOUNDARY
-from .common cimport QSIZE, VSTRIDE, BOUNDARY_FREE
+from .common cimport QSIZE, VSTRIDE, BOUNDARY_FREE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, RUN_ERROR
 from .quadric cimport collapse_error, quadric_eval
+from .checks cimport turns_inside_out
 from .edge cimport EdgeCollapser, SEAM_NONE
 
 cnp.import_array()
@@ -178,3 +207,491 @@ cdef void touch_ring(PassCollapser c, int w, int stamp) noexcept nogil:
         if ny == start:
             return
         y = ny
+
+
+# ---------------------------------------------------------------------- the pass driver
+cdef enum:
+    ST_DIRTY = 0        # rank again before the next pass
+    ST_VALID = 1        # ranked, within max_error, waiting for its pass
+    ST_NONE = 2         # may not collapse (fixed ends, link of two boundary vertices, kernel veto)
+    ST_OVER = 3         # ranked above max_error
+    ST_REFUSED = 4      # failed a check; ranked again once something near it changes
+    ST_SIDE_B = 5       # side b of a seam pair: ranked as its partner's edge
+
+cdef enum:
+    CK_NONE = 0         # check of a pass's candidate: may not collapse after all
+    CK_OK = 1
+    CK_TOPOLOGY = 2     # refused by the link condition
+    CK_GEOMETRY = 3     # refused by a flip / fold / quality / volume check
+    CK_PAIR = 4         # a seam edge: both sides are checked when it comes up, in order
+
+cdef enum:
+    N_BUCKETS = 65536   # histogram of the upper 16 bits of the float32 cost
+
+
+cdef inline unsigned int bucket_of(float c) noexcept nogil:
+    cdef unsigned int bits
+    if isnan(c):
+        return N_BUCKETS - 1
+    memcpy(&bits, &c, sizeof(float))
+    return bits >> 16         # costs are >= 0: their bits sort as the values do
+
+
+cdef struct Keyed:
+    float cost
+    int edge
+
+
+cdef int compare_keyed(const void* a, const void* b) noexcept nogil:
+    cdef const Keyed* x = <const Keyed*>a
+    cdef const Keyed* y = <const Keyed*>b
+    if x.cost < y.cost:
+        return -1
+    if x.cost > y.cost:
+        return 1
+    return (x.edge > y.edge) - (x.edge < y.edge)
+
+
+cdef inline void insertion_sort(Keyed* a, int n) noexcept nogil:
+    """Sort a few keyed candidates by (cost, edge): the order compare_keyed gives."""
+    cdef int i, j
+    cdef Keyed x
+    for i in range(1, n):
+        x = a[i]
+        j = i - 1
+        while j >= 0 and compare_keyed(&a[j], &x) > 0:
+            a[j + 1] = a[j]
+            j -= 1
+        a[j + 1] = x
+
+
+@cython.final
+cdef class PassDriver:
+    """Runs a :class:`PassCollapser` (an EdgeCollapser made with ``use_heap=False``) in
+    error-limited passes (the module docstring says how).
+
+    fraction : K = ceil(valid candidates / fraction) may go per pass (default 6: about
+               what one collapse's 1-ring excludes, so a pass is not mostly skips)
+    threads  : ranking threads (1 when the metric has native kernels: they may keep state
+               between calls)
+    """
+    cdef PassCollapser c
+    cdef HEArrays* m
+    cdef float[::1] cost            # (n_edges,) ranked cost, float32: orders the pass only
+    cdef unsigned char[::1] state   # (n_edges,) ST_*
+    cdef int[::1] live              # live edges, compacted once a pass
+    cdef int n_live
+    cdef Keyed[::1] keyed_buf
+    cdef int[::1] hist
+    # one row per candidate of a pass (at most ceil(live edges / fraction)): its plan and
+    # check on the pass-start state, then the accepted rows in order
+    cdef int[:, ::1] plan_he         # (kmax, 6): h, removed, seam partner half-edge, check,
+                                     # then once accepted: kept, its seam partner (-1: none)
+    cdef double[:, ::1] plan_x       # (kmax, 7): position (3), cost, error, volume change(s)
+    cdef int[:, ::1] dead            # (kmax, 3): the dead edges of each accepted collapse
+    cdef int[::1] accepted
+    cdef int kmax
+    cdef readonly int n_passes
+    cdef readonly long n_checked     # candidates planned and checked in a pass (diagnostics)
+    cdef readonly long n_ranked      # plans made by ranking
+    cdef readonly int threads
+    cdef readonly double fraction
+    cdef bint parallel_ok
+
+    def __init__(self, PassCollapser collapser, double fraction=6.0, int threads=1):
+        if not (fraction >= 1.0):
+            raise ValueError("fraction must be >= 1")
+        self.c = collapser
+        self.m = collapser.m
+        cdef int ne = collapser.hm.n_edges
+        cdef int nv = collapser.hm.n_vertices
+        self.cost = np.zeros(max(ne, 1), dtype=np.float32)
+        self.state = np.zeros(max(ne, 1), dtype=np.uint8)
+        self.live = np.nonzero(np.asarray(collapser.hm.edge_alive, dtype=bool))[0].astype(np.intc)
+        if self.live.shape[0] == 0:
+            self.live = np.zeros(1, dtype=np.intc)
+            self.n_live = 0
+        else:
+            self.n_live = self.live.shape[0]
+        self.keyed_buf = np.zeros(max(self.n_live, 1), dtype=[("cost", np.float32), ("edge", np.intc)])
+        self.hist = np.zeros(N_BUCKETS, dtype=np.intc)
+        self.n_passes = 0
+        self.fraction = fraction
+        # native kernels may keep state between calls, and the link condition of a mesh
+        # with split copies marks shared scratch: those run on one thread
+        self.parallel_ok = collapser.kernel is None and not collapser.hm.has_copies
+        self.threads = threads if self.parallel_ok and threads > 1 else 1
+        self.kmax = <int>((self.n_live + fraction - 1.0) / fraction) + 1
+        self.plan_he = np.zeros((self.kmax, 6), dtype=np.intc)
+        self.plan_x = np.zeros((self.kmax, 7), dtype=np.float64)
+        self.dead = np.zeros((self.kmax, 3), dtype=np.intc)
+        self.accepted = np.zeros(self.kmax, dtype=np.intc)
+
+    # ------------------------------------------------------------- named steps
+    cdef void rank(self) noexcept nogil:
+        """Plan every dirty live edge: its cost, or why it may not go.  Each edge writes its
+        own slots only, so the result does not depend on the number of threads."""
+        cdef int i
+        if self.threads > 1:
+            for i in prange(self.n_live, num_threads=self.threads, schedule="static"):
+                self.rank_one(self.live[i])
+            return
+        for i in range(self.n_live):
+            self.rank_one(self.live[i])
+            if self.c.failed:
+                return
+
+    cdef inline void rank_one(self, int e) noexcept nogil:
+        cdef int h, r, hs, rc
+        cdef double c, err
+        cdef double p[3]
+        if self.state[e] != ST_DIRTY:
+            return
+        rc = self.c.plan(e, &h, &r, &hs, p, &c, &err)
+        if rc < 0:
+            self.state[e] = ST_NONE
+        elif hs >= 0 and self.m.edge[h] != e:
+            self.state[e] = ST_SIDE_B
+        elif err > self.c.opt.max_error:
+            self.state[e] = ST_OVER
+        else:
+            self.state[e] = ST_VALID
+            self.cost[e] = <float>c
+
+    cdef int compact(self) noexcept nogil:
+        """Drop dead edges from the live list; returns the number of valid candidates and
+        fills the cost histogram of those."""
+        cdef int i, e, n = 0, valid = 0
+        memset(&self.hist[0], 0, N_BUCKETS * sizeof(int))
+        for i in range(self.n_live):
+            e = self.live[i]
+            if not self.m.edge_alive[e]:
+                continue
+            self.live[n] = e
+            n += 1
+            if self.state[e] == ST_VALID:
+                valid += 1
+                self.hist[bucket_of(self.cost[e])] += 1
+        self.n_live = n
+        return valid
+
+    cdef int select(self, int k) noexcept nogil:
+        """The K cheapest valid candidates, sorted by (cost, edge), into keyed_buf; returns
+        how many were gathered (>= k: the whole bucket holding the K-th is taken, and the
+        caller uses the first k).  A counting sort by bucket (the live list is in edge
+        order, so each bucket fills in edge order), then each bucket sorted by cost: the
+        order is (cost, edge) whatever the buckets hold."""
+        cdef int b, last, acc = 0, i, e, n, start, size
+        cdef unsigned int bk
+        for last in range(N_BUCKETS):
+            acc += self.hist[last]
+            if acc >= k:
+                break
+        n = acc
+        acc = 0
+        for b in range(last + 1):             # hist becomes each bucket's write position
+            size = self.hist[b]
+            self.hist[b] = acc
+            acc += size
+        for i in range(self.n_live):
+            e = self.live[i]
+            if self.state[e] == ST_VALID:
+                bk = bucket_of(self.cost[e])
+                if bk <= <unsigned int>last:
+                    self.keyed_buf[self.hist[bk]].cost = self.cost[e]
+                    self.keyed_buf[self.hist[bk]].edge = e
+                    self.hist[bk] += 1
+        start = 0
+        for b in range(last + 1):             # hist[b] is now the end of bucket b
+            size = self.hist[b] - start
+            if size > 16:
+                qsort(&self.keyed_buf[start], size, sizeof(Keyed), compare_keyed)
+            elif size > 1:
+                insertion_sort(&self.keyed_buf[start], size)
+            start = self.hist[b]
+        return n
+
+    cdef void dirty_ring(self, int k) noexcept nogil:
+        """After a collapse kept k: its edges (and, for wide kernels, its neighbours' edges)
+        must be ranked again; so must the refused edges of its neighbours (the collapse may
+        have made them legal)."""
+        cdef int start = self.m.v_he[k]
+        cdef int y = start
+        cdef int ny, w
+        self.c.refused[k] = 0
+        while True:
+            self.state[self.m.edge[y]] = ST_DIRTY
+            w = he_dest(self.m, y)
+            self.dirty_neighbour(w)
+            ny = he_ring_next(self.m, y)
+            if ny < 0:
+                y = he_prev(y)
+                self.state[self.m.edge[y]] = ST_DIRTY
+                self.dirty_neighbour(self.m.corner[y])
+                return
+            if ny == start:
+                return
+            y = ny
+
+    cdef void dirty_neighbour(self, int w) noexcept nogil:
+        cdef int start, y, ny
+        cdef bint all_edges = self.c.wide_recost      # wide kernels: costs read the stars
+        if not all_edges and not self.c.refused[w]:
+            return
+        self.c.refused[w] = 0
+        start = self.m.v_he[w]
+        y = start
+        while True:
+            if all_edges or self.state[self.m.edge[y]] == ST_REFUSED:
+                self.state[self.m.edge[y]] = ST_DIRTY
+            ny = he_ring_next(self.m, y)
+            if ny < 0:
+                y = he_prev(y)
+                if all_edges or self.state[self.m.edge[y]] == ST_REFUSED:
+                    self.state[self.m.edge[y]] = ST_DIRTY
+                return
+            if ny == start:
+                return
+            y = ny
+
+    cdef void check(self, int i) noexcept nogil:
+        """Plan candidate ``i`` of the pass again (for its position, which ranking does not
+        keep) and run the checks on the pass-start state; writes row i only."""
+        cdef int e = self.keyed_buf[i].edge
+        cdef int h, r, hs, k
+        cdef double dvol = 0.0
+        cdef double* x = &self.plan_x[i, 0]
+        if self.c.plan(e, &h, &r, &hs, x, &x[3], &x[4]) < 0:
+            self.plan_he[i, 3] = CK_NONE
+            return
+        self.plan_he[i, 0] = h
+        self.plan_he[i, 1] = r
+        self.plan_he[i, 2] = hs
+        if hs >= 0:
+            self.plan_he[i, 3] = CK_PAIR              # both sides: checked in order
+            return
+        k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
+        if not self.c.hm.link_ok(h):
+            self.plan_he[i, 3] = CK_TOPOLOGY
+        elif not self.c.geometry_ok(h, r, k, x, -1, -1, &dvol):
+            self.plan_he[i, 3] = CK_GEOMETRY
+        else:
+            self.plan_he[i, 3] = CK_OK
+            x[5] = dvol
+
+    cdef inline bint ring_free(self, int v, int stamp) noexcept nogil:
+        """v's closed 1-ring meets no closed 1-ring of a collapse accepted in this pass: v is
+        not within two edges of an accepted collapse's end (:meth:`mark_ring`)."""
+        return self.c.touched[v] != stamp
+
+    cdef void mark_ring(self, int v, int stamp) noexcept nogil:
+        """Mark v's closed 2-ring: the vertices whose closed 1-rings meet v's."""
+        cdef int start = self.m.v_he[v]
+        cdef int y = start
+        cdef int ny
+        self.c.touched[v] = stamp
+        while True:
+            touch_ring(self.c, he_dest(self.m, y), stamp)
+            ny = he_ring_next(self.m, y)
+            if ny < 0:
+                touch_ring(self.c, self.m.corner[he_prev(y)], stamp)
+                return
+            if ny == start:
+                return
+            y = ny
+
+    cdef int perform_pass(self, int n_sel, int target_faces, int* done) noexcept nogil:
+        """The pass's candidates, in cost order: checked (on several threads), then
+        accepted in order where their ends' closed 1-rings are disjoint from those of every
+        collapse accepted before -- so no accepted collapse changes anything another one
+        reads or writes, and the checks made on the pass-start state still hold -- then
+        collapsed (on several threads when no kernel keeps state and no seam pair is among
+        them).  RUN_TARGET once the target is reached, RUN_ERROR if a kernel failed, else
+        RUN_CHUNK."""
+        cdef int i, j, e, h, r, k, hs, rs, ks, st, stamp, n_acc = 0, faces_left, pos = 0, n_chunk, t, base
+        cdef int chunk = self.c.hm.n_alive_vertices // 200
+        cdef double vol
+        cdef double dv2[2]
+        cdef double* x
+        cdef bint in_order = self.threads == 1
+        if chunk < 64:
+            chunk = 64
+        self.c.pass_counter += 1
+        stamp = self.c.pass_counter
+        faces_left = self.c.hm.n_alive_faces
+        vol = self.c.closed_volume
+        while pos < n_sel and faces_left > target_faces:
+            # 1. the next candidates whose closed 1-rings are still free, checked on the
+            #    pass-start state (several threads); a chunk keeps the checks of candidates
+            #    that an earlier one of the chunk then blocks to a few percent
+            n_chunk = 0
+            while pos < n_sel and n_chunk < chunk:
+                e = self.keyed_buf[pos].edge
+                h = self.m.edge_he[e]
+                if self.ring_free(self.m.corner[h], stamp) and self.ring_free(he_dest(self.m, h), stamp):
+                    self.accepted[n_acc + n_chunk] = pos
+                    n_chunk += 1
+                pos += 1
+            self.n_checked += n_chunk
+            if self.threads > 1:
+                for t in prange(n_chunk, num_threads=self.threads, schedule="dynamic", chunksize=16):
+                    self.check(self.accepted[n_acc + t])
+            else:
+                for t in range(n_chunk):
+                    self.check(self.accepted[n_acc + t])
+                    if self.c.failed:
+                        return RUN_ERROR
+            # 2. accept them in cost order where no collapse accepted before marked their
+            #    rings (the accepted list is written over the chunk, never ahead of it)
+            base = n_acc
+            for t in range(n_chunk):
+                i = self.accepted[base + t]
+                if faces_left <= target_faces:
+                    break
+                e = self.keyed_buf[i].edge
+                st = self.plan_he[i, 3]
+                if st == CK_NONE:
+                    self.state[e] = ST_NONE
+                    continue
+                h = self.plan_he[i, 0]
+                r = self.plan_he[i, 1]
+                hs = self.plan_he[i, 2]
+                k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
+                x = &self.plan_x[i, 0]
+                if not self.ring_free(r, stamp) or not self.ring_free(k, stamp):
+                    continue                  # next pass: a collapse of this one may change it
+                ks = -1
+                if st == CK_TOPOLOGY:
+                    self.c.n_rejected_topology += 1
+                    self.refuse(e, r, k)
+                    continue
+                if st == CK_GEOMETRY:
+                    self.c.n_rejected_geometry += 1
+                    self.refuse(e, r, k)
+                    continue
+                if st == CK_PAIR:
+                    rs = self.c.SP[r]
+                    ks = self.c.SP[k]
+                    if not self.ring_free(rs, stamp) or not self.ring_free(ks, stamp):
+                        continue
+                    if not self.c.pair_ok(h, r, k, hs, rs, ks, x, dv2):      # counts its refusals
+                        self.refuse(e, r, k)
+                        self.c.refused[rs] = 1
+                        self.c.refused[ks] = 1
+                        continue
+                    x[5] = dv2[0]
+                    x[6] = dv2[1]
+                    in_order = True           # a pair is two collapses: done in order
+                elif vol != 0.0 and turns_inside_out(vol, x[5]):
+                    # with this pass's earlier collapses the surface would turn inside out
+                    self.c.n_rejected_geometry += 1
+                    self.refuse(e, r, k)
+                    continue
+                if vol != 0.0:
+                    vol += x[5]
+                    if ks >= 0:
+                        vol += x[6]
+                self.mark_ring(r, stamp)
+                self.mark_ring(k, stamp)
+                faces_left -= 2 if self.m.twin[h] >= 0 else 1
+                if ks >= 0:
+                    self.mark_ring(rs, stamp)
+                    self.mark_ring(ks, stamp)
+                    faces_left -= 2 if self.m.twin[hs] >= 0 else 1
+                self.plan_he[i, 4] = k
+                self.plan_he[i, 5] = ks
+                self.accepted[n_acc] = i
+                n_acc += 1
+        # 3. collapse them
+        if in_order:
+            for j in range(n_acc):
+                i = self.accepted[j]
+                x = &self.plan_x[i, 0]
+                if self.plan_he[i, 5] >= 0:
+                    self.c.perform_pair(self.plan_he[i, 0], self.plan_he[i, 1], self.plan_he[i, 2],
+                                        self.c.SP[self.plan_he[i, 1]], x, x[3], x[4], &x[5])
+                else:
+                    self.c.perform(self.plan_he[i, 0], self.plan_he[i, 1], x, x[3], x[4], -1.0, x[5], False)
+                if self.c.failed:
+                    return RUN_ERROR
+        else:
+            self.perform_parallel(n_acc, vol)
+        done[0] += n_acc
+        # 4. what they changed is ranked again next pass
+        for j in range(n_acc):
+            i = self.accepted[j]
+            self.dirty_ring(self.plan_he[i, 4])
+            if self.plan_he[i, 5] >= 0:
+                self.dirty_ring(self.plan_he[i, 5])
+        if self.c.hm.n_alive_faces <= target_faces:
+            return RUN_TARGET
+        return RUN_CHUNK
+
+    cdef void perform_parallel(self, int n_acc, double vol) noexcept nogil:
+        """Collapse the accepted candidates (single edges, no kernels) on several threads:
+        each writes only inside its closed 1-rings and its own record row; the counters are
+        then updated as :meth:`EdgeCollapser.perform` would have, in the same order."""
+        cdef int j, i, faces = 0, base = self.c.n_collapses
+        cdef double err
+        for j in range(n_acc):
+            i = self.accepted[j]
+            faces += 2 if self.m.twin[self.plan_he[i, 0]] >= 0 else 1
+        for j in prange(n_acc, num_threads=self.threads, schedule="dynamic", chunksize=32):
+            i = self.accepted[j]
+            self.c.perform_local(self.plan_he[i, 0], self.plan_he[i, 1], &self.plan_x[i, 0], self.plan_x[i, 3],
+                            self.plan_x[i, 4], -1.0, base + j, &self.dead[j, 0])
+        self.c.hm.n_alive_faces -= faces
+        self.c.hm.n_alive_vertices -= n_acc
+        if self.c.closed_volume != 0.0:
+            self.c.closed_volume = vol
+        self.c.n_collapses += n_acc
+        self.c.collapses_since_rescan += n_acc
+        for j in range(n_acc):
+            err = self.plan_x[self.accepted[j], 4]
+            if err > self.c.max_error_done:
+                self.c.max_error_done = err
+
+    cdef inline void refuse(self, int e, int r, int k) noexcept nogil:
+        self.state[e] = ST_REFUSED
+        self.c.refused[r] = 1
+        self.c.refused[k] = 1
+
+    cdef int run_c(self, int target_faces, int max_steps) noexcept nogil:
+        cdef int valid, k, n_sel, status, done, steps = 0, i, over
+        while self.c.hm.n_alive_faces > target_faces:
+            if steps >= max_steps:
+                return RUN_CHUNK
+            self.rank()
+            if self.c.failed:
+                return RUN_ERROR
+            valid = self.compact()
+            if valid == 0:
+                over = 0
+                for i in range(self.n_live):
+                    if self.state[self.live[i]] == ST_OVER:
+                        over += 1
+                self.c.n_rejected_error = over
+                return RUN_EXHAUSTED
+            k = <int>((valid + self.fraction - 1.0) / self.fraction)
+            if k < 1:
+                k = 1
+            n_sel = self.select(k)
+            if n_sel > k:
+                n_sel = k
+            done = 0
+            status = self.perform_pass(n_sel, target_faces, &done)
+            self.n_passes += 1
+            steps += done
+            if status != RUN_CHUNK:
+                return status
+        return RUN_TARGET
+
+    def run(self, int target_faces, int max_steps=2**31 - 1):
+        """Collapse until ``target_faces`` live faces remain or nothing legal is left; or
+        return after the pass in which ``max_steps`` collapses were reached (a chunk, for a
+        progress bar: passes are never cut, so chunks do not change the result).  Returns 0
+        (target), 1 (chunk done), 2 (exhausted) or 3 (a kernel failed)."""
+        cdef int status
+        with nogil:
+            status = self.run_c(target_faces, max_steps)
+        return status

@@ -11,7 +11,7 @@ import numpy as np
 
 from .._compile import Compiled, batch_result, compile_metrics
 from .._core.decimate import EdgeCollapser
-from .._core.passdriver import PassDriver
+from .._core.passes import PassDriver
 from .._pipeline import (RUN_EXHAUSTED, RUN_TARGET, STOP_MAX_ERROR, STOP_NO_COLLAPSE, STOP_TARGET, Run, Work,
                          closed_connected, progress_bar, run_chunked)
 from ..errors import MetricError
@@ -72,10 +72,14 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
     if compiled.batch:
         status, rejected_error, n_passes = run_passes(collapser, compiled, work, target, bar)
     elif passes:
-        driver = PassDriver(collapser, threads=int(settings["threads"][0]))
+        import os
+        driver = PassDriver(collapser, threads=int(settings["threads"][0]), fraction=float(os.environ.get("LODKIT_FRACTION", "6")))
         status = run_chunked(driver, hm, target, bar)
         rejected_error = collapser.n_rejected_error
         n_passes = driver.n_passes
+        import os
+        if os.environ.get("LODKIT_DEBUG_PASSES"):
+            print("checked", driver.n_checked, "collapses", collapser.n_collapses, "passes", n_passes)
     else:
         status = run_chunked(collapser, hm, target, bar)
         rejected_error = collapser.n_rejected_error
