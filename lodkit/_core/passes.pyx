@@ -150,12 +150,12 @@ cdef void mark_touched(PassCollapser c, int k, int stamp) noexcept nogil:
     cdef int ny
     c.touched[k] = stamp
     while True:
-        if c.wide_recost:
+        if c.opt.wide_recost:
             touch_ring(c, he_dest(c.m, y), stamp)
         c.touched[he_dest(c.m, y)] = stamp
         ny = he_ring_next(c.m, y)
         if ny < 0:
-            if c.wide_recost:
+            if c.opt.wide_recost:
                 touch_ring(c, c.m.corner[he_prev(y)], stamp)
             c.touched[c.m.corner[he_prev(y)]] = stamp
             return
