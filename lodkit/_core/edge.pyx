@@ -22,10 +22,10 @@ import numpy as np
 cimport numpy as cnp
 from libc.math cimport sqrt, INFINITY
 
-from .halfedge cimport HalfEdgeMesh, HEArrays, he_next, he_prev, he_dest, he_ring_next, he_is_boundary
+from .halfedge cimport HalfEdgeMesh, he_next, he_prev, he_dest, he_ring_next, he_is_boundary
 from .heap cimport IndexedHeap
 from .vec3 cimport cross3, dot3, same_point
-from .kernel cimport (Kernel, KernelMesh, Candidate, chain_place, chain_commit, fill_candidate,
+from .kernel cimport (Kernel, Candidate, chain_place, chain_commit, fill_candidate,
                       KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VERTEX_FIXED, VERTEX_BOUNDARY)
 from .common cimport (QSIZE, VSTRIDE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, RUN_ERROR, BOUNDARY_LOCK,
                       BOUNDARY_PRESERVE, BOUNDARY_FREE, PLACE_OPTIMAL, PLACE_ENDPOINT)
@@ -585,9 +585,9 @@ cdef class EdgeCollapser:
                         return False                 # the face would degenerate
                     if angle_exceeds(dot3(n0, n1), self.lim.cos_max_angle, len0, len1):
                         return False                 # the face would turn too far (or flip)
-                    if self.lim.check_orig and turned_from_input(n1[0] * self.N0[3 * f] + n1[1] * self.N0[3 * f + 1]
-                                                             + n1[2] * self.N0[3 * f + 2],
-                                                             self.lim.cos_orig_angle, 32767.0, len1):
+                    if self.lim.check_orig and turned_from_input(
+                            n1[0] * self.N0[3 * f] + n1[1] * self.N0[3 * f + 1] + n1[2] * self.N0[3 * f + 2],
+                            self.lim.cos_orig_angle, 32767.0, len1):
                         return False                 # turned away from the input face it stands for
                     if self.lim.min_quality > 0.0:
                         l2 = 0.0

@@ -106,8 +106,8 @@ cdef int collapse_pass_c(PassCollapser c, const int* E, int n_cand, const double
             continue
         if PO != NULL and c.SP != NULL and (c.SP[u] != SEAM_NONE or c.SP[v] != SEAM_NONE):
             pass            # a seam vertex stays where it is, whatever a batch metric says
-        elif PO != NULL and not ((c.vflags[u] | c.vflags[v]) & (VERTEX_FIXED if c.opt.boundary == BOUNDARY_FREE
-                                                                   else VERTEX_FIXED | VERTEX_BOUNDARY)):
+        elif PO != NULL and not ((c.vflags[u] | c.vflags[v])
+                                 & (VERTEX_FIXED if c.opt.boundary == BOUNDARY_FREE else VERTEX_FIXED | VERTEX_BOUNDARY)):
             # the batch metric placed it: both ends are free to move
             p[0] = PO[3 * i]
             p[1] = PO[3 * i + 1]

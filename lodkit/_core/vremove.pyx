@@ -26,13 +26,18 @@ from .halfedge cimport HalfEdgeMesh, HEArrays, he_next, he_prev, he_dest, he_rin
 from .heap cimport IndexedHeap
 from .vec3 cimport cross3, dot3
 from .kernel cimport KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VERTEX_FIXED, VERTEX_BOUNDARY
-from .removal cimport RemovalKernel, Star, Removal
+from .removal cimport RemovalKernel, Star, Removal, MAX_VALENCE as STAR_MAX_VALENCE
 from . cimport common
 from .common cimport MAX_VALENCE, BOUNDARY_LOCK, BOUNDARY_PRESERVE, BOUNDARY_FREE
 from .checks cimport (CheckLimits, check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality, face_volume,
                       turns_inside_out)
 
 cnp.import_array()
+
+# Star / Removal (removal.pxd, the public interface) are sized by its MAX_VALENCE, the driver's
+# and the half-edge arrays' buffers by common.pxd's: they must agree.
+if STAR_MAX_VALENCE != MAX_VALENCE:
+    raise ImportError(f"removal.pxd MAX_VALENCE ({STAR_MAX_VALENCE}) != common.pxd MAX_VALENCE ({MAX_VALENCE})")
 
 # statuses of run(): common.pxd's RunStatus (RUN_GROW stays inside run())
 RUN_TARGET = common.RUN_TARGET
