@@ -10,8 +10,28 @@ gives, so that a driver's floating-point result does not depend on this module: 
 is ``(a * b) * c``.  One test stays with each driver: the degenerate-face test (the edge
 driver refuses ``len <= 1e-12 * s``, vertex removal refuses ``not len > 1e-12 * s``: they
 differ for a NaN length, and the two sums ``s`` are not the same edges)."""
+from libc.math cimport cos, M_PI
+
 from .common cimport FOLD_COS, SQRT3
 from .vec3 cimport dot3
+
+
+cdef struct CheckLimits:     # what the checks allow: the same options in every driver
+    double cos_max_angle     # cos(max_normal_angle): the largest turn of a changed face
+    double cos_orig_angle    # cos(min(max_normal_angle, 90)): its largest turn from its input face
+    bint check_orig          # max_normal_angle < 180: the input-face and fold tests are on
+    double min_quality       # a face below this quality (and worse than before) is refused
+
+
+cdef inline CheckLimits check_limits(double max_normal_angle, double min_quality) noexcept nogil:
+    """The limits for ``max_normal_angle`` (degrees, in (0, 180], checked by the caller) and
+    ``min_quality`` (0: no quality test)."""
+    cdef CheckLimits lim
+    lim.cos_max_angle = cos(max_normal_angle * M_PI / 180.0)
+    lim.cos_orig_angle = cos((max_normal_angle if max_normal_angle < 90.0 else 90.0) * M_PI / 180.0)
+    lim.check_orig = max_normal_angle < 180.0
+    lim.min_quality = min_quality
+    return lim
 
 
 cdef inline bint angle_exceeds(double d, double cos_limit, double la, double lb) noexcept nogil:

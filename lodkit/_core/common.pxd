@@ -11,8 +11,9 @@ cdef enum RunStatus:     # what a driver's run() returns
     RUN_CHUNK = 1        # max_steps operations done, call again
     RUN_EXHAUSTED = 2    # no legal operation left (or none within max_error)
     RUN_ERROR = 3        # a native kernel reported an error (see the driver's error_message)
-    RUN_GROW = 4         # vertex removal with record=True: the record buffers are full;
-                         # run() grows them and goes on (never returned to Python)
+    # vertex removal with record=True: the record buffers are full; run() grows them and
+    # goes on (never returned to Python)
+    RUN_GROW = 4
 
 cdef enum BoundaryPolicy:
     BOUNDARY_LOCK = 0        # boundary vertices are fixed

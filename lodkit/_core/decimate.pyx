@@ -17,6 +17,8 @@ from .halfedge cimport HalfEdgeMesh
 from .quadric import face_unit_normals, vertex_quadrics, add_boundary_planes, general_quadric_marginal
 from . import edge as _edge, passes as _passes, triangle as _triangle
 
+__all__ = ["EdgeCollapser", "face_unit_normals", "vertex_quadrics", "add_boundary_planes", "general_quadric_marginal"]
+
 
 def EdgeCollapser(HalfEdgeMesh hm, positions, quadrics, attributes, fixed,
                   int placement=PLACE_OPTIMAL, int boundary=BOUNDARY_PRESERVE,

@@ -4,6 +4,7 @@ from .heap cimport IndexedHeap
 from .kernel cimport Kernel, KernelMesh
 from .fields cimport FieldSet
 from .quadric cimport AttributeQuadrics
+from .checks cimport CheckLimits
 
 cdef enum:
     SEAM_NONE = -1       # EdgeCollapser.seam: not on an attribute seam
@@ -13,15 +14,13 @@ cdef enum:
 cdef struct CollapseOptions:     # set once, in __init__
     int placement                # common.pxd Placement
     int boundary                 # common.pxd BoundaryPolicy
-    double cos_max_angle         # limit on a moved face's turn
-    double cos_orig_angle        # limit on the turn from the input face's normal
-    bint check_orig
-    double min_quality
     double max_error
     double quadric_weight        # 0 when no quadric metric: the quadric only places
     double error_scale           # error = sqrt(error_scale * Q(p) / area)
     bint use_heap                # False: the pass driver (batch metrics) runs instead
     bint has_extras              # any field or kernel
+    bint kernel_places           # a kernel may re-place the kept vertex
+    bint wide_recost             # a kernel's costs depend on the stars: re-rank the 2-ring
 
 
 cdef class Records:
@@ -54,6 +53,7 @@ cdef class EdgeCollapser:
     cdef unsigned char[::1] moved
     cdef unsigned char[::1] refused  # 1: an edge of this vertex was refused by a check
     cdef CollapseOptions opt
+    cdef CheckLimits lim            # the checks' limits (checks.pxd)
     cdef short[::1] face_n0         # (3 * n_faces,) unit normals of the input faces, x 32767
     cdef short* N0
     cdef bint released              # heap and quadrics freed after the run
@@ -68,8 +68,6 @@ cdef class EdgeCollapser:
     # the metric past the quadric: fields, native kernels
     cdef FieldSet fields
     cdef Kernel kernel              # first of the chain, None if no kernels
-    cdef bint kernel_places
-    cdef bint wide_recost           # a kernel's costs depend on the stars: re-rank the 2-ring
     cdef Kernel wide_kernel         # the only wide kernel (it may name the vertices), or None
     cdef int[::1] edge_stamp        # wide re-rank: edges already re-ranked for this collapse
     cdef int recost_counter

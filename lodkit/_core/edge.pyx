@@ -20,18 +20,18 @@ Quadric maths: quadric.pxd; the checks' expressions: checks.pxd; fields: fields.
 """
 import numpy as np
 cimport numpy as cnp
-from libc.math cimport sqrt, cos, M_PI, INFINITY
+from libc.math cimport sqrt, INFINITY
 
-from .halfedge cimport HalfEdgeMesh, HEArrays, he_next, he_prev, he_dest, he_ring_next, he_is_boundary
+from .halfedge cimport HalfEdgeMesh, he_next, he_prev, he_dest, he_ring_next, he_is_boundary
 from .heap cimport IndexedHeap
 from .vec3 cimport cross3, dot3, same_point
-from .kernel cimport (Kernel, KernelMesh, Candidate, chain_place, chain_commit, fill_candidate,
+from .kernel cimport (Kernel, Candidate, chain_place, chain_commit, fill_candidate,
                       KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VERTEX_FIXED, VERTEX_BOUNDARY)
 from .common cimport (QSIZE, VSTRIDE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, RUN_ERROR, BOUNDARY_LOCK,
                       BOUNDARY_PRESERVE, BOUNDARY_FREE, PLACE_OPTIMAL, PLACE_ENDPOINT)
 from .quadric cimport (AttributeQuadrics, sq, collapse_error, quadric_eval, take_if_lower, quadric_solve,
                        quadric_solve_truncated)
-from .checks cimport (angle_exceeds, turned_from_input, new_fold, folds, tri_quality, face_volume,
+from .checks cimport (check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality, face_volume,
                       turns_inside_out)
 from .fields cimport FieldSet, chain_cost_range, chain_failed, STEP_VFIELD, STEP_EFIELD
 from .quadric import face_unit_normals
@@ -145,15 +145,12 @@ cdef class EdgeCollapser:
             raise ValueError("max_normal_angle must be in (0, 180] degrees")
         self.opt.placement = placement
         self.opt.boundary = boundary
-        self.opt.cos_max_angle = cos(max_normal_angle * M_PI / 180.0)
-        self.opt.min_quality = min_quality
+        self.lim = check_limits(max_normal_angle, min_quality)
         self.opt.max_error = max_error
         # the collapse sequence (a progressive mesh) is only kept on request: 48 bytes/vertex
         self.rec = Records(n, self.n_attr, record)
         self.n_collapses = 0
         self.max_error_done = 0.0
-        self.opt.cos_orig_angle = cos(min(max_normal_angle, 90.0) * M_PI / 180.0)
-        self.opt.check_orig = max_normal_angle < 180.0
         self.face_n0 = face_unit_normals(hm, np.asarray(self.vdata)[:, QSIZE:])
         self.N0 = &self.face_n0[0] if hm.n_faces else NULL
         # the pass driver needs none; triangle collapse ranks faces
@@ -230,18 +227,18 @@ cdef class EdgeCollapser:
             if k is None:
                 raise TypeError("kernels must be lodkit._core.kernel.Kernel instances")
         self.kernel = kernels[0] if kernels else None
-        self.kernel_places = False
-        self.wide_recost = False
+        self.opt.kernel_places = False
+        self.opt.wide_recost = False
         self.wide_kernel = None
         if self.kernel is not None:
             self.kernel._chain(kernels[1:])
             for k in kernels:
-                self.kernel_places |= k.places
-                self.wide_recost |= k.wide
+                self.opt.kernel_places |= k.places
+                self.opt.wide_recost |= k.wide
             wide = [k for k in kernels if k.wide]
             if len(wide) == 1:
                 self.wide_kernel = wide[0]
-        self.edge_stamp = np.zeros(self.hm.n_edges if self.wide_recost else 1, dtype=np.intc)
+        self.edge_stamp = np.zeros(self.hm.n_edges if self.opt.wide_recost else 1, dtype=np.intc)
         self.recost_counter = 0
         self.kmesh.he = self.m
         self.kmesh.positions = self.P
@@ -465,7 +462,7 @@ cdef class EdgeCollapser:
         cdef int kept = v if r_out[0] == u else u
         if self.kernel is not None:
             fill_candidate(&cand, &self.kmesh, e, h, u, v, r_out[0], kept, p, 0.0, 0.0)
-            if self.kernel_places:
+            if self.opt.kernel_places:
                 rc = chain_place(self.kernel, &cand)
                 if rc != KERNEL_OK:
                     return self.kernel_refused(rc)
@@ -586,18 +583,18 @@ cdef class EdgeCollapser:
                     l1 = dot3(e2, e2)
                     if len1 <= 1e-12 * (l0 + l1):
                         return False                 # the face would degenerate
-                    if angle_exceeds(dot3(n0, n1), self.opt.cos_max_angle, len0, len1):
+                    if angle_exceeds(dot3(n0, n1), self.lim.cos_max_angle, len0, len1):
                         return False                 # the face would turn too far (or flip)
-                    if self.opt.check_orig and turned_from_input(n1[0] * self.N0[3 * f] + n1[1] * self.N0[3 * f + 1]
-                                                             + n1[2] * self.N0[3 * f + 2],
-                                                             self.opt.cos_orig_angle, 32767.0, len1):
+                    if self.lim.check_orig and turned_from_input(
+                            n1[0] * self.N0[3 * f] + n1[1] * self.N0[3 * f + 1] + n1[2] * self.N0[3 * f + 2],
+                            self.lim.cos_orig_angle, 32767.0, len1):
                         return False                 # turned away from the input face it stands for
-                    if self.opt.min_quality > 0.0:
+                    if self.lim.min_quality > 0.0:
                         l2 = 0.0
                         for i in range(3):
                             l2 += sq(self.P[VSTRIDE * b + i] - self.P[VSTRIDE * c + i])
                         q1 = tri_quality(len1, l0 + l1 + l2)
-                        if q1 < self.opt.min_quality:
+                        if q1 < self.lim.min_quality:
                             l0 = 0.0
                             l1 = 0.0
                             for i in range(3):
@@ -606,7 +603,7 @@ cdef class EdgeCollapser:
                             q0 = tri_quality(len0, l0 + l1 + l2)
                             if q1 < q0:
                                 return False         # a sliver, worse than before
-                    if self.opt.check_orig:
+                    if self.lim.check_orig:
                         # no new fold: the face must not bend back onto the neighbour across
                         # its far edge b-c, nor onto the previous face of the fan
                         t = self.m.twin[he_next(y)]
@@ -942,7 +939,7 @@ cdef class EdgeCollapser:
         (around k, or around its neighbours too for wide kernels)."""
         if not self.opt.use_heap:
             return
-        if self.wide_recost:
+        if self.opt.wide_recost:
             self.recost_wide(k)
         else:
             self.recost_ring(k)

@@ -135,8 +135,8 @@ cdef int collapse_pass_c(PassCollapser c, const int* E, int n_cand, const double
             continue
         if PO != NULL and c.SP != NULL and (c.SP[u] != SEAM_NONE or c.SP[v] != SEAM_NONE):
             pass            # a seam vertex stays where it is, whatever a batch metric says
-        elif PO != NULL and not ((c.vflags[u] | c.vflags[v]) & (VERTEX_FIXED if c.opt.boundary == BOUNDARY_FREE
-                                                                   else VERTEX_FIXED | VERTEX_BOUNDARY)):
+        elif PO != NULL and not ((c.vflags[u] | c.vflags[v])
+                                 & (VERTEX_FIXED if c.opt.boundary == BOUNDARY_FREE else VERTEX_FIXED | VERTEX_BOUNDARY)):
             # the batch metric placed it: both ends are free to move
             p[0] = PO[3 * i]
             p[1] = PO[3 * i + 1]
@@ -179,12 +179,12 @@ cdef void mark_touched(PassCollapser c, int k, int stamp) noexcept nogil:
     cdef int ny
     c.touched[k] = stamp
     while True:
-        if c.wide_recost:
+        if c.opt.wide_recost:
             touch_ring(c, he_dest(c.m, y), stamp)
         c.touched[he_dest(c.m, y)] = stamp
         ny = he_ring_next(c.m, y)
         if ny < 0:
-            if c.wide_recost:
+            if c.opt.wide_recost:
                 touch_ring(c, c.m.corner[he_prev(y)], stamp)
             c.touched[c.m.corner[he_prev(y)]] = stamp
             return

@@ -80,7 +80,6 @@ cdef inline bint quadric_solve(const double* q, double* p) noexcept nogil:
     return cofactor_solve(q, p, DET_EPS * tr * tr * tr)
 
 
-
 cdef inline void add_plane(double* q, double nx, double ny, double nz, double d, double w) noexcept nogil:
     q[0] += w * nx * nx
     q[1] += w * nx * ny
@@ -107,8 +106,9 @@ cdef class AttributeQuadrics:
     cdef double[:, ::1] gq          # (n, size)
     cdef double* GQ
     cdef int[::1] col               # attribute column of each quadric dimension past 3
-    cdef double[:, ::1] box         # (n, 2 (D - 3)): per channel, the least and the largest
-                                    # input value on the faces a slot stands for
+    # (n, 2 (D - 3)): per channel, the least and the largest input value on the faces a
+    # slot stands for
+    cdef double[:, ::1] box
 
     cdef void marginal(self, int u, int v, double* q) noexcept nogil
     cdef void marginal3(self, int a, int b, int c, double* q) noexcept nogil

@@ -224,7 +224,6 @@ def general_quadric_marginal(g, int D, p=None):
     return q, attrs
 
 
-
 cdef inline double face_cross(double[:, ::1] P, int a, int b, int c, double* nrm) noexcept nogil:
     """(b - a) x (c - a) into ``nrm`` (twice the area vector of face a b c); returns its length."""
     cdef double e1[3]

@@ -35,6 +35,15 @@ class MedianFilter:
     def __len__(self) -> int: ...
     def __contains__(self, cid: object) -> bool: ...
 
+class RemovalRecords:
+    """The removal sequence of a VertexRemover (record=True)."""
+
+    def __init__(self, n: int, on: bool) -> None: ...
+    def grow(self, cap: int, n_done: int) -> None:
+        """Make room for cap link entries, keeping the n_done removals written."""
+    def rows(self, r: int) -> dict[str, Any]:
+        """The first r removals as a dict of arrays."""
+
 class VertexRemover:
     """Greedy vertex removal over a HalfEdgeMesh (modified in place); see the module doc."""
 

@@ -20,19 +20,24 @@ Checks and their exact meaning: docs/algorithms.md, "Vertex removal".
 """
 import numpy as np
 cimport numpy as cnp
-from libc.math cimport sqrt, cos, M_PI, INFINITY
+from libc.math cimport sqrt, INFINITY
 
 from .halfedge cimport HalfEdgeMesh, HEArrays, he_next, he_prev, he_dest, he_ring_next, replace_star
 from .heap cimport IndexedHeap
 from .vec3 cimport cross3, dot3
 from .kernel cimport KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VERTEX_FIXED, VERTEX_BOUNDARY
-from .removal cimport RemovalKernel, Star, Removal
+from .removal cimport RemovalKernel, Star, Removal, MAX_VALENCE as STAR_MAX_VALENCE
 from . cimport common
 from .common cimport MAX_VALENCE, BOUNDARY_LOCK, BOUNDARY_PRESERVE, BOUNDARY_FREE
-from .checks cimport (angle_exceeds, turned_from_input, new_fold, folds, tri_quality, face_volume,
+from .checks cimport (CheckLimits, check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality, face_volume,
                       turns_inside_out)
 
 cnp.import_array()
+
+# Star / Removal (removal.pxd, the public interface) are sized by its MAX_VALENCE, the driver's
+# and the half-edge arrays' buffers by common.pxd's: they must agree.
+if STAR_MAX_VALENCE != MAX_VALENCE:
+    raise ImportError(f"removal.pxd MAX_VALENCE ({STAR_MAX_VALENCE}) != common.pxd MAX_VALENCE ({MAX_VALENCE})")
 
 # statuses of run(): common.pxd's RunStatus (RUN_GROW stays inside run())
 RUN_TARGET = common.RUN_TARGET
@@ -237,6 +242,64 @@ cdef inline double tri_normal(const double* a, const double* b, const double* c,
     return sqrt(dot3(n, n))
 
 
+cdef class RemovalRecords:
+    """The removal sequence of a VertexRemover: per removal the vertex, whether its star was
+    closed, its link (``off[i] .. off[i+1]`` in ``link``), the hole's k - 2 triangles (link
+    indices, at ``3 * (off[i] - 2 i)`` in ``tri``), the cost and the error.  ``on`` False:
+    one unused row."""
+    cdef bint on
+    cdef int n                      # rows: vertex slots
+    cdef int[::1] v
+    cdef unsigned char[::1] closed
+    cdef long long[::1] off
+    cdef int[::1] link
+    cdef unsigned char[::1] tri
+    cdef double[::1] cost
+    cdef double[::1] err
+    cdef long long cap              # capacity of link
+
+    def __init__(self, int n, bint on):
+        self.on = on
+        self.n = n
+        self.cap = 0
+
+    def grow(self, long long cap, int n_done):
+        """Make room for ``cap`` link entries, keeping the ``n_done`` removals written."""
+        cdef long long used = self.off[n_done] if self.cap else 0
+        cap = max(cap, 1)
+        if self.cap == 0:
+            nr = self.n if self.on else 0
+            self.v = np.zeros(max(nr, 1), dtype=np.intc)
+            self.closed = np.zeros(max(nr, 1), dtype=np.uint8)
+            self.off = np.zeros(nr + 1, dtype=np.int64)
+            self.cost = np.zeros(max(nr, 1))
+            self.err = np.zeros(max(nr, 1))
+            self.link = np.zeros(cap, dtype=np.intc)
+            self.tri = np.zeros(3 * cap, dtype=np.uint8)
+        else:
+            link = np.zeros(cap, dtype=np.intc)
+            link[:used] = np.asarray(self.link)[:used]
+            tri = np.zeros(3 * cap, dtype=np.uint8)
+            tri[:3 * used] = np.asarray(self.tri)[:3 * used]
+            self.link = link
+            self.tri = tri
+        self.cap = cap
+
+    def rows(self, int r):
+        """The first ``r`` removals as a dict of arrays (see ``VertexRemover.records``)."""
+        off = np.asarray(self.off)[:r + 1].copy()
+        total = int(off[r])
+        return {
+            "removed": np.asarray(self.v)[:r].copy(),
+            "closed": np.asarray(self.closed)[:r].astype(bool),
+            "offsets": off,
+            "link": np.asarray(self.link)[:total].copy(),
+            "triangles": np.asarray(self.tri)[:3 * (total - 2 * r)].astype(np.int64).reshape(-1, 3),
+            "cost": np.asarray(self.cost)[:r].copy(),
+            "error": np.asarray(self.err)[:r].copy(),
+        }
+
+
 cdef class VertexRemover:
     """Greedy vertex removal over a :class:`HalfEdgeMesh` (modified in place).
 
@@ -269,10 +332,7 @@ cdef class VertexRemover:
     cdef int[::1] band_buf
     cdef double[::1] n0             # (3 n_faces) unit normal of the input face of each face slot
     cdef int boundary
-    cdef double cos_max_angle
-    cdef double cos_orig_angle
-    cdef bint check_orig
-    cdef double min_quality
+    cdef CheckLimits lim            # the checks' limits (checks.pxd)
     cdef double max_error
     cdef double closed_volume
     cdef double pending_dvol
@@ -294,16 +354,7 @@ cdef class VertexRemover:
     cdef unsigned char[::1] ck      # the star's k at that evaluation
     cdef unsigned char[::1] cn      # the number of triangles
     cdef int slot_plan[MAX_VALENCE] # geometry_ok: the face slot each new triangle takes
-    # records
-    cdef bint record
-    cdef int[::1] rec_v
-    cdef unsigned char[::1] rec_closed
-    cdef long long[::1] rec_off     # removal i: link entries rec_off[i] .. rec_off[i+1]
-    cdef int[::1] rec_link
-    cdef unsigned char[::1] rec_tri # k - 2 triangles of removal i at 3 * (rec_off[i] - 2 i)
-    cdef double[::1] rec_cost
-    cdef double[::1] rec_err
-    cdef long long rec_cap          # capacity of rec_link
+    cdef RemovalRecords rec
 
     def __init__(self, HalfEdgeMesh hm, positions, RemovalKernel kernel, fixed,
                  int boundary=BOUNDARY_PRESERVE, double max_normal_angle=90.0, double min_quality=0.0,
@@ -346,10 +397,7 @@ cdef class VertexRemover:
         self.kmesh.n_vertices = n
         self.kmesh.n_faces = hm.n_faces
         self.star.mesh = &self.kmesh
-        self.cos_max_angle = cos(max_normal_angle * M_PI / 180.0)
-        self.cos_orig_angle = cos(min(max_normal_angle, 90.0) * M_PI / 180.0)
-        self.check_orig = max_normal_angle < 180.0
-        self.min_quality = min_quality
+        self.lim = check_limits(max_normal_angle, min_quality)
         self.max_error = max_error
         self.heap = IndexedHeap(n)
         self.filt = MedianFilter(n if self.gated else 0)
@@ -377,8 +425,7 @@ cdef class VertexRemover:
                 if hm.face_alive[f]:
                     self.closed_volume += face_volume(&self.P[3 * hm.corner[3 * f]], &self.P[3 * hm.corner[3 * f + 1]],
                                                       &self.P[3 * hm.corner[3 * f + 2]])
-        self.record = record
-        self.rec_cap = 0
+        self.rec = RemovalRecords(n, record)
         self._alloc_records(8 * n if record else 0)
         self.removals_since_rescan = 0
         self.reranks = 0
@@ -386,26 +433,8 @@ cdef class VertexRemover:
             self.rescan()
 
     def _alloc_records(self, long long cap):
-        cdef int n = self.hm.n_vertices
-        cdef long long used = self.rec_off[self.n_collapses] if self.rec_cap else 0
-        cap = max(cap, 1)
-        if self.rec_cap == 0:
-            nr = n if self.record else 0
-            self.rec_v = np.zeros(max(nr, 1), dtype=np.intc)
-            self.rec_closed = np.zeros(max(nr, 1), dtype=np.uint8)
-            self.rec_off = np.zeros(nr + 1, dtype=np.int64)
-            self.rec_cost = np.zeros(max(nr, 1))
-            self.rec_err = np.zeros(max(nr, 1))
-            self.rec_link = np.zeros(cap, dtype=np.intc)
-            self.rec_tri = np.zeros(3 * cap, dtype=np.uint8)
-        else:
-            link = np.zeros(cap, dtype=np.intc)
-            link[:used] = np.asarray(self.rec_link)[:used]
-            tri = np.zeros(3 * cap, dtype=np.uint8)
-            tri[:3 * used] = np.asarray(self.rec_tri)[:3 * used]
-            self.rec_link = link
-            self.rec_tri = tri
-        self.rec_cap = cap
+        """Make room for ``cap`` link entries in the records (keeping those written)."""
+        self.rec.grow(cap, self.n_collapses)
 
     # ------------------------------------------------------------- the star
     cdef int fill_star(self, int v) noexcept nogil:
@@ -706,7 +735,7 @@ cdef class VertexRemover:
             lnew[t] = tri_normal(&self.P[3 * a], &self.P[3 * b], &self.P[3 * c], &nnew[3 * t], &ss)
             if not lnew[t] > 1e-12 * ss:
                 return ST_GEOMETRY            # degenerate
-            if lN > 0.0 and angle_exceeds(dot3(&nnew[3 * t], N), self.cos_max_angle, lnew[t], lN):
+            if lN > 0.0 and angle_exceeds(dot3(&nnew[3 * t], N), self.lim.cos_max_angle, lnew[t], lN):
                 return ST_GEOMETRY            # turned too far from the star's mean normal
             # the face slot it takes: of the old faces' slots left, the one whose input face
             # is best aligned with it (greedy, in triangle order); it must stay within
@@ -723,7 +752,7 @@ cdef class VertexRemover:
                     best = i
             used[best] = 1
             self.slot_plan[t] = s.face[best]
-            if self.check_orig and turned_from_input(dbest, self.cos_orig_angle, 1.0, lnew[t]):
+            if self.lim.check_orig and turned_from_input(dbest, self.lim.cos_orig_angle, 1.0, lnew[t]):
                 return ST_GEOMETRY
             q = tri_quality(lnew[t], ss)
             if q < qmin_new:
@@ -738,9 +767,9 @@ cdef class VertexRemover:
                 b = self.rem.tri[3 * t + (c + 1) % 3]
                 if b != (a + 1) % k or (not s.closed and a == k - 1):
                     continue
-                if lold[a] > 0.0 and angle_exceeds(dot3(&nnew[3 * t], &nold[3 * a]), self.cos_max_angle, lnew[t], lold[a]):
+                if lold[a] > 0.0 and angle_exceeds(dot3(&nnew[3 * t], &nold[3 * a]), self.lim.cos_max_angle, lnew[t], lold[a]):
                     return ST_GEOMETRY
-                if not self.check_orig:
+                if not self.lim.check_orig:
                     continue
                 out = self.m.twin[he_next(self.hv[a])]        # link[a+1] -> link[a]
                 if out < 0:
@@ -749,13 +778,13 @@ cdef class VertexRemover:
                 lg = tri_normal(&self.P[3 * s.link[b]], &self.P[3 * s.link[a]], &self.P[3 * x3], ng, &ss)
                 if lg > 0.0 and new_fold(&nnew[3 * t], lnew[t], &nold[3 * a], lold[a], ng, lg):
                     return ST_GEOMETRY
-        if self.check_orig:
+        if self.lim.check_orig:
             # no fold between two new faces across a diagonal
             for t in range(k - 2):
                 for j in range(t + 1, k - 2):
                     if self.share_edge(t, j) and folds(&nnew[3 * t], lnew[t], &nnew[3 * j], lnew[j]):
                         return ST_GEOMETRY
-        if self.min_quality > 0.0 and k > 2 and qmin_new < self.min_quality and qmin_new < qmin_old:
+        if self.lim.min_quality > 0.0 and k > 2 and qmin_new < self.lim.min_quality and qmin_new < qmin_old:
             return ST_QUALITY
         if self.closed_volume != 0.0:
             if turns_inside_out(self.closed_volume, dvol):
@@ -787,18 +816,18 @@ cdef class VertexRemover:
         replace_star(self.hm, v, s.link, s.face, k, s.closed, self.rem.tri, k - 2, slot_of, dead)
         if self.closed_volume != 0.0:
             self.closed_volume += self.pending_dvol
-        if self.record:
+        if self.rec.on:
             i = self.n_collapses
-            off = self.rec_off[i]
-            self.rec_v[i] = v
-            self.rec_closed[i] = s.closed
+            off = self.rec.off[i]
+            self.rec.v[i] = v
+            self.rec.closed[i] = s.closed
             for j in range(k):
-                self.rec_link[off + j] = s.link[j]
+                self.rec.link[off + j] = s.link[j]
             for j in range(3 * (k - 2)):
-                self.rec_tri[3 * (off - 2 * i) + j] = <unsigned char>self.rem.tri[j]
-            self.rec_off[i + 1] = off + k
-            self.rec_cost[i] = self.rem.cost
-            self.rec_err[i] = self.rem.error
+                self.rec.tri[3 * (off - 2 * i) + j] = <unsigned char>self.rem.tri[j]
+            self.rec.off[i + 1] = off + k
+            self.rec.cost[i] = self.rem.cost
+            self.rec.err[i] = self.rem.error
         self.n_collapses += 1
         self.removals_since_rescan += 1
         self.reranks = 0
@@ -832,7 +861,7 @@ cdef class VertexRemover:
                 self.sync_median()
             if steps >= max_steps:
                 return common.RUN_CHUNK
-            if self.record and self.rec_off[self.n_collapses] + MAX_VALENCE > self.rec_cap:
+            if self.rec.on and self.rec.off[self.n_collapses] + MAX_VALENCE > self.rec.cap:
                 return common.RUN_GROW
             if self.heap.pop_fast(&v, &key) < 0:
                 if self.removals_since_rescan == 0:
@@ -890,7 +919,7 @@ cdef class VertexRemover:
             left -= self.n_collapses - before
             if status != common.RUN_GROW:
                 return status
-            self._alloc_records(2 * self.rec_cap + 64)
+            self._alloc_records(2 * self.rec.cap + 64)
 
     @property
     def error_message(self):
@@ -946,20 +975,9 @@ cdef class VertexRemover:
         ``link[offsets[i]:offsets[i+1]]``, k_i entries), ``triangles`` (sum (k_i - 2), 3)
         link indices (removal i's at rows offsets[i] - 2 i onwards), ``cost``, ``error``.
         Needs ``record=True``."""
-        if not self.record:
+        if not self.rec.on:
             raise RuntimeError("this VertexRemover was made with record=False")
-        r = self.n_collapses
-        off = np.asarray(self.rec_off)[:r + 1].copy()
-        total = int(off[r])
-        return {
-            "removed": np.asarray(self.rec_v)[:r].copy(),
-            "closed": np.asarray(self.rec_closed)[:r].astype(bool),
-            "offsets": off,
-            "link": np.asarray(self.rec_link)[:total].copy(),
-            "triangles": np.asarray(self.rec_tri)[:3 * (total - 2 * r)].astype(np.int64).reshape(-1, 3),
-            "cost": np.asarray(self.rec_cost)[:r].copy(),
-            "error": np.asarray(self.rec_err)[:r].copy(),
-        }
+        return self.rec.rows(self.n_collapses)
 
     def evaluate_vertex(self, int v):
         """For tests: ``(state name, cost, error, gate, triangles)`` of the kernel's answer
