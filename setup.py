@@ -5,7 +5,7 @@ import numpy
 from Cython.Build import cythonize
 from setuptools import Extension, setup
 
-MODULES = ["heap", "halfedge", "kernel", "decimate", "qem_kernel", "melod_kernel", "curvature_kernel", "testkernels",
+MODULES = ["heap", "halfedge", "kernel", "decimate", "qem_kernel", "melod_kernel", "curvature_kernel",
            "removal", "retriangulate", "vremove", "schroeder_kernel", "volume_kernel", "cluster"]
 # LODKIT_BUILD_ONLY=a,b builds only those modules (development: others may be mid-edit)
 _only = [m for m in os.environ.get("LODKIT_BUILD_ONLY", "").split(",") if m]

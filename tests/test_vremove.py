@@ -19,12 +19,13 @@ from conftest import shared_mesh
 from lodkit import MetricError, OptionError
 from lodkit._core.halfedge import build, triangulation_ok
 from lodkit._core.retriangulate import py_closest_line_apex, py_fan_from
-from lodkit._core.testkernels import PlaneFan
 from lodkit._core.vremove import STATE_NAMES, MedianFilter, VertexRemover
 from lodkit.metrics.base import Option, RemovalMetric
+from native import load
 from test_simplify import BROKEN, check_real_result, face_soups, manifold_meshes, signed_volume
 
 REPO = Path(__file__).resolve().parent.parent
+PlaneFan = load("lodkit_testkernels").PlaneFan      # tests/native/lodkit_testkernels.pyx
 SETTINGS = settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 
