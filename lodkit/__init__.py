@@ -15,8 +15,7 @@ from .progressive import ProgressiveMesh, progressive
 from .evaluate import Evaluation, Evaluator, evaluate
 from .compare import Comparison, compare
 from . import metrics
-
-__version__ = "0.1.0"
+from .version import __version__
 
 __all__ = [
     "ClusterResult",

@@ -16,6 +16,7 @@ import time
 import numpy as np
 
 from .errors import LodkitError, MeshIOError
+from .version import __version__
 
 __all__ = ["main"]
 
@@ -66,8 +67,6 @@ def main(argv=None) -> int:
 
 # ---------------------------------------------------------------------- the parser
 def _build_parser() -> argparse.ArgumentParser:
-    from . import __version__
-
     parser = _Parser(prog=PROG, description="Simplify triangle meshes into levels of detail.")
     parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)

@@ -25,6 +25,7 @@ from importlib import metadata
 from typing import Any, Callable, Iterable, Optional
 
 from ..errors import MetricError, OptionError, UnknownMetricError
+from ..version import __version__
 from .base import (ATTRIBUTE_WIDTHS, KINDS, Batch, BatchMetric, FieldMetric, KernelMetric, Metric,
                    MetricContext, Option, QuadricMetric, RemovalMetric, check_metric_class, pack_quadrics,
                    packed_size, unpack_quadrics)
@@ -120,8 +121,6 @@ def _entry_points() -> Iterable[Any]:
 
 
 def _lodkit_version() -> str:
-    from .. import __version__
-
     return __version__
 
 
