@@ -54,9 +54,8 @@ def batch_qem_class():
 
 def noop_kernel_metric():
     sys.path.insert(0, str(REPO / "tests"))
-    from native import load        # tests/native: the test-only kernels, built on first use
-
     from lodkit.metrics import KernelMetric
+    from native import load  # tests/native: the test-only kernels, built on first use
 
     ScaleBy = load("lodkit_testkernels").ScaleBy
 
@@ -88,9 +87,10 @@ def configurations(n_vertices: int) -> list[tuple[str, object, str]]:
 
 
 def run(meshes: list[str], ratio: float, rounds: int, samples: int) -> dict:
-    import lodkit
     from meshes import load_arrays
     from metro import compare
+
+    import lodkit
 
     out = {"ratio": ratio, "rounds": rounds, "meshes": {}}
     for name in meshes:

@@ -10,10 +10,10 @@ temporary entry points), so plugins installed in the environment do not change r
 from __future__ import annotations
 
 import ast
-import re
 import importlib
 import json
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -26,16 +26,15 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import lodkit
-from test_qem import uv_sphere
-from test_simplify import grid
 import lodkit.metrics as M
 from lodkit import MetricError, OptionError, UnknownMetricError
 from lodkit._core.decimate import EdgeCollapser, vertex_quadrics
 from lodkit._core.halfedge import build
 from lodkit._core.kernel import API_VERSION, ERROR, OK, VETO, Kernel
-from lodkit.metrics import (BatchMetric, FieldMetric, KernelMetric, Metric, Option,
-                            QuadricMetric)
+from lodkit.metrics import BatchMetric, FieldMetric, KernelMetric, Metric, Option, QuadricMetric
 from native import load
+from test_qem import uv_sphere
+from test_simplify import grid
 
 testkernels = load("lodkit_testkernels")    # tests/native/lodkit_testkernels.pyx, built for the tests
 
@@ -352,13 +351,13 @@ def test_broken_plugin_is_reported_and_does_not_break_the_others(fake_entry_poin
         lodkit.simplify(mesh, target_ratio=0.3, metric=["qem", "broken"])
 
 
-def _write_dist(root: Path, name: str, version: str, entry_points: dict, modules: dict = {}) -> None:
+def _write_dist(root: Path, name: str, version: str, entry_points: dict, modules: dict | None = None) -> None:
     info = root / f"{name.replace('-', '_')}-{version}.dist-info"
     info.mkdir(parents=True)
     (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {name}\nVersion: {version}\n")
     lines = [f"[{M.GROUP}]"] + [f"{k} = {v}" for k, v in entry_points.items()]
     (info / "entry_points.txt").write_text("\n".join(lines) + "\n")
-    for module, source in modules.items():
+    for module, source in (modules or {}).items():
         (root / f"{module}.py").write_text(textwrap.dedent(source))
 
 
@@ -385,7 +384,8 @@ def test_real_entry_points_from_an_installed_distribution(tmp_path, monkeypatch)
     found = {i.name: i for i in M.available(load=True)}
     assert set(BUILTIN_NAMES) <= set(found)
     broken, good = found["acme_broken"], found["acme_good"]
-    assert (broken.package, broken.version, broken.source, broken.loaded) == ("acme-metrics", "1.2", "entry point", False)
+    assert ((broken.package, broken.version, broken.source, broken.loaded)
+            == ("acme-metrics", "1.2", "entry point", False))
     assert "No module named 'acme_no_such_module'" in broken.error
     assert (good.loaded, good.kind, good.description) == (True, "quadric", "QEM again, from a plugin.")
     mesh = grid_mesh(8, 8)
@@ -826,7 +826,8 @@ def test_edge_field_end_to_end(registry):
     tagged = lodkit.simplify(mesh, target_ratio=0.2, metric=["qem", ("edge_tag", {"weight": 1000.0})])
     assert tagged.report["metrics"] == ["qem", "edge_tag"]
     assert kept_in(tagged, left) >= kept_in(qem, left) + 15
-    with pytest.raises(MetricError, match=r"metric 'BadField' returned vertex field values of shape \(442,\); expected \(441,\) or \(441, k\)"):
+    with pytest.raises(MetricError, match=r"metric 'BadField' returned vertex field values of shape \(442,\); "
+                                          r"expected \(441,\) or \(441, k\)"):
         lodkit.simplify(mesh, target_ratio=0.2, metric=["qem", BadField])
 
 
@@ -1047,7 +1048,8 @@ def test_combining_changes_the_result_in_the_expected_direction():
     assert counts == sorted(counts) and counts[-1] > counts[0]
     # a field and a kernel and a batch metric together still reach the target
     r = lodkit.simplify(mesh, target_ratio=0.2,
-                        metric=["qem", ("importance", {"values": vals, "weight": 10.0}), Scale(factor=2.0), ShortestEdge])
+                        metric=["qem", ("importance", {"values": vals, "weight": 10.0}), Scale(factor=2.0),
+                                ShortestEdge])
     assert r.stop_reason == "target_faces" and r.report["metrics"] == ["qem", "importance", "Scale", "ShortestEdge"]
 
 

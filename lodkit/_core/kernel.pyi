@@ -4,7 +4,8 @@ The C-level part (``Candidate``, ``KernelMesh``, the nogil ``place``/``cost``/``
 methods, ``fail``) is only reachable from Cython through ``cimport``; these are the names
 Python sees.
 """
-from typing import Any, ClassVar, Iterable, Literal, Optional, Sequence
+from collections.abc import Iterable, Sequence
+from typing import Any, ClassVar, Literal
 
 #: The kernel API version this lodkit was built with (KERNEL_API_VERSION in kernel.pxd).
 API_VERSION: int
@@ -37,7 +38,7 @@ class Kernel:
     @property
     def message(self) -> str:
         """The message given to ``fail`` ('' if it was never called)."""
-    def _next_kernel(self) -> Optional[Kernel]: ...
+    def _next_kernel(self) -> Kernel | None: ...
     def _chain(self, kernels: Iterable[Kernel]) -> None:
         """Link this kernel to the following ones (driver use)."""
     def _call(

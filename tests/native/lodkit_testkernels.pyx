@@ -7,7 +7,7 @@ FailAfter      reports an error from nogil code after ``n`` cost calls
 MidpointPlacer places the kept vertex at the edge midpoint (a kernel that ``places``)
 ScaleBy        multiplies the cost so far by ``factor`` and counts its calls
 """
-from lodkit._core.kernel cimport Kernel, Candidate, KernelMesh, vertex_position, KERNEL_OK, KERNEL_VETO, KERNEL_API_VERSION
+from lodkit._core.kernel cimport Kernel, Candidate, vertex_position, KERNEL_OK, KERNEL_VETO, KERNEL_API_VERSION
 
 
 cdef class VetoAll(Kernel):
