@@ -3,7 +3,7 @@
 The same QEM cost run several ways, on the same meshes, in one process, interleaved:
 
   qem            the quadrics hard-wired in the core (the reference)
-  qem_native     QEM computed by a native kernel through lodkit/_core/kernel.pxd
+  qem_native     QEM computed by a native kernel through lodkit/kernel.pxd
   qem + no-op    QEM plus a kernel that multiplies by 1 (the dispatch alone)
   qem + field    QEM with a vertex field of zeros (the field path's overhead)
   qem_batch      QEM's cost through the Python batch pass driver (a BatchMetric that

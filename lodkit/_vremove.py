@@ -23,8 +23,8 @@ def simplify_removal(src, was_o3d, metrics, settings, *, target, max_error, abso
     removal record described in docs/algorithms.md."""
     from . import api
     from ._core.decimate import vertex_quadrics
-    from ._core.removal import RemovalKernel
     from ._core.vremove import VertexRemover
+    from .removal import RemovalKernel
 
     if len(metrics) != 1:
         names = ", ".join(repr(m.name) for m in metrics)
@@ -59,7 +59,7 @@ def simplify_removal(src, was_o3d, metrics, settings, *, target, max_error, abso
     kernel = metric.make_kernel(ctx)
     if not isinstance(kernel, RemovalKernel):
         raise MetricError(f"metric {metric.name!r}: make_kernel returned {type(kernel).__name__}, "
-                          f"not a lodkit._core.removal.RemovalKernel")
+                          f"not a lodkit.removal.RemovalKernel")
     err_limit = math.inf
     if max_error is not None:
         err_limit = float(max_error) / (prep.scale if absolute else 1.0)
@@ -83,8 +83,8 @@ def simplify_removal(src, was_o3d, metrics, settings, *, target, max_error, abso
         stop, detail = api.STOP_MAX_ERROR, f"{held['max_error']} candidate removals exceed max_error"
     else:
         stop, detail = api.STOP_NO_COLLAPSE, _detail(remover, held)
-        if held.get("kernel") and hasattr(kernel, "veto_note"):    # e.g. volume: "... hyperbolic"
-            detail += "; " + kernel.veto_note()
+        note = kernel.veto_note() if held.get("kernel") else ""   # e.g. volume: "... hyperbolic"
+        detail += "; " + note if note else ""
 
     shim = SimpleNamespace(moved_vertices=np.zeros(hm.n_vertices, dtype=bool),
                            positions=vdata[:, 11:], attributes=attr_in)

@@ -30,7 +30,7 @@ import lodkit.metrics as M
 from lodkit import MetricError, OptionError, UnknownMetricError
 from lodkit._core.decimate import EdgeCollapser, vertex_quadrics
 from lodkit._core.halfedge import build
-from lodkit._core.kernel import API_VERSION, ERROR, OK, VETO, Kernel
+from lodkit.kernel import API_VERSION, ERROR, OK, VETO, Kernel
 from lodkit.metrics import BatchMetric, FieldMetric, KernelMetric, Metric, Option, QuadricMetric
 from native import load
 from test_qem import uv_sphere
@@ -419,7 +419,7 @@ def test_import_lodkit_is_unaffected_by_a_broken_plugin(tmp_path):
     (NoKindMetric, "has kind ''"),
     (FaceField, "per='face'"),
     (BadOptionMetric, "option 'size' is 3"),
-    (NotAKernelMetric, "not a subclass of lodkit._core.kernel.Kernel"),
+    (NotAKernelMetric, "not a subclass of lodkit.kernel.Kernel"),
     (NoVersionMetric, "does not state the kernel API"),
     (OtherVersionMetric, f"built for kernel API version {API_VERSION + 1}, this lodkit has version {API_VERSION}"),
 ], ids=["function", "plain class", "no kind", "face field", "bad option", "not a kernel",
@@ -834,7 +834,7 @@ def test_edge_field_end_to_end(registry):
 # ---------------------------------------------------------------------- kernels
 def test_kernel_interface_constants():
     assert (OK, VETO, ERROR) == (0, 1, -1)
-    assert Kernel.api_version == API_VERSION == 2
+    assert Kernel.api_version == API_VERSION == 3
     from lodkit._core.qem_kernel import QEMKernel
 
     for cls in (QEMKernel, testkernels.VetoAll, testkernels.FailAfter, testkernels.MidpointPlacer,
@@ -1122,14 +1122,22 @@ def test_any_combination_keeps_the_mesh_valid(case, ratio, boundary, placement):
 
 
 # ---------------------------------------------------------------------- stubs
-# every compiled module has a stub (setup.py MODULES)
-STUBBED = [m for m in ast.literal_eval(re.search(r"^MODULES = (\[.*?\])", (REPO / "setup.py").read_text(),
-                                                   re.S | re.M).group(1))]
+# every compiled module has a stub (setup.py MODULES in lodkit._core, PUBLIC_MODULES in lodkit)
+def _setup_list(name: str) -> list[str]:
+    found = re.search(rf"^{name} = (\[.*?\])", (REPO / "setup.py").read_text(), re.S | re.M)
+    return ast.literal_eval(found.group(1))
+
+
+STUBBED = ([f"_core.{m}" for m in _setup_list("MODULES")] + _setup_list("PUBLIC_MODULES"))
+
+
+def _stub_path(module: str) -> Path:
+    return REPO / "lodkit" / (module.replace(".", "/") + ".pyi")
 
 
 def test_every_compiled_module_is_stubbed():
-    assert len(STUBBED) >= 13
-    missing = [m for m in STUBBED if not (REPO / "lodkit" / "_core" / f"{m}.pyi").is_file()]
+    assert len(STUBBED) >= 14 and {"kernel", "removal"} <= set(STUBBED)
+    missing = [m for m in STUBBED if not _stub_path(m).is_file()]
     assert not missing, f"no .pyi stub for {missing}"
 
 
@@ -1157,8 +1165,8 @@ def _stub_names(path: Path) -> dict:
 
 @pytest.mark.parametrize("module", STUBBED)
 def test_stubs_name_every_python_visible_name(module):
-    mod = importlib.import_module(f"lodkit._core.{module}")
-    stub = _stub_names(REPO / "lodkit" / "_core" / f"{module}.pyi")
+    mod = importlib.import_module(f"lodkit.{module}")
+    stub = _stub_names(_stub_path(module))
     public = {n for n, o in vars(mod).items() if not n.startswith("_") and n != "np"
               and getattr(o, "__module__", mod.__name__) == mod.__name__}
     assert public <= set(stub), f"not in {module}.pyi: {sorted(public - set(stub))}"
@@ -1176,9 +1184,9 @@ def test_stubs_name_every_python_visible_name(module):
 
 
 def test_removal_metric_kernel_is_checked():
-    from lodkit._core.kernel import Kernel
-    from lodkit._core.removal import API_VERSION, RemovalKernel
     from lodkit._core.schroeder_kernel import SchroederKernel
+    from lodkit.kernel import Kernel
+    from lodkit.removal import API_VERSION, RemovalKernel
 
     class EdgeKernelAsRemoval(M.RemovalMetric):
         kernel = Kernel
@@ -1189,7 +1197,7 @@ def test_removal_metric_kernel_is_checked():
     class GoodRemoval(M.RemovalMetric):
         kernel = SchroederKernel
 
-    assert "not a subclass of lodkit._core.removal.RemovalKernel" in M.check_metric_class(EdgeKernelAsRemoval)
-    assert "not a subclass of lodkit._core.removal.RemovalKernel" in M.check_metric_class(BaseRemoval)
+    assert "not a subclass of lodkit.removal.RemovalKernel" in M.check_metric_class(EdgeKernelAsRemoval)
+    assert "not a subclass of lodkit.removal.RemovalKernel" in M.check_metric_class(BaseRemoval)
     assert M.check_metric_class(GoodRemoval) is None
     assert vars(SchroederKernel)["api_version"] == API_VERSION

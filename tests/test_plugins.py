@@ -139,7 +139,7 @@ def test_plugin_is_listed_with_its_package_version_and_kind(name):
 
 
 def test_native_kernel_states_the_kernel_api_it_was_built_for(max_edge):
-    from lodkit._core.kernel import API_VERSION, Kernel
+    from lodkit.kernel import API_VERSION, Kernel
 
     cls = metrics.get("max_edge_length")
     assert issubclass(cls.kernel, Kernel)

@@ -1,7 +1,8 @@
 # cython: language_level=3
 from .halfedge cimport HalfEdgeMesh, HEArrays
 from .heap cimport IndexedHeap
-from .kernel cimport Kernel, KernelMesh, Candidate
+from lodkit.kernel cimport Kernel, KernelMesh, Candidate
+from .chain cimport KernelChain
 
 cdef enum BoundaryPolicy:
     BOUNDARY_LOCK = 0
@@ -123,6 +124,7 @@ cdef class EdgeCollapser:
     cdef double[:, ::1] efield
     cdef double[:, ::1] erules
     cdef Kernel kernel              # first of the chain, None if no kernels
+    cdef KernelChain chain          # the kernels in order (lodkit._core.chain), None if none
     cdef bint kernel_places
     cdef bint wide_recost           # a kernel's costs depend on the stars: re-rank the 2-ring
     cdef Kernel wide_kernel         # the only wide kernel (it may name the vertices), or None

@@ -4,8 +4,8 @@ from typing import Iterable, Optional, TypedDict
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..kernel import Kernel
 from .halfedge import HalfEdgeMesh
-from .kernel import Kernel
 
 def face_unit_normals(hm: HalfEdgeMesh, positions: ArrayLike) -> NDArray[np.int16]:
     """(n_faces * 3,) int16 unit normals of the face slots, scaled by 32767 (zeros for

@@ -20,8 +20,9 @@ from libc.math cimport sqrt, fabs, cos, M_PI, INFINITY
 from .halfedge cimport HalfEdgeMesh, HEArrays, he_next, he_prev, he_dest, he_ring_next, he_is_boundary
 from .heap cimport IndexedHeap
 from .vec3 cimport cross3, dot3, same_point
-from .kernel cimport (Kernel, KernelMesh, Candidate, chain_place, chain_cost, chain_commit,
-                      fill_candidate, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR)
+from lodkit.kernel cimport Kernel, Candidate, fill_candidate, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR
+from .chain cimport chain_place, chain_cost, chain_cost_range, chain_commit, chain_failed
+from .chain import make_chain
 
 cnp.import_array()
 
@@ -441,25 +442,6 @@ cdef inline double apply_field(double cost, double value, const double* rule) no
     return cost + rule[RULE_WEIGHT] * value
 
 
-cdef int chain_cost_range(Kernel k, Candidate* c, int skip, int count) noexcept nogil:
-    """cost() of ``count`` kernels of the chain, starting ``skip`` kernels past ``k``."""
-    cdef int rc
-    if skip > 0:
-        return chain_cost_range(k._next, c, skip - 1, count)
-    rc = k.cost(c)
-    if rc != KERNEL_OK:
-        return rc
-    if count > 1 and k._next is not None:
-        return chain_cost_range(k._next, c, 0, count - 1)
-    return KERNEL_OK
-
-
-cdef bint chain_failed(Kernel k) noexcept nogil:
-    if k.failed:
-        return True
-    return k._next is not None and chain_failed(k._next)
-
-
 cdef inline double merge_value(double kept, double removed, int rule) noexcept nogil:
     if rule == MERGE_MAX:
         return kept if kept > removed else removed
@@ -720,13 +702,13 @@ cdef class EdgeCollapser:
         kernels = list(kernels)
         for k in kernels:            # type-checks each one
             if k is None:
-                raise TypeError("kernels must be lodkit._core.kernel.Kernel instances")
+                raise TypeError("kernels must be lodkit.kernel.Kernel instances")
+        self.chain = make_chain(kernels)
         self.kernel = kernels[0] if kernels else None
         self.kernel_places = False
         self.wide_recost = False
         self.wide_kernel = None
         if self.kernel is not None:
-            self.kernel._chain(kernels[1:])
             for k in kernels:
                 self.kernel_places |= k.places
                 self.wide_recost |= k.wide
@@ -984,7 +966,7 @@ cdef class EdgeCollapser:
         if self.kernel is not None:
             fill_candidate(&cand, &self.kmesh, e, h, u, v, r_out[0], kept, p, 0.0, 0.0)
             if self.kernel_places:
-                rc = chain_place(self.kernel, &cand)
+                rc = chain_place(self.chain, &cand)
                 if rc != KERNEL_OK:
                     return self.kernel_refused(rc)
                 if not ((cand.removed == u and cand.kept == v) or (cand.removed == v and cand.kept == u)):
@@ -1035,10 +1017,10 @@ cdef class EdgeCollapser:
                 # removed / kept / p in cand are current: set above, or by place() and copied out
                 cand.cost = total
                 cand.error = e_err
-                if step[1] == 0 and self.kernel._next is None:
+                if step[1] == 0 and self.chain.next is None:
                     rc = self.kernel.cost(&cand)
                 else:
-                    rc = chain_cost_range(self.kernel, &cand, step[1], step[2] - step[1])
+                    rc = chain_cost_range(self.chain, &cand, step[1], step[2] - step[1])
                 if rc != KERNEL_OK:
                     return self.kernel_refused(rc)
                 total = cand.cost
@@ -1052,7 +1034,7 @@ cdef class EdgeCollapser:
             self.n_vetoed += 1
             return -1
         self.failed = True            # KERNEL_ERROR, or anything else a kernel should not return
-        if not chain_failed(self.kernel):
+        if not chain_failed(self.chain):
             self.kernel.fail(b"a kernel returned an unknown status (not KERNEL_OK, KERNEL_VETO nor KERNEL_ERROR)")
         return -2
 
@@ -1445,7 +1427,7 @@ cdef class EdgeCollapser:
         if self.kernel is not None:
             # both ends are k now: u, v are not meaningful, removed / kept are
             fill_candidate(&cand, &self.kmesh, dead[0], h, r, k, r, k, p, cost, err)
-            if chain_commit(self.kernel, &cand) == KERNEL_ERROR:
+            if chain_commit(self.chain, &cand) == KERNEL_ERROR:
                 self.failed = True
                 return
         if not self.defer_recost:
@@ -2024,7 +2006,7 @@ cdef class EdgeCollapser:
                     # the kernels judged the core's position: ask them again about this one
                     # (only their verdict counts here; the batch has ranked already)
                     fill_candidate(&cand, &self.kmesh, e, h, u, v, r, v if r == u else u, p, cost, err)
-                    rc = chain_cost(self.kernel, &cand)
+                    rc = chain_cost(self.chain, &cand)
                     if rc != KERNEL_OK:
                         if self.kernel_refused(rc) == -2:
                             return -1
@@ -2183,11 +2165,9 @@ cdef class EdgeCollapser:
     @property
     def error_message(self):
         """The message of the kernel that failed ('' if none did)."""
-        k = self.kernel
-        while k is not None:
+        for k in (self.chain.kernels() if self.chain is not None else ()):
             if k.failed:
                 return k.message
-            k = k._next_kernel()
         return ""
 
     @property

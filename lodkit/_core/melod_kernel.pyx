@@ -29,8 +29,8 @@ from libc.math cimport sqrt, INFINITY
 
 from .halfedge cimport HEArrays, he_prev, he_dest, he_ring_next
 from .vec3 cimport sub3, cross3, dot3, norm3, same_point
-from .kernel cimport (Kernel, Candidate, KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_API_VERSION,
-                      VERTEX_FIXED, VERTEX_BOUNDARY)
+from lodkit.kernel cimport (Kernel, Candidate, KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_API_VERSION,
+                            VERTEX_FIXED, VERTEX_BOUNDARY)
 
 cdef enum:
     ACC_OFF = 0       # no accumulation

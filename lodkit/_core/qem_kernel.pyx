@@ -8,7 +8,7 @@ It exists to measure what the interface costs (bench/) and as a worked example.
 """
 import numpy as np
 
-from .kernel cimport Kernel, Candidate, KERNEL_OK, KERNEL_API_VERSION
+from lodkit.kernel cimport Kernel, Candidate, KERNEL_OK, KERNEL_API_VERSION
 
 
 cdef class QEMKernel(Kernel):

@@ -4,7 +4,7 @@ from typing import Any, ClassVar, TypedDict
 
 import numpy as np
 
-from .removal import RemovalKernel
+from ..removal import RemovalKernel
 
 #: vertex classes (codes of ``evaluate_star(...)["cls"]``)
 SIMPLE: int

@@ -6,7 +6,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .removal import RemovalKernel
+from ..removal import RemovalKernel
 
 #: classification codes of a star
 DEGENERATE: int

@@ -58,8 +58,8 @@ import numpy as np
 
 from libc.math cimport sqrt, fabs, atan2, acos, cos, NAN, INFINITY, M_PI
 
-from .kernel cimport (KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VERTEX_FIXED)
-from .removal cimport (RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION)
+from lodkit.kernel cimport (KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VERTEX_FIXED)
+from lodkit.removal cimport (RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION)
 from .retriangulate cimport closest_line_apex, fan_from
 from .removal_star cimport star_on_points
 from .vec3 cimport dot3, cross3
@@ -717,7 +717,7 @@ cdef class VolumeKernel(RemovalKernel):
         """(n,) bool: the vertex slots hyperbolic at their last evaluation (not removed)."""
         return np.asarray(self._state[:self.n_state]) == MARK_HYPERBOLIC
 
-    def veto_note(self):
+    cpdef str veto_note(self):
         """Why the kernel holds vertices back now, in words (for a run's stop_detail)."""
         h, d, v = self.counts[MARK_HYPERBOLIC], self.counts[MARK_DEGENERATE], self.counts[MARK_VALENCE]
         parts = []

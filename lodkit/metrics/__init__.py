@@ -26,6 +26,8 @@ from importlib import metadata
 from typing import Any
 
 from ..errors import MetricError, OptionError, UnknownMetricError
+from ..kernel import API_VERSION as KERNEL_API
+from ..removal import API_VERSION as REMOVAL_API
 from ..version import __version__
 from .base import (
     ATTRIBUTE_WIDTHS,
@@ -109,6 +111,10 @@ class _Entry:
         except Exception as exc:  # a broken plugin must not break the others
             self.info.loaded = False
             self.info.error = f"import failed: {type(exc).__name__}: {exc}"
+            if "size changed" in str(exc):         # Cython's check of a base type's layout
+                self.info.error += (f" (the plugin was compiled against another lodkit; this one has kernel API "
+                                    f"version {KERNEL_API}, removal kernel API version {REMOVAL_API}: rebuild "
+                                    f"the plugin against it, e.g. pip install --no-build-isolation --force-reinstall)")
             return None
         problem = check_metric_class(obj)
         if problem:
