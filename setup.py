@@ -6,12 +6,17 @@ import numpy
 from Cython.Build import cythonize
 from setuptools import Extension, setup
 
-MODULES = ["heap", "halfedge", "kernel", "quadric", "fields", "edge", "triangle", "passes", "decimate", "qem_kernel", "melod_kernel", "curvature_kernel", "testkernels",
-           "removal", "retriangulate", "vremove", "schroeder_kernel", "volume_kernel", "cluster"]
+MODULES = ["heap", "halfedge", "chain", "quadric", "fields", "edge", "triangle", "passes", "decimate",
+           "qem_kernel", "melod_kernel", "curvature_kernel", "retriangulate", "vremove", "schroeder_kernel",
+           "volume_kernel", "cluster"]
+# the public C interface plugins cimport: lodkit/kernel.pxd, lodkit/removal.pxd (lodkit.kernel, ...)
+PUBLIC_MODULES = ["kernel", "removal"]
 # LODKIT_BUILD_ONLY=a,b builds only those modules (development: others may be mid-edit)
 _only = [m for m in os.environ.get("LODKIT_BUILD_ONLY", "").split(",") if m]
 if _only:
     MODULES = [m for m in MODULES if m in _only]
+    PUBLIC_MODULES = [m for m in PUBLIC_MODULES if m in _only]
+    PUBLIC_MODULES = [m for m in PUBLIC_MODULES if m in _only]
 
 # Modules with OpenMP loops (cython.parallel.prange).  Without OpenMP they build and run
 # with one thread, with the same output (docs/performance.md, "Threads").
@@ -46,15 +51,16 @@ _omp = openmp_flags() if OPENMP_MODULES & set(MODULES) else []
 
 extensions = [
     Extension(
-        f"lodkit._core.{name}",
-        [f"lodkit/_core/{name}.pyx"],
+        f"{package}.{name}",
+        [f"{package.replace('.', '/')}/{name}.pyx"],
         include_dirs=[numpy.get_include()],
         define_macros=[("NPY_NO_DEPRECATED_API", "NPY_1_7_API_VERSION")],
         # -fno-math-errno: sqrt compiles to one instruction (nothing here reads errno)
         extra_compile_args=["-O3", "-fno-math-errno"] + (_omp if name in OPENMP_MODULES else []),
         extra_link_args=_omp if name in OPENMP_MODULES else [],
     )
-    for name in MODULES
+    for package, names in (("lodkit", PUBLIC_MODULES), ("lodkit._core", MODULES))
+    for name in names
 ]
 
 setup(

@@ -86,9 +86,9 @@ def _check(v, f) -> dict:
 
 def measure(key: str, sizes, rounds: int) -> dict | None:
     import open3d as o3d
+    from metro import Reference
 
     import lodkit
-    from metro import Reference
 
     loaded = load_mesh(key)
     if loaded is None:

@@ -11,7 +11,6 @@ import os
 import subprocess
 import sys
 from pathlib import Path
-from typing import Optional
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -35,7 +34,7 @@ def write_results(results, json_path, section: str, report, begin: str, end: str
     splice_section(Path(report), section, begin, end)
 
 
-def run_worker(args, timeout: float) -> Optional[str]:
+def run_worker(args, timeout: float) -> str | None:
     """Run ``python <args>`` in a fresh process with this checkout and ``bench/`` on its
     path (a crash or a hang there cannot take the benchmark down); None if it exited 0,
     else what went wrong (exit code or signal and the last stderr lines, or the timeout)."""

@@ -433,7 +433,8 @@ def claim_seams(results, ratios, metrics) -> dict:
             verdicts.append({"ratio": ratio, "met": None, "detail": "appearance not available", "claimed": True})
             continue
         met = a["cracks"] == 0 and a["new_open_edges"] == 0 and a.get("uv_changed", 1) == 0 and _reached(a)
-        q = next((r for r in rows if r["ratio"] == ratio and r["metric"] == "qem" and r.get("cracks") is not None), None)
+        q = next((r for r in rows
+                  if r["ratio"] == ratio and r["metric"] == "qem" and r.get("cracks") is not None), None)
         qtxt = (f"; qem: {q['cracks']} cracks, {q['new_open_edges']} open seam edges, {q.get('uv_changed', '?')} "
                 "changed uvs" if q else "")
         verdicts.append({"ratio": ratio, "met": met, "claimed": True,
@@ -473,7 +474,8 @@ def claim_creases(results, ratios, metrics, samples, angle, tol_frac) -> dict:
             continue
         verdicts.append({"ratio": ratio, "met": a["near"] > b["near"] and _reached(a), "claimed": True,
                          "detail": f"{a['near']} of {a['vertices']} vertices near a crease vs qem "
-                                   f"{b['near']} of {b['vertices']}" + ("" if _reached(a) else f"; but {_short_of(a)}")})
+                                   f"{b['near']} of {b['vertices']}"
+                                   + ("" if _reached(a) else f"; but {_short_of(a)}")})
         for name in CREASE_VARIANTS:
             v = get.get(name, {})
             if v.get("near") is not None:
@@ -530,12 +532,14 @@ def claim_speed(metrics: list[str], ratio: float, rounds: int, limit: float, tim
         cmd = [sys.executable, str(Path(__file__).resolve()), "--speed-worker", ",".join(metrics),
                "--worker-dir", tmp, "--speed-ratio", repr(ratio), "--rounds", str(rounds)]
         env = dict(os.environ)
-        env["PYTHONPATH"] = os.pathsep.join([str(REPO), str(HERE)] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
+        env["PYTHONPATH"] = os.pathsep.join([str(REPO), str(HERE)]
+                                            + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
         err = None
         try:
             p = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=env, cwd=str(HERE))
             if p.returncode != 0:
-                err = f"speed worker exited with {p.returncode}: {' | '.join(p.stderr.strip().splitlines()[-3:])[-300:]}"
+                tail = " | ".join(p.stderr.strip().splitlines()[-3:])[-300:]
+                err = f"speed worker exited with {p.returncode}: {tail}"
         except subprocess.TimeoutExpired:
             err = f"speed worker timed out after {timeout:.0f} s"
         if not out.exists():
@@ -780,7 +784,8 @@ def main(argv=None) -> int:
     ap.add_argument("--attr-ratios", default="0.1,0.02", help="ratios for colour/seams/creases (default %(default)s)")
     ap.add_argument("--samples", type=int, default=200_000, help="Metro samples per surface (default %(default)s)")
     ap.add_argument("--crease-angle", type=float, default=30.0, help="dihedral angle of a crease, degrees")
-    ap.add_argument("--crease-tol", type=float, default=0.005, help="'near a crease' as a fraction of the bbox diagonal")
+    ap.add_argument("--crease-tol", type=float, default=0.005,
+                    help="'near a crease' as a fraction of the bbox diagonal")
     ap.add_argument("--speed-ratio", type=float, default=0.01)
     ap.add_argument("--rounds", type=int, default=5, help="speed rounds (default %(default)s)")
     ap.add_argument("--speed-limit", type=float, default=3.0)

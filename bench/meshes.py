@@ -125,7 +125,8 @@ def parse_generated(name: str) -> int | None:
 def _find_file(name: str) -> Path:
     if Path(name).is_file():
         return Path(name)
-    hits = sorted(p for p in MESH_DIR.glob(name + ".*") if p.suffix.lower() in {".ply", ".obj", ".off", ".stl", ".glb", ".gltf"})
+    suffixes = {".ply", ".obj", ".off", ".stl", ".glb", ".gltf"}
+    hits = sorted(p for p in MESH_DIR.glob(name + ".*") if p.suffix.lower() in suffixes)
     if not hits:
         known = sorted({p.stem for p in MESH_DIR.glob("*") if p.suffix.lower() in {".ply", ".obj", ".off", ".stl"}})
         raise FileNotFoundError(f"no mesh called {name!r} in {MESH_DIR} (known: {', '.join(known)}; or generated<N>)")

@@ -81,7 +81,7 @@ class Lodkit:
                 continue
             if isinstance(v, (str, int, float, bool)) or v is None:
                 out[k] = v
-            elif hasattr(v, "name") and isinstance(getattr(v, "name"), str) and not callable(v):
+            elif hasattr(v, "name") and isinstance(v.name, str) and not callable(v):
                 out[k] = v.name  # enums
         return out
 
@@ -259,7 +259,8 @@ PARAMS = {
     "lodkit": "lodkit.simplify(lodkit.Mesh(V, F), target_ratio=r)",
     "lodkit-endpoint": "lodkit.simplify(lodkit.Mesh(V, F), target_ratio=r, placement='endpoint')",
     "open3d": "TriangleMesh.simplify_quadric_decimation(target_number_of_triangles=round(r*m))",
-    "fast_simplification": "fast_simplification.simplify(V, F, target_reduction=1-r)  (agg=7, preserve_border=False: defaults)",
+    "fast_simplification": ("fast_simplification.simplify(V, F, target_reduction=1-r)  "
+                            "(agg=7, preserve_border=False: defaults)"),
     "pyfqmr": "Simplify.simplify_mesh(target_count=round(r*m), aggressiveness=7, preserve_border=True)",
     "pymeshlab": "MeshSet.meshing_decimation_quadric_edge_collapse(targetfacenum=round(r*m))  (defaults otherwise)",
     "vtk": "vtkQuadricDecimation, SetTargetReduction(1-r)  (defaults otherwise)",

@@ -3,7 +3,7 @@
 The same QEM cost run several ways, on the same meshes, in one process, interleaved:
 
   qem            the quadrics hard-wired in the core (the reference)
-  qem_native     QEM computed by a native kernel through lodkit/_core/kernel.pxd
+  qem_native     QEM computed by a native kernel through lodkit/kernel.pxd
   qem + no-op    QEM plus a kernel that multiplies by 1 (the dispatch alone)
   qem + field    QEM with a vertex field of zeros (the field path's overhead)
   qem_batch      QEM's cost through the Python batch pass driver (a BatchMetric that
@@ -53,8 +53,11 @@ def batch_qem_class():
 
 
 def noop_kernel_metric():
-    from lodkit._core.testkernels import ScaleBy
+    sys.path.insert(0, str(REPO / "tests"))
     from lodkit.metrics import KernelMetric
+    from native import load  # tests/native: the test-only kernels, built on first use
+
+    ScaleBy = load("lodkit_testkernels").ScaleBy
 
     class NoOp(KernelMetric):
         """ScaleBy with factor 1: the interface's own cost, no metric state."""
@@ -84,9 +87,10 @@ def configurations(n_vertices: int) -> list[tuple[str, object, str]]:
 
 
 def run(meshes: list[str], ratio: float, rounds: int, samples: int) -> dict:
-    import lodkit
     from meshes import load_arrays
     from metro import compare
+
+    import lodkit
 
     out = {"ratio": ratio, "rounds": rounds, "meshes": {}}
     for name in meshes:

@@ -53,7 +53,9 @@ Attribute fidelity (used by bench/fidelity.py and bench/pictures.py; see each do
 from __future__ import annotations
 
 import numpy as np
-from lodkit.evaluate import Evaluator, closest_points, face_normals, sample_surface as _sample_surface
+
+from lodkit.evaluate import Evaluator, closest_points, face_normals
+from lodkit.evaluate import sample_surface as _sample_surface
 
 __all__ = ["Reference", "compare", "sample_surface", "sample_surface_bary", "edge_counts", "validity", "face_normals",
            "closest_points", "color_error", "crease_edges", "segment_distance", "crease_vertices", "seam_check"]
@@ -379,8 +381,11 @@ def seam_check(V_in: np.ndarray, F_in: np.ndarray, vertex_map: np.ndarray, V_out
     }
     out["new_open_edges"] = out["open_edges_out"] - out["open_edges_in"]
     if uv_in is not None and uv_out is not None:
-        duv = np.abs(np.asarray(uv_out, dtype=np.float64)[idx] - np.asarray(uv_in, dtype=np.float64)[vm[idx]]).max(axis=1) \
-            if len(idx) else np.zeros(0)
+        if len(idx):
+            duv = np.abs(np.asarray(uv_out, dtype=np.float64)[idx]
+                         - np.asarray(uv_in, dtype=np.float64)[vm[idx]]).max(axis=1)
+        else:
+            duv = np.zeros(0)
         out["uv_kept"] = int((duv <= uv_tol).sum())
         out["uv_changed"] = int((duv > uv_tol).sum())
         out["uv_max_change"] = float(duv.max(initial=0.0))

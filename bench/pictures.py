@@ -26,8 +26,12 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from PIL import Image
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
@@ -88,7 +92,7 @@ def _wrap(text: str, font, width: float) -> list[str]:
     return lines + [cur]
 
 
-def compose(panels: list[np.ndarray], labels: list[str], caption: str) -> "Image.Image":
+def compose(panels: list[np.ndarray], labels: list[str], caption: str) -> Image.Image:
     """Panels side by side, a label over each (lines split on newlines), a caption under all (wrapped)."""
     from PIL import Image, ImageDraw
 
@@ -198,10 +202,9 @@ def _near_crease_points(V_in, F_in, V, F) -> np.ndarray:
 
 def make_picture(scene: Scene, results: dict, out_dir: Path, panel_w: int = 300, samples: int = 100_000,
                  ss: int = 2) -> dict:
-    from PIL import Image
-
     from fidelity import load_mesh
     from metro import Reference
+    from PIL import Image
 
     src = load_mesh(scene.mesh)
     V_in, F_in = src.vertices, src.faces.astype(np.int64)

@@ -49,10 +49,10 @@ def _same(level, result) -> bool:
 
 
 def measure(mesh_key: str, ratios, rounds: int, extract_repeat: int) -> dict:
+    from common import shared_mesh_path
+
     import lodkit
     from lodkit.progressive import ProgressiveMesh, progressive
-
-    from common import shared_mesh_path
 
     mesh = lodkit.load(shared_mesh_path(MESHES[mesh_key]))
     t0 = time.perf_counter()

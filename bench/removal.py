@@ -290,7 +290,8 @@ def render(doc: dict) -> str:
             line += (f"; on the inputs of ≥ {LARGE:,} faces worst {worst['vs_qem']:.2f} "
                      f"({worst['mesh']} {worst['ratio']:g}): **{verdict} {SPEED_LIMIT:g}×**")
         L += [line + ".", ""]
-    L += ["| mesh | faces in | ratio | method | faces out | stops | Hausdorff | mean | RMS | flipped | time (s) | ×qem |",
+    L += ["| mesh | faces in | ratio | method | faces out | stops | Hausdorff | mean | RMS | flipped "
+          "| time (s) | ×qem |",
           "|---|---:|---:|---|---:|---|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         if "method" not in r:

@@ -198,7 +198,8 @@ def render(doc: dict) -> str:
           f" bounding-box diagonal {minfo.get('bbox_diag', 0):.4g}. Source: `{_esc(minfo.get('source'))}`."
           f" Repeats: up to {minfo.get('repeats')}.")
         w("")
-        w("| method | ratio | faces out (target) | time (s) | ×lodkit | incl. conv. (s) | peak mem (MiB): call / incl. conv. | B/vert: call / incl."
+        w("| method | ratio | faces out (target) | time (s) | ×lodkit | incl. conv. (s) "
+          "| peak mem (MiB): call / incl. conv. | B/vert: call / incl."
           " | Hausdorff | mean | RMS | NM edges | border edges | flipped (near) |")
         w("|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|")
         mine = [r for r in recs if r["mesh"] == mesh]
@@ -216,7 +217,9 @@ def render(doc: dict) -> str:
             if r["method"].startswith("lodkit") and r.get("tracemalloc_peak_bytes") is not None:
                 mem += f" (traced {_mib(r['tracemalloc_peak_bytes'])})"
             nv = r.get("vertices_in") or minfo.get("vertices")
-            bpv = f"{_g(r.get('bytes_per_input_vertex'), '.0f')} / {_g(r['peak_mem_total_bytes'] / nv if nv and r.get('peak_mem_total_bytes') is not None else None, '.0f')}"
+            total = r.get("peak_mem_total_bytes")
+            per_vertex_total = total / nv if nv and total is not None else None
+            bpv = f"{_g(r.get('bytes_per_input_vertex'), '.0f')} / {_g(per_vertex_total, '.0f')}"
             fl = r.get("flipped_faces")
             flipped = "–" if fl is None else f"{fl} ({r.get('flipped_faces_near')})"
             reps = r.get("repeats")

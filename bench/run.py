@@ -396,7 +396,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--meshes", default="bunny,igea,fandisk,generated1m",
-                    help="comma list: stems of files in the shared mesh dir, or generated<N>[k|m] (default %(default)s)")
+                    help="comma list: stems of files in the shared mesh dir, or generated<N>[k|m] "
+                         "(default %(default)s)")
     ap.add_argument("--ratios", default="0.5,0.1,0.02,0.005", help="target face ratios (default %(default)s)")
     ap.add_argument("--methods", default=",".join(DEFAULT_METHODS),
                     help=f"comma list, or 'all', or 'peers' (all but lodkit*). Known: {', '.join(METHODS)} "
@@ -430,9 +431,8 @@ def main(argv=None) -> int:
         args.tracemalloc = args.tracemalloc == "on"
         return worker(args)
 
-    import numpy as np
-
     import metro
+    import numpy as np
     from meshes import prepare
 
     meshes = [m.strip() for m in args.meshes.split(",") if m.strip()]

@@ -15,7 +15,7 @@ from .progressive import ProgressiveMesh, progressive
 from .evaluate import Evaluation, Evaluator, evaluate
 from .compare import Comparison, compare
 from . import metrics
-from ._version import __version__
+from .version import __version__
 
 __all__ = [
     "ClusterResult",

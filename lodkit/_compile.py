@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._core.decimate import add_boundary_planes
-from ._core.removal import RemovalKernel
+from .removal import RemovalKernel
 from ._pipeline import PLANE_SIZE, Work
 from .errors import MetricError
 from .metrics import ATTRIBUTE_WIDTHS, MetricContext, packed_size
@@ -224,5 +224,5 @@ def removal_kernel(metric, ctx: MetricContext):
     kernel = metric.make_kernel(ctx)
     if not isinstance(kernel, RemovalKernel):
         raise MetricError(f"metric {metric.name!r}: make_kernel returned {type(kernel).__name__}, "
-                          f"not a lodkit._core.removal.RemovalKernel")
+                          f"not a lodkit.removal.RemovalKernel")
     return kernel

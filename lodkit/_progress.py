@@ -47,7 +47,7 @@ class Progress:
         self._draw()
         self._write("\n")
 
-    def __enter__(self) -> "Progress":
+    def __enter__(self) -> Progress:
         return self
 
     def __exit__(self, *exc) -> None:

@@ -1,4 +1,5 @@
-"""The ``lodkit`` command: ``simplify``, ``info``, ``metrics``, ``demo``, ``evaluate``, ``compare``, ``lods`` and ``cluster``.
+"""The ``lodkit`` command: ``simplify``, ``info``, ``metrics``, ``demo``, ``evaluate``, ``compare``, ``lods``
+and ``cluster``.
 
 Every failure the user can cause (a missing or unreadable file, a bad option, a mesh
 lodkit cannot use) prints one line ``lodkit: error: ...`` on standard error and exits
@@ -16,6 +17,7 @@ import time
 import numpy as np
 
 from .errors import LodkitError, MeshIOError
+from .version import __version__
 
 __all__ = ["main"]
 
@@ -66,8 +68,6 @@ def main(argv=None) -> int:
 
 # ---------------------------------------------------------------------- the parser
 def _build_parser() -> argparse.ArgumentParser:
-    from . import __version__
-
     parser = _Parser(prog=PROG, description="Simplify triangle meshes into levels of detail.")
     parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
@@ -121,7 +121,8 @@ def _build_parser() -> argparse.ArgumentParser:
                                    "colours), simplify it to 50 %%, 20 %%, 5 %% and 1 %% and write "
                                    "one PLY per level.")
     p.add_argument("--out", default="lodkit-demo", metavar="DIR", help="output directory (default: lodkit-demo)")
-    p.add_argument("--faces", type=_count, default=100_000, metavar="N", help="faces of the demo surface (default: 100000)")
+    p.add_argument("--faces", type=_count, default=100_000, metavar="N",
+                   help="faces of the demo surface (default: 100000)")
     p.set_defaults(run=_run_demo)
 
     p = sub.add_parser("lods", help="write a chain of levels of detail from one simplification run",
@@ -133,7 +134,8 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ratios", type=_ratio_list, required=True, metavar="R1,R2,...",
                    help="fractions of the faces to keep, each 0 < R <= 1, e.g. 0.5,0.1,0.02")
     p.add_argument("--out-dir", required=True, metavar="DIR", help="output directory (made if missing)")
-    p.add_argument("--format", choices=("ply", "obj", "glb"), default="ply", help="file format of the levels (default: ply)")
+    p.add_argument("--format", choices=("ply", "obj", "glb"), default="ply",
+                   help="file format of the levels (default: ply)")
     _add_collapse_options(p, "cost metric, as for 'lodkit simplify' (repeat to combine; default: qem)")
     p.add_argument("--absolute", action="store_true", help="report errors in model units")
     p.add_argument("--quiet", "-q", action="store_true", help="no summary lines")
@@ -195,8 +197,10 @@ def _build_parser() -> argparse.ArgumentParser:
 def _add_collapse_options(p, metric_help: str) -> None:
     """--metric, --placement and --boundary, as simplify and lods take them."""
     p.add_argument("--metric", type=_metric_option, action="append", metavar="NAME[:OPT=VAL,...]", help=metric_help)
-    p.add_argument("--placement", choices=("optimal", "endpoint"), help="where the merged vertex goes (default: optimal)")
-    p.add_argument("--boundary", choices=("lock", "preserve", "free"), help="how boundaries are treated (default: preserve)")
+    p.add_argument("--placement", choices=("optimal", "endpoint"),
+                   help="where the merged vertex goes (default: optimal)")
+    p.add_argument("--boundary", choices=("lock", "preserve", "free"),
+                   help="how boundaries are treated (default: preserve)")
 
 
 def _add_sampling_options(p, samples_help: str) -> None:

@@ -15,7 +15,7 @@ With ``out`` the directory gets
 
 Every file is written to a temporary name in ``out`` and renamed into place, so each is
 either complete or absent. The plots need matplotlib (``pip install lodkit[plot]``); the
-contact sheet uses :mod:`lodkit.render` (Open3D's offscreen renderer).
+contact sheet uses :mod:`lodkit.viz` (Open3D's offscreen renderer or the numpy rasteriser).
 """
 from __future__ import annotations
 
@@ -27,12 +27,13 @@ import json
 import math
 import os
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Optional
 
 import numpy as np
 
+from . import viz
 from .api import simplify
 from .errors import LodkitError, OptionError
 from .evaluate import DEFAULT_SAMPLES, Evaluation, Evaluator
@@ -122,10 +123,10 @@ class Run:
     target_faces: int
     faces: int = 0
     vertices: int = 0
-    seconds: Optional[float] = None   # the simplification call alone
-    evaluation: Optional[Evaluation] = None
-    error: Optional[str] = None   # why the run or its evaluation failed (then no evaluation)
-    mesh: Optional[Mesh] = field(default=None, repr=False)
+    seconds: float | None = None   # the simplification call alone
+    evaluation: Evaluation | None = None
+    error: str | None = None   # why the run or its evaluation failed (then no evaluation)
+    mesh: Mesh | None = field(default=None, repr=False)
 
     def row(self) -> dict:
         """The table row: plain values (distances as fractions of the bounding-box diagonal)."""
@@ -235,8 +236,8 @@ def _matplotlib():
 # ---------------------------------------------------------------------- the comparison
 def compare(mesh, *, metrics=("qem",), peers=(), ratios=(0.5, 0.1, 0.02), out=None,
             samples: int = DEFAULT_SAMPLES, seed: int = 0, contact_sheet: bool = True,
-            image_size: tuple = (320, 240), render_backend: Optional[str] = None,
-            simplify_options: Optional[dict] = None, log: Optional[Callable[[str], None]] = None) -> Comparison:
+            image_size: tuple = (320, 240), render_backend: str | None = None,
+            simplify_options: dict | None = None, log: Callable[[str], None] | None = None) -> Comparison:
     """Simplify ``mesh`` with several methods to several ratios, time and evaluate each.
 
     mesh             : anything :func:`lodkit.evaluate` takes (Mesh, Open3D mesh, (V, F), path)
@@ -280,8 +281,6 @@ def compare(mesh, *, metrics=("qem",), peers=(), ratios=(0.5, 0.1, 0.02), out=No
             raise OptionError(f"simplify_options may not set {key!r}: compare() sets the targets and metrics")
     if out is not None:
         _matplotlib()
-        if contact_sheet:
-            _render_module()
     source = str(mesh) if isinstance(mesh, (str, os.PathLike)) else type(mesh).__name__
     original = as_mesh(mesh, "input", tensor=True, load=load)
     evaluator = Evaluator(original, samples, seed)
@@ -352,15 +351,6 @@ def _prepare_dir(out) -> Path:
     return p
 
 
-def _render_module():
-    try:
-        from . import render
-    except ImportError as exc:
-        raise MissingDependencyError(f"the contact sheet needs lodkit.render, which cannot be imported ({exc}); "
-                                     "pass contact_sheet=False (--no-contact-sheet) to skip it") from None
-    return render
-
-
 # ---------------------------------------------------------------------- writing
 def _atomic_write(path: Path, data: bytes) -> None:
     atomic_write(path, lambda fh: fh.write(data), binary=True)
@@ -398,22 +388,21 @@ def _curve_png(comparison: Comparison, key: str, title: str) -> bytes:
 
 
 def _contact_sheet(comparison: Comparison, original: Mesh, width: int, height: int,
-                   backend: Optional[str]) -> np.ndarray:
+                   backend: str | None) -> np.ndarray:
     """Rows = methods, columns = ratios; one camera fitted to the original for every LOD, so
     they are drawn alike; a failed run leaves its cell empty."""
-    render = _render_module()
-    camera = render.Camera.fit(original, width, height)
+    camera = viz.Camera.fit(original, width, height)
     grid, labels = [], []
     for method in comparison.methods:
         row, names = [], []
         for ratio in comparison.ratios:
             run = comparison.run(method, ratio)
             ok = run.mesh is not None and run.mesh.n_faces > 0
-            row.append(render.render(run.mesh, width, height, camera=camera, backend=backend) if ok else None)
+            row.append(viz.render(run.mesh, width, height, camera=camera, backend=backend) if ok else None)
             names.append(f"{method} {100 * ratio:g}% {run.faces}f" if ok else f"{method} {100 * ratio:g}% failed")
         grid.append(row)
         labels.append(names)
-    return render.contact_sheet(grid, labels=labels)
+    return viz.contact_sheet(grid, labels=labels)
 
 
 _CSV_COLUMNS = ("method", "kind", "ratio", "target_faces", "faces", "vertices", "seconds",
@@ -472,7 +461,7 @@ def _intro(comparison: Comparison, peers: list) -> list[str]:
 
 
 def _write_report(comparison: Comparison, original: Mesh, out: Path, contact_sheet: bool, width: int,
-                  height: int, peers: list, backend: Optional[str]) -> None:
+                  height: int, peers: list, backend: str | None) -> None:
     files = {}
     images = {}   # name -> PNG bytes, for the HTML
     for key, title in (("hausdorff", "Hausdorff distance"), ("rms", "RMS distance")):
@@ -481,9 +470,9 @@ def _write_report(comparison: Comparison, original: Mesh, out: Path, contact_she
         _atomic_write(out / name, data)
         files[name] = out / name
     if contact_sheet:
-        # render.write_png writes under a temporary name and renames, as _atomic_write does
+        # viz.write_png writes under a temporary name and renames, as _atomic_write does
         sheet = _contact_sheet(comparison, original, width, height, backend)
-        written = _render_module().write_png(out / "contact_sheet.png", sheet)
+        written = viz.write_png(out / "contact_sheet.png", sheet)
         images["contact_sheet.png"] = Path(written).read_bytes()
         files["contact_sheet.png"] = out / "contact_sheet.png"
     _atomic_write(out / "results.csv", _csv_text(comparison).encode())

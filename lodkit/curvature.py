@@ -28,8 +28,6 @@ Choices made where the paper is silent (docs/metrics/curvature.md says why):
 """
 from __future__ import annotations
 
-from typing import Optional
-
 import numpy as np
 
 from .errors import MeshError, OptionError
@@ -46,7 +44,7 @@ _CHUNK = 1 << 16
 _COLLINEAR = 1e-10
 
 
-def point_curvature(points, k: int = DEFAULT_K, radius: Optional[float] = None, *,
+def point_curvature(points, k: int = DEFAULT_K, radius: float | None = None, *,
                     normalize: bool = False) -> np.ndarray:
     """Curvature k_i = 2 d / mu^2 of every point of a cloud (Wang et al., eqs. 1-4).
 
@@ -167,9 +165,9 @@ def _spread_bits(x: np.ndarray) -> np.ndarray:
     return x
 
 
-def _curvature_unique(pts: np.ndarray, k: int, radius: Optional[float]) -> np.ndarray:
+def _curvature_unique(pts: np.ndarray, k: int, radius: float | None) -> np.ndarray:
     """Curvature of distinct points (n >= 3)."""
-    import open3d as o3d          # lazily: importing Open3D takes a second or two
+    import open3d as o3d  # lazily: importing Open3D takes a second or two
 
     n = pts.shape[0]
     # centre the cloud: the KD-tree's arithmetic then works on small numbers

@@ -167,6 +167,7 @@ def format_table(rows: list[dict]) -> str:
     left = {6, 7}   # text columns; numbers align right
     lines = []
     for row in cells:
-        lines.append("  ".join(c.ljust(w) if k in left else c.rjust(w) for k, (c, w) in enumerate(zip(row, widths))).rstrip())
+        cells = (c.ljust(w) if k in left else c.rjust(w) for k, (c, w) in enumerate(zip(row, widths)))
+        lines.append("  ".join(cells).rstrip())
     lines.insert(1, "  ".join("-" * w for w in widths))
     return "\n".join(lines)

@@ -25,3 +25,11 @@ class MetricError(LodkitError, RuntimeError):
 class UnknownMetricError(OptionError, LookupError):
     """No metric of that name is registered (a bad ``metric=`` option); the message lists
     the available ones."""
+
+
+class RenderError(LodkitError, RuntimeError):
+    """The renderer asked for cannot draw here (Open3D's renderer did not start or failed)."""
+
+
+class ImageIOError(LodkitError, OSError):
+    """An image file could not be written."""

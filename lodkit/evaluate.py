@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
-from typing import Optional
 
 import numpy as np
 
@@ -87,7 +86,7 @@ class DistanceStats:
     rms_bwd: float
 
     @classmethod
-    def from_distances(cls, d_fwd: np.ndarray, d_bwd: np.ndarray) -> "DistanceStats":
+    def from_distances(cls, d_fwd: np.ndarray, d_bwd: np.ndarray) -> DistanceStats:
         sq_fwd, sq_bwd = float(np.mean(d_fwd * d_fwd)), float(np.mean(d_bwd * d_bwd))
         mean_fwd, mean_bwd = float(np.mean(d_fwd)), float(np.mean(d_bwd))
         return cls(
@@ -102,7 +101,7 @@ class DistanceStats:
             rms_bwd=math.sqrt(sq_bwd),
         )
 
-    def scaled(self, factor: float) -> "DistanceStats":
+    def scaled(self, factor: float) -> DistanceStats:
         """Every value multiplied by ``factor`` (e.g. the diagonal: fractions -> model units)."""
         return DistanceStats(**{f.name: getattr(self, f.name) * factor for f in fields(self)})
 
@@ -117,15 +116,15 @@ class NormalDeviation:
     direction. ``n_skipped``: samples whose closest face has zero area (no normal), left
     out; a statistic with no sample left is None."""
 
-    mean: Optional[float]
-    max: Optional[float]
-    p95: Optional[float]
-    mean_fwd: Optional[float]
-    max_fwd: Optional[float]
-    p95_fwd: Optional[float]
-    mean_bwd: Optional[float]
-    max_bwd: Optional[float]
-    p95_bwd: Optional[float]
+    mean: float | None
+    max: float | None
+    p95: float | None
+    mean_fwd: float | None
+    max_fwd: float | None
+    p95_fwd: float | None
+    mean_bwd: float | None
+    max_bwd: float | None
+    p95_bwd: float | None
     n_skipped: int
 
     def as_dict(self) -> dict:
@@ -192,7 +191,7 @@ class Evaluation:
     quality_simplified: QualityStats
     topology_original: TopologyReport
     topology_simplified: TopologyReport
-    color: Optional[ColorError]
+    color: ColorError | None
 
     @property
     def distance_model(self) -> DistanceStats:
@@ -403,7 +402,7 @@ class _Surface:
     single precision keeps ~7 digits relative to the model, not to its distance from the origin.
     """
 
-    def __init__(self, vertices: np.ndarray, faces: np.ndarray, colors: Optional[np.ndarray], centre: np.ndarray):
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray, colors: np.ndarray | None, centre: np.ndarray):
         self.V = vertices
         self.F = faces.astype(np.int64)
         self.centre = centre
@@ -448,7 +447,7 @@ class _Surface:
             self._keys = (key, order, np.argsort(key, kind="stable"))
         return self._keys
 
-    def match(self, other: "_Surface", faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def match(self, other: _Surface, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """For faces of self: the face of ``other`` with the same three corner positions
         (-1 if none) and, per corner of the face of self, the corner of that face at the same
         position ((k, 3); undefined where unmatched)."""
@@ -476,7 +475,7 @@ class _Direction:
 
     distance: np.ndarray     # (n,) model units
     angle: np.ndarray        # (n,) degrees, NaN where the closest face has no normal
-    colour_diff: Optional[np.ndarray]   # (n, 3) in [0, 1] units, or None
+    colour_diff: np.ndarray | None   # (n, 3) in [0, 1] units, or None
 
 
 def _project(src: _Surface, dst: _Surface, n: int, seed: int) -> _Direction:

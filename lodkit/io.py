@@ -453,7 +453,8 @@ def save(mesh, path: PathLike, *, ascii: bool = False) -> None:
                 os.replace(f, directory / f.name)
             os.replace(tmp, p)
         except OSError as exc:
-            raise _io_error("save", p, f"cannot move the written file into place ({exc.strerror or exc})", exc.errno) from exc
+            raise _io_error("save", p, f"cannot move the written file into place ({exc.strerror or exc})",
+                            exc.errno) from exc
         _fsync_dir(directory)
     finally:
         shutil.rmtree(tmp_dir, ignore_errors=True)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
-from typing import Optional
 
 import numpy as np
 
@@ -50,9 +49,9 @@ class Mesh:
 
     vertices: np.ndarray
     faces: np.ndarray
-    normals: Optional[np.ndarray] = None
-    colors: Optional[np.ndarray] = None
-    uvs: Optional[np.ndarray] = None
+    normals: np.ndarray | None = None
+    colors: np.ndarray | None = None
+    uvs: np.ndarray | None = None
     metadata: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -96,7 +95,7 @@ class Mesh:
         """The per-vertex attribute arrays that are present, by name."""
         return {k: getattr(self, k) for k in ("normals", "colors", "uvs") if getattr(self, k) is not None}
 
-    def copy(self) -> "Mesh":
+    def copy(self) -> Mesh:
         return Mesh(
             self.vertices.copy(),
             self.faces.copy(),
@@ -130,7 +129,7 @@ class Mesh:
 
     # ------------------------------------------------------------------ Open3D
     @classmethod
-    def from_open3d(cls, o3d_mesh) -> "Mesh":
+    def from_open3d(cls, o3d_mesh) -> Mesh:
         """Build a Mesh from an ``open3d.geometry.TriangleMesh`` (copies the arrays).
 
         Per-corner ``triangle_uvs`` are turned into per-vertex uvs; where one vertex carries
@@ -141,14 +140,16 @@ class Mesh:
         # when the Open3D mesh does)
         vertices = np.array(o3d_mesh.vertices, dtype=np.float64, copy=True).reshape(-1, 3)
         faces = np.array(o3d_mesh.triangles, dtype=np.int64, copy=True).reshape(-1, 3)
-        normals = np.array(o3d_mesh.vertex_normals, dtype=np.float64, copy=True) if o3d_mesh.has_vertex_normals() else None
+        normals = (np.array(o3d_mesh.vertex_normals, dtype=np.float64, copy=True)
+                   if o3d_mesh.has_vertex_normals() else None)
         colors = np.array(o3d_mesh.vertex_colors, dtype=np.float64, copy=True) if o3d_mesh.has_vertex_colors() else None
         uvs = None
         in_range = faces.size and faces.min() >= 0 and faces.max() < vertices.shape[0]
         # (out-of-range faces skip the uv split so the constructor reports them as MeshError)
         if in_range and o3d_mesh.has_triangle_uvs() and len(o3d_mesh.triangle_uvs) == 3 * faces.shape[0]:
             corner_uv = np.asarray(o3d_mesh.triangle_uvs, dtype=np.float64).reshape(-1, 2)
-            vertices, faces, uvs, extra = _split_at_uv_seams(vertices, faces, corner_uv, {"normals": normals, "colors": colors})
+            vertices, faces, uvs, extra = _split_at_uv_seams(vertices, faces, corner_uv,
+                                                             {"normals": normals, "colors": colors})
             normals, colors = extra["normals"], extra["colors"]
         return cls(vertices, faces, normals=normals, colors=colors, uvs=uvs)
 

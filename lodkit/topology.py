@@ -17,7 +17,6 @@ test set counts them (``broken_deg_faces.obj``: 5 boundary edges in 1 loop).
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields
-from typing import Optional
 
 import numpy as np
 from scipy.sparse import coo_matrix
@@ -76,7 +75,7 @@ class TopologyReport:
     n_boundary_loops: int
     n_components: int
     euler_characteristic: int
-    genus: Optional[int]
+    genus: int | None
     is_edge_manifold: bool
     is_vertex_manifold: bool
     is_manifold: bool

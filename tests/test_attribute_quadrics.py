@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import lodkit
 from lodkit._core.decimate import general_quadric_marginal
 from lodkit.metrics import MetricError, QuadricMetric, pack_quadrics, packed_size, unpack_quadrics
 from lodkit.metrics.base import check_metric_class
-
 from test_qem import grid_mesh
 
 

@@ -113,7 +113,9 @@ def test_color_error_linear_field_on_coarser_mesh_is_zero():
     # a colour that is linear in the position is reproduced exactly by any triangulation
     Vf, Ff = grid(8)
     Vc, Fc = grid(1)
-    lin = lambda V: np.column_stack([0.2 + 0.5 * V[:, 0], 0.7 - 0.4 * V[:, 1], 0.1 + 0.3 * V[:, 0] + 0.3 * V[:, 1]])
+    def lin(V):
+        return np.column_stack([0.2 + 0.5 * V[:, 0], 0.7 - 0.4 * V[:, 1], 0.1 + 0.3 * V[:, 0] + 0.3 * V[:, 1]])
+
     r = metro.color_error(Vf, Ff, lin(Vf), Vc, Fc, lin(Vc), n_samples=5000)
     assert r["rms"] < 1e-3
     # the coarse mesh black everywhere: error = the mean / RMS of the fine colours in 0..255

@@ -21,8 +21,8 @@ LODKIT_ROOT = Path(lodkit.__file__).resolve().parents[1]
 
 def _simplify_available() -> bool:
     try:
-        from lodkit.api import simplify  # noqa: F401
         import lodkit._core.decimate  # noqa: F401
+        from lodkit.api import simplify  # noqa: F401
     except ImportError:
         return False
     return True
@@ -52,9 +52,9 @@ def tetra_ply(tmp_path) -> Path:
 def surface_ply(tmp_path) -> Path:
     """The demo surface at 2000 faces, with normals and colours, written by Open3D."""
     pytest.importorskip("open3d")
-    from lodkit.demo import demo_mesh
-
     import open3d as o3d
+
+    from lodkit.demo import demo_mesh
 
     path = tmp_path / "surface.ply"
     assert o3d.io.write_triangle_mesh(str(path), demo_mesh(2000).to_open3d())

@@ -237,7 +237,8 @@ def test_other_representatives_give_the_same_faces(soup, h, representative):
     check_clean(b, f.shape[0])
     assert b.mesh.faces.tolist() == a.mesh.faces.tolist() and b.face_map.tolist() == a.face_map.tolist()
     # every representative stays in its cell: within the cell's box of the centroid's cell
-    hh = b.cell_size * np.linalg.norm(np.ptp(v[np.unique(f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])])], axis=0))
+    proper = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])]
+    hh = b.cell_size * np.linalg.norm(np.ptp(v[np.unique(proper)], axis=0))
     assert (np.abs(b.mesh.vertices - a.mesh.vertices) <= hh * (1 + 1e-9)).all()
     if representative == "importance":
         # an input vertex, bit for bit
@@ -309,7 +310,7 @@ def test_quadric_placement_matches_numpy(seed):
     rng = np.random.default_rng(seed)
     k = 200
     rows = []
-    for i in range(k):
+    for _ in range(k):
         # 1 to 4 random planes near the cell: ranks 1, 2 and 3
         q = np.zeros(11)
         for _ in range(rng.integers(1, 5)):

@@ -13,8 +13,8 @@ from lodkit.topology import topology
 
 def _simplify_available() -> bool:
     try:
-        from lodkit.api import simplify  # noqa: F401
         import lodkit._core.decimate  # noqa: F401
+        from lodkit.api import simplify  # noqa: F401
     except ImportError:
         return False
     return True

@@ -14,16 +14,16 @@ from contextlib import redirect_stdout
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 pytest.importorskip("open3d")
 
 import lodkit  # noqa: E402
+from conftest import shared_mesh  # noqa: E402
 from lodkit.cli import main  # noqa: E402
 from lodkit.errors import MeshError, MeshIOError, OptionError  # noqa: E402
 from lodkit.evaluate import QUALITY_BINS, Evaluator, evaluate, sample_surface, triangle_quality  # noqa: E402
-
-from conftest import shared_mesh  # noqa: E402
 
 
 # ---------------------------------------------------------------------- meshes

@@ -156,7 +156,7 @@ def test_ply_positions_are_bit_exact_for_any_finite_double(tmp_path_factory, coo
     np.testing.assert_array_equal(loaded.vertices, mesh.vertices)
 
 
-def seamed_octahedron() -> "o3d.geometry.TriangleMesh":
+def seamed_octahedron() -> o3d.geometry.TriangleMesh:
     """Open3D octahedron whose vertex 0 has uv (0.9, 0.5) in its first faces and (0.1, 0.5)
     in the others: a uv seam through one vertex."""
     base = octahedron(attributes=False)
@@ -181,7 +181,9 @@ def test_uv_seams_survive_a_round_trip(tmp_path, fmt):
     loaded = load(tmp_path / f"seam.{fmt}")
     assert loaded.n_vertices == 7 and loaded.n_faces == 8
     # the per-corner (position, uv) pairs are the same, face by face
-    key = lambda m: np.concatenate([m.vertices[m.faces.reshape(-1)], m.uvs[m.faces.reshape(-1)]], axis=1)
+    def key(m):
+        return np.concatenate([m.vertices[m.faces.reshape(-1)], m.uvs[m.faces.reshape(-1)]], axis=1)
+
     np.testing.assert_allclose(key(loaded), key(mesh), rtol=0, atol=1e-5)
 
 
@@ -281,9 +283,9 @@ def test_stl_welds_exactly_equal_positions_only(tmp_path):
 
 # ------------------------------------------------------------------ normals policy
 def write_obj(path: Path, vertices, faces, normals=None) -> None:
-    lines = ["v %.17g %.17g %.17g" % tuple(row) for row in vertices]
+    lines = ["v {:.17g} {:.17g} {:.17g}".format(*row) for row in vertices]
     if normals is not None:
-        lines += ["vn %.17g %.17g %.17g" % tuple(row) for row in normals]
+        lines += ["vn {:.17g} {:.17g} {:.17g}".format(*row) for row in normals]
         lines += ["f " + " ".join(f"{i + 1}//{i + 1}" for i in f) for f in faces]
     else:
         lines += ["f " + " ".join(str(i + 1) for i in f) for f in faces]
@@ -348,7 +350,8 @@ def half_writing_writer(result):
     return writer
 
 
-@pytest.mark.parametrize("outcome", [False, RuntimeError("[Open3D Error] disk on fire")], ids=["returns-False", "raises"])
+@pytest.mark.parametrize("outcome", [False, RuntimeError("[Open3D Error] disk on fire")],
+                         ids=["returns-False", "raises"])
 @pytest.mark.parametrize("fmt", ["ply", "obj", "glb"])
 def test_failing_writer_leaves_no_target_and_no_temporary(tmp_path, monkeypatch, fmt, outcome):
     writers = o3d.t.io if fmt == "glb" else o3d.io     # GLB goes through the tensor API
@@ -360,7 +363,8 @@ def test_failing_writer_leaves_no_target_and_no_temporary(tmp_path, monkeypatch,
 
 
 def test_writer_exception_message_is_clean(tmp_path, monkeypatch):
-    monkeypatch.setattr(o3d.io, "write_triangle_mesh", half_writing_writer(RuntimeError("\x1b[1;31m[Open3D Error] no space\x1b[0;m\n")))
+    monkeypatch.setattr(o3d.io, "write_triangle_mesh",
+                        half_writing_writer(RuntimeError("\x1b[1;31m[Open3D Error] no space\x1b[0;m\n")))
     with pytest.raises(MeshIOError, match=r"writer failed \(\[Open3D Error\] no space\)$"):
         save(octahedron(), tmp_path / "o.ply")
 
@@ -611,7 +615,8 @@ def test_from_open3d_out_of_range_faces_with_uvs_is_a_mesh_error():
 )
 def test_split_at_uv_seams_properties(n, data):
     m = data.draw(st.integers(1, 10))
-    faces = np.array(data.draw(st.lists(st.lists(st.integers(0, n - 1), min_size=3, max_size=3), min_size=m, max_size=m)))
+    face = st.lists(st.integers(0, n - 1), min_size=3, max_size=3)
+    faces = np.array(data.draw(st.lists(face, min_size=m, max_size=m)))
     palette = np.array([[0.0, 0.0], [0.5, 0.25], [1.0, 1.0]])
     corner_uv = palette[data.draw(st.lists(st.integers(0, 2), min_size=3 * m, max_size=3 * m))]
     vertices = np.arange(3 * n, dtype=float).reshape(n, 3)
@@ -698,7 +703,9 @@ def test_real_spot_round_trips_through_every_format(tmp_path, fmt):
     # STL has no uvs, so welding merges the seam copies back into 2930 positions
     assert loaded.n_vertices == (2930 if fmt == "stl" else 3225)
     assert (loaded.uvs is not None) == ("uvs" in CARRIES[fmt])
-    corners = lambda m: m.vertices[m.faces]
+    def corners(m):
+        return m.vertices[m.faces]
+
     np.testing.assert_allclose(corners(loaded), corners(mesh), rtol=0, atol=1e-5)
 
 

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import lodkit
 from conftest import shared_mesh
@@ -218,7 +219,8 @@ def test_flat_grid_keeps_its_colour_border():
     x = app.mesh.vertices[:, 0]
     border = (x >= 11) & (x <= 12)
     assert border.sum() >= 4
-    ok = np.isclose(app.mesh.colors[border], [1.0, 0.1, 0.1]).all(axis=1) | np.isclose(app.mesh.colors[border], [0.1, 0.1, 1.0]).all(axis=1)
+    ok = (np.isclose(app.mesh.colors[border], [1.0, 0.1, 0.1]).all(axis=1)
+          | np.isclose(app.mesh.colors[border], [0.1, 0.1, 1.0]).all(axis=1))
     assert ok.all()
 
 

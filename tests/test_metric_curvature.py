@@ -13,7 +13,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.spatial import cKDTree
 
 import lodkit
@@ -411,7 +412,7 @@ def test_placement_default_is_the_core_and_midpoint_is_an_option():
 
 
 def test_commit_merges_the_curvature_of_the_ends():
-    from lodkit._core.curvature_kernel import CurvatureKernel, MERGE_MAX, MERGE_MEAN, MODE_SCALE
+    from lodkit._core.curvature_kernel import MERGE_MAX, MERGE_MEAN, MODE_SCALE, CurvatureKernel
 
     k = CurvatureKernel()
     k.prepare(None, {"curvature": [0.1, 0.7, 0.4], "merge": "max"})
@@ -498,7 +499,7 @@ def _ctx(mesh):
 
 
 # ---------------------------------------------------------------------- real meshes
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def load(name):
     return lodkit.load(shared_mesh(name))
 

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import shared_mesh
-from hypothesis import given, strategies as st
-from test_simplify import SETTINGS, check_real_result, check_result, grid, manifold_meshes, torus_or_sphere
+from hypothesis import given
+from hypothesis import strategies as st
 
 import lodkit
+from conftest import shared_mesh
 from lodkit import OptionError
 from lodkit._core.melod_kernel import visual_importance
+from test_simplify import SETTINGS, check_real_result, check_result, grid, manifold_meshes, torus_or_sphere
 
 
 # ---------------------------------------------------------------------- a slow reference

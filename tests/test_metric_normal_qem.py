@@ -12,17 +12,17 @@ import functools
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import lodkit
-from test_simplify import check_real_result
+from conftest import shared_mesh
 from lodkit import MetricError, OptionError
 from lodkit._core.decimate import vertex_quadrics
 from lodkit._core.halfedge import build
 from lodkit.metrics import MetricContext
 from lodkit.metrics.normal_qem import NormalQEM
-
-from conftest import shared_mesh
+from test_simplify import check_real_result
 
 NQEM_SETTINGS = {"placement": "endpoint", "boundary_weight": 1000.0}
 
@@ -174,7 +174,7 @@ def reference_quadrics(p, faces, normals, boundary_weight, plane_weight=1.0, vir
     Q = np.zeros((n, 4, 4))
     area = np.zeros(n)
     edge_faces = {}
-    for fi, f in enumerate(faces):
+    for f in faces:
         cr = np.cross(p[f[1]] - p[f[0]], p[f[2]] - p[f[0]])
         a = 0.5 * np.linalg.norm(cr)
         nf = cr / np.linalg.norm(cr)
@@ -337,7 +337,8 @@ def test_missing_normals_say_what_to_pass():
 
 
 @pytest.mark.parametrize("options, error, message", [
-    ({"normals": "guess"}, OptionError, r"option 'normals' must be an \(n_input_vertices, 3\) array of vertex normals or 'estimate'"),
+    ({"normals": "guess"}, OptionError,
+     r"option 'normals' must be an \(n_input_vertices, 3\) array of vertex normals or 'estimate'"),
     ({"normals": np.ones((80, 3))}, OptionError, r"option 'normals' must have shape \(81, 3\).*got \(80, 3\)"),
     ({"normals": np.ones(81)}, OptionError, r"must have shape \(81, 3\)"),
     ({"normals": np.full((81, 3), np.nan)}, OptionError, "NaN or infinite"),
@@ -356,7 +357,8 @@ def test_zero_length_normals_are_counted():
     mesh = bumpy_grid()
     normals = area_normals(mesh)
     normals[[3, 40, 41]] = 0.0
-    with pytest.raises(OptionError, match=r"option 'normals' are zero-length at 3 of the 81 vertices used by faces \(first: vertex 3\)"):
+    with pytest.raises(OptionError, match=r"option 'normals' are zero-length at 3 of the 81 vertices used by faces "
+                                          r"\(first: vertex 3\)"):
         lodkit.simplify(mesh, target_ratio=0.5, metric=("normal_qem", {"normals": normals}))
     # the same from the mesh's own normals; an unreferenced vertex's normal does not count
     v = np.vstack([mesh.vertices, [[9.0, 9.0, 9.0]]])
@@ -415,7 +417,7 @@ def test_properties_on_random_grids(seed, n, tilt, ratio, by):
     np.testing.assert_array_equal(again.mesh.faces, r.mesh.faces)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def load(name):
     return lodkit.load(shared_mesh(name))
 

@@ -6,12 +6,18 @@ import numpy as np
 import pytest
 
 import lodkit
-from lodkit._core.schroeder_kernel import (BOUNDARY, COMPLEX, CORNER, INTERIOR_EDGE, SIMPLE,
-                                           SchroederKernel, evaluate_star)
+from conftest import shared_mesh
+from lodkit._core.schroeder_kernel import (
+    BOUNDARY,
+    COMPLEX,
+    CORNER,
+    INTERIOR_EDGE,
+    SIMPLE,
+    SchroederKernel,
+    evaluate_star,
+)
 from lodkit.errors import OptionError
 from lodkit.metrics.schroeder import Schroeder
-
-from conftest import shared_mesh
 from test_qem import grid_mesh, subdivided_cube
 from test_simplify import check_real_result
 

@@ -16,7 +16,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, assume, given, settings, strategies as st
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
 from scipy.optimize import linprog
 from scipy.spatial import ConvexHull, QhullError
 
@@ -65,19 +66,19 @@ def ear_clip(P2):
 
     while len(idx) > 3:
         for n in range(len(idx)):
-            i, j, l = idx[n - 1], idx[n], idx[(n + 1) % len(idx)]
-            if sgn * cross(P2[i], P2[j], P2[l]) <= 1e-15:
+            i, j, k = idx[n - 1], idx[n], idx[(n + 1) % len(idx)]
+            if sgn * cross(P2[i], P2[j], P2[k]) <= 1e-15:
                 continue
             inside = False
             for m in idx:
-                if m in (i, j, l):
+                if m in (i, j, k):
                     continue
-                if (sgn * cross(P2[i], P2[j], P2[m]) >= 0 and sgn * cross(P2[j], P2[l], P2[m]) >= 0
-                        and sgn * cross(P2[l], P2[i], P2[m]) >= 0):
+                if (sgn * cross(P2[i], P2[j], P2[m]) >= 0 and sgn * cross(P2[j], P2[k], P2[m]) >= 0
+                        and sgn * cross(P2[k], P2[i], P2[m]) >= 0):
                     inside = True
                     break
             if not inside:
-                tris.append((i, j, l))
+                tris.append((i, j, k))
                 idx.pop(n)
                 break
         else:
@@ -99,7 +100,7 @@ def paper_angle(V, W, d):
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(d, e1)
     P2 = np.stack([Wp @ e1, Wp @ e2], axis=1)
-    return sum(abs(vos(Wp[i], Wp[j], Wp[l])) for i, j, l in ear_clip(P2))
+    return sum(abs(vos(Wp[i], Wp[j], Wp[k])) for i, j, k in ear_clip(P2))
 
 
 def lp_non_hyperbolic(V, W):
@@ -310,7 +311,8 @@ def cones(draw):
     side of a plane through V: azimuths increasing, polar angles and distances random."""
     k = draw(st.integers(3, 12))
     az = np.sort(np.array(draw(st.lists(st.floats(0, TAU), min_size=k, max_size=k, unique=True))))
-    assume(np.diff(np.append(az, az[0] + TAU)).min() > 1e-3 and np.diff(np.append(az, az[0] + TAU)).max() < math.pi - 1e-3)
+    gaps = np.diff(np.append(az, az[0] + TAU))
+    assume(gaps.min() > 1e-3 and gaps.max() < math.pi - 1e-3)
     polar = np.array(draw(st.lists(st.floats(0.05, 1.5), min_size=k, max_size=k)))
     dist = np.array(draw(st.lists(st.floats(0.01, 100.0), min_size=k, max_size=k)))
     U = np.stack([np.sin(polar) * np.cos(az), np.sin(polar) * np.sin(az), np.cos(polar)], axis=1)

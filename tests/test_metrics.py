@@ -10,10 +10,10 @@ temporary entry points), so plugins installed in the environment do not change r
 from __future__ import annotations
 
 import ast
-import re
 import importlib
 import json
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -26,16 +26,17 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import lodkit
-from test_qem import uv_sphere
-from test_simplify import grid
 import lodkit.metrics as M
 from lodkit import MetricError, OptionError, UnknownMetricError
-from lodkit._core import testkernels
 from lodkit._core.decimate import EdgeCollapser, vertex_quadrics
 from lodkit._core.halfedge import build
-from lodkit._core.kernel import API_VERSION, ERROR, OK, VETO, Kernel
-from lodkit.metrics import (BatchMetric, FieldMetric, KernelMetric, Metric, Option,
-                            QuadricMetric)
+from lodkit.kernel import API_VERSION, ERROR, OK, VETO, Kernel
+from lodkit.metrics import BatchMetric, FieldMetric, KernelMetric, Metric, Option, QuadricMetric
+from native import load
+from test_qem import uv_sphere
+from test_simplify import grid
+
+testkernels = load("lodkit_testkernels")    # tests/native/lodkit_testkernels.pyx, built for the tests
 
 REPO = Path(__file__).resolve().parents[1]
 # where the lodkit under test lives (the installed copy in CI, the source tree in a dev
@@ -350,13 +351,13 @@ def test_broken_plugin_is_reported_and_does_not_break_the_others(fake_entry_poin
         lodkit.simplify(mesh, target_ratio=0.3, metric=["qem", "broken"])
 
 
-def _write_dist(root: Path, name: str, version: str, entry_points: dict, modules: dict = {}) -> None:
+def _write_dist(root: Path, name: str, version: str, entry_points: dict, modules: dict | None = None) -> None:
     info = root / f"{name.replace('-', '_')}-{version}.dist-info"
     info.mkdir(parents=True)
     (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {name}\nVersion: {version}\n")
     lines = [f"[{M.GROUP}]"] + [f"{k} = {v}" for k, v in entry_points.items()]
     (info / "entry_points.txt").write_text("\n".join(lines) + "\n")
-    for module, source in modules.items():
+    for module, source in (modules or {}).items():
         (root / f"{module}.py").write_text(textwrap.dedent(source))
 
 
@@ -383,7 +384,8 @@ def test_real_entry_points_from_an_installed_distribution(tmp_path, monkeypatch)
     found = {i.name: i for i in M.available(load=True)}
     assert set(BUILTIN_NAMES) <= set(found)
     broken, good = found["acme_broken"], found["acme_good"]
-    assert (broken.package, broken.version, broken.source, broken.loaded) == ("acme-metrics", "1.2", "entry point", False)
+    assert ((broken.package, broken.version, broken.source, broken.loaded)
+            == ("acme-metrics", "1.2", "entry point", False))
     assert "No module named 'acme_no_such_module'" in broken.error
     assert (good.loaded, good.kind, good.description) == (True, "quadric", "QEM again, from a plugin.")
     mesh = grid_mesh(8, 8)
@@ -417,7 +419,7 @@ def test_import_lodkit_is_unaffected_by_a_broken_plugin(tmp_path):
     (NoKindMetric, "has kind ''"),
     (FaceField, "per='face'"),
     (BadOptionMetric, "option 'size' is 3"),
-    (NotAKernelMetric, "not a subclass of lodkit._core.kernel.Kernel"),
+    (NotAKernelMetric, "not a subclass of lodkit.kernel.Kernel"),
     (NoVersionMetric, "does not state the kernel API"),
     (OtherVersionMetric, f"built for kernel API version {API_VERSION + 1}, this lodkit has version {API_VERSION}"),
 ], ids=["function", "plain class", "no kind", "face field", "bad option", "not a kernel",
@@ -824,14 +826,15 @@ def test_edge_field_end_to_end(registry):
     tagged = lodkit.simplify(mesh, target_ratio=0.2, metric=["qem", ("edge_tag", {"weight": 1000.0})])
     assert tagged.report["metrics"] == ["qem", "edge_tag"]
     assert kept_in(tagged, left) >= kept_in(qem, left) + 15
-    with pytest.raises(MetricError, match=r"metric 'BadField' returned vertex field values of shape \(442,\); expected \(441,\) or \(441, k\)"):
+    with pytest.raises(MetricError, match=r"metric 'BadField' returned vertex field values of shape \(442,\); "
+                                          r"expected \(441,\) or \(441, k\)"):
         lodkit.simplify(mesh, target_ratio=0.2, metric=["qem", BadField])
 
 
 # ---------------------------------------------------------------------- kernels
 def test_kernel_interface_constants():
     assert (OK, VETO, ERROR) == (0, 1, -1)
-    assert Kernel.api_version == API_VERSION == 2
+    assert Kernel.api_version == API_VERSION == 3
     from lodkit._core.qem_kernel import QEMKernel
 
     for cls in (QEMKernel, testkernels.VetoAll, testkernels.FailAfter, testkernels.MidpointPlacer,
@@ -1045,7 +1048,8 @@ def test_combining_changes_the_result_in_the_expected_direction():
     assert counts == sorted(counts) and counts[-1] > counts[0]
     # a field and a kernel and a batch metric together still reach the target
     r = lodkit.simplify(mesh, target_ratio=0.2,
-                        metric=["qem", ("importance", {"values": vals, "weight": 10.0}), Scale(factor=2.0), ShortestEdge])
+                        metric=["qem", ("importance", {"values": vals, "weight": 10.0}), Scale(factor=2.0),
+                                ShortestEdge])
     assert r.stop_reason == "target_faces" and r.report["metrics"] == ["qem", "importance", "Scale", "ShortestEdge"]
 
 
@@ -1118,14 +1122,22 @@ def test_any_combination_keeps_the_mesh_valid(case, ratio, boundary, placement):
 
 
 # ---------------------------------------------------------------------- stubs
-# every compiled module has a stub (setup.py MODULES)
-STUBBED = [m for m in ast.literal_eval(re.search(r"^MODULES = (\[.*?\])", (REPO / "setup.py").read_text(),
-                                                   re.S | re.M).group(1))]
+# every compiled module has a stub (setup.py MODULES in lodkit._core, PUBLIC_MODULES in lodkit)
+def _setup_list(name: str) -> list[str]:
+    found = re.search(rf"^{name} = (\[.*?\])", (REPO / "setup.py").read_text(), re.S | re.M)
+    return ast.literal_eval(found.group(1))
+
+
+STUBBED = ([f"_core.{m}" for m in _setup_list("MODULES")] + _setup_list("PUBLIC_MODULES"))
+
+
+def _stub_path(module: str) -> Path:
+    return REPO / "lodkit" / (module.replace(".", "/") + ".pyi")
 
 
 def test_every_compiled_module_is_stubbed():
-    assert len(STUBBED) >= 14
-    missing = [m for m in STUBBED if not (REPO / "lodkit" / "_core" / f"{m}.pyi").is_file()]
+    assert len(STUBBED) >= 14 and {"kernel", "removal"} <= set(STUBBED)
+    missing = [m for m in STUBBED if not _stub_path(m).is_file()]
     assert not missing, f"no .pyi stub for {missing}"
 
 
@@ -1153,8 +1165,8 @@ def _stub_names(path: Path) -> dict:
 
 @pytest.mark.parametrize("module", STUBBED)
 def test_stubs_name_every_python_visible_name(module):
-    mod = importlib.import_module(f"lodkit._core.{module}")
-    stub = _stub_names(REPO / "lodkit" / "_core" / f"{module}.pyi")
+    mod = importlib.import_module(f"lodkit.{module}")
+    stub = _stub_names(_stub_path(module))
     public = {n for n, o in vars(mod).items() if not n.startswith("_") and n != "np"
               and getattr(o, "__module__", mod.__name__) == mod.__name__}
     assert public <= set(stub), f"not in {module}.pyi: {sorted(public - set(stub))}"
@@ -1172,9 +1184,9 @@ def test_stubs_name_every_python_visible_name(module):
 
 
 def test_removal_metric_kernel_is_checked():
-    from lodkit._core.kernel import Kernel
-    from lodkit._core.removal import API_VERSION, RemovalKernel
     from lodkit._core.schroeder_kernel import SchroederKernel
+    from lodkit.kernel import Kernel
+    from lodkit.removal import API_VERSION, RemovalKernel
 
     class EdgeKernelAsRemoval(M.RemovalMetric):
         kernel = Kernel
@@ -1185,7 +1197,7 @@ def test_removal_metric_kernel_is_checked():
     class GoodRemoval(M.RemovalMetric):
         kernel = SchroederKernel
 
-    assert "not a subclass of lodkit._core.removal.RemovalKernel" in M.check_metric_class(EdgeKernelAsRemoval)
-    assert "not a subclass of lodkit._core.removal.RemovalKernel" in M.check_metric_class(BaseRemoval)
+    assert "not a subclass of lodkit.removal.RemovalKernel" in M.check_metric_class(EdgeKernelAsRemoval)
+    assert "not a subclass of lodkit.removal.RemovalKernel" in M.check_metric_class(BaseRemoval)
     assert M.check_metric_class(GoodRemoval) is None
     assert vars(SchroederKernel)["api_version"] == API_VERSION

@@ -17,10 +17,9 @@ import numpy as np
 import pytest
 
 import lodkit
+from conftest import shared_mesh
 from lodkit import OptionError, metrics
 from lodkit.demo import demo_mesh
-
-from conftest import shared_mesh
 
 REQUIRE_ENV = "LODKIT_REQUIRE_PLUGINS"
 
@@ -140,7 +139,7 @@ def test_plugin_is_listed_with_its_package_version_and_kind(name):
 
 
 def test_native_kernel_states_the_kernel_api_it_was_built_for(max_edge):
-    from lodkit._core.kernel import API_VERSION, Kernel
+    from lodkit.kernel import API_VERSION, Kernel
 
     cls = metrics.get("max_edge_length")
     assert issubclass(cls.kernel, Kernel)
@@ -290,8 +289,10 @@ def test_max_edge_length_checks_the_whole_boundary_fan(max_edge, boundary):
 
 def test_max_edge_length_weight_penalises_long_new_edges(max_edge, surface):
     # a bigger weight prices long new edges higher: the output's edges get no longer
-    light = lodkit.simplify(surface, target_ratio=0.3, metric=["qem", ("max_edge_length", {"max_length": 0.1, "weight": 0.0})])
-    heavy = lodkit.simplify(surface, target_ratio=0.3, metric=["qem", ("max_edge_length", {"max_length": 0.1, "weight": 1e3})])
+    light = lodkit.simplify(surface, target_ratio=0.3,
+                            metric=["qem", ("max_edge_length", {"max_length": 0.1, "weight": 0.0})])
+    heavy = lodkit.simplify(surface, target_ratio=0.3,
+                            metric=["qem", ("max_edge_length", {"max_length": 0.1, "weight": 1e3})])
     assert light.stop_reason == heavy.stop_reason == "target_faces"
     assert edge_lengths(heavy.mesh).mean() <= edge_lengths(light.mesh).mean()
     assert not np.array_equal(light.mesh.faces, heavy.mesh.faces)

@@ -8,14 +8,14 @@ import zipfile
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import lodkit
+from conftest import shared_mesh
 from lodkit.cli import main
 from lodkit.errors import MeshIOError, OptionError
 from lodkit.progressive import FORMAT_VERSION, ProgressiveMesh, progressive
-
-from conftest import shared_mesh
 from test_qem import uv_sphere
 from test_simplify import manifold_meshes
 

@@ -6,7 +6,6 @@ Q(p) = p^T A p + 2 b^T p + c, w = summed area of the faces it stands for.
 """
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
 
@@ -369,7 +368,7 @@ def test_flat_grid_every_collapse_is_free():
     vertices, faces = grid_mesh(5, 4)
     for policy, weight in [(PRESERVE, 10.0), (FREE, 0.0)]:
         _, _, collapser = mesh_setup(vertices, faces, weight, policy=policy)
-        for (u, v), interior in edges_of(faces).items():
+        for u, v in edges_of(faces):
             plan = collapser.plan_edge(u, v)
             if plan is None:
                 continue

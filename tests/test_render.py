@@ -2,7 +2,7 @@
 
 The numpy rasteriser is always available; the Open3D backend is compared against it in a
 subprocess (a fresh process, two frames: Filament on a software Vulkan can stall on later
-frames, see lodkit/render.py) and skipped when Open3D's renderer cannot start here.
+frames, see lodkit/viz) and skipped when Open3D's renderer cannot start here.
 """
 from __future__ import annotations
 
@@ -17,6 +17,8 @@ import pytest
 
 import lodkit
 import lodkit.render as lr
+import lodkit.viz.open3d_backend as o3b
+import lodkit.viz.text as font
 from lodkit.errors import MeshError, OptionError
 
 REPO = Path(lodkit.__file__).resolve().parents[1]
@@ -146,14 +148,14 @@ def test_contact_sheet_shape_and_labels():
 
 
 def test_text_glyphs_are_5x7():
-    assert set(lr._GLYPHS) >= set("0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZ .,-+%:=()")
-    for ch, rows in lr._GLYPHS.items():
+    assert set(font._GLYPHS) >= set("0123456789ABCDEFGHIJKLMNOPQRSTUVWXYZ .,-+%:=()")
+    for ch, rows in font._GLYPHS.items():
         assert len(rows) == 7 and all(0 <= r < 32 for r in rows), ch
-    assert len({rows for ch, rows in lr._GLYPHS.items()}) == len(lr._GLYPHS)   # all distinct
+    assert len({rows for ch, rows in font._GLYPHS.items()}) == len(font._GLYPHS)   # all distinct
     img = np.full((10, 20, 3), 255, np.uint8)
     lr.draw_text(img, "1", 1, 1, color=(0, 0, 0), scale=1)
     drawn = (img[1:8, 1:6, 0] == 0).astype(int)
-    expect = np.array([[(r >> (4 - i)) & 1 for i in range(5)] for r in lr._GLYPHS["1"]])
+    expect = np.array([[(r >> (4 - i)) & 1 for i in range(5)] for r in font._GLYPHS["1"]])
     assert (drawn == expect).all()
     lr.draw_text(img, "clipped away", 15, 8)                        # partly outside: no error
 
@@ -215,7 +217,7 @@ def test_bad_input_gives_clear_errors():
 
 
 def test_environment_variable_chooses_the_backend(monkeypatch):
-    monkeypatch.setattr(lr, "_state", dict(lr._state, probed=None))
+    monkeypatch.setattr(o3b, "_state", dict(o3b._state, probed=None))
     monkeypatch.setenv("LODKIT_RENDER_BACKEND", "numpy")
     assert lr.backend_info() == {"backend": "numpy", "reason": "LODKIT_RENDER_BACKEND=numpy"}
     monkeypatch.setenv("LODKIT_RENDER_BACKEND", "metal")
@@ -231,8 +233,8 @@ def test_open3d_failure_falls_back_or_raises(monkeypatch):
     def broken(*a, **k):
         raise RuntimeError("simulated driver failure")
 
-    monkeypatch.setattr(lr, "_state", dict(lr._state, probed=True, software=False, reason="ok"))
-    monkeypatch.setattr(lr, "_render_open3d", broken)
+    monkeypatch.setattr(o3b, "_state", dict(o3b._state, probed=True, software=False, reason="ok"))
+    monkeypatch.setattr(o3b, "_render_open3d", broken)
     monkeypatch.delenv("LODKIT_RENDER_BACKEND", raising=False)
     with pytest.raises(lr.RenderError, match="simulated driver failure"):
         lr.render(m, 20, 20, backend="open3d")
@@ -240,7 +242,7 @@ def test_open3d_failure_falls_back_or_raises(monkeypatch):
         img = lr.render(m, 20, 20)
     assert (img == lr.render(m, 20, 20, backend="numpy")).all()
     assert lr.backend() == "numpy" and "simulated" in lr.backend_info()["reason"]
-    monkeypatch.setattr(lr, "_state", dict(lr._state, probed=False, reason="no Vulkan"))
+    monkeypatch.setattr(o3b, "_state", dict(o3b._state, probed=False, reason="no Vulkan"))
     with pytest.raises(lr.RenderError, match="no Vulkan"):
         lr.render(m, 20, 20, backend="open3d")
 
@@ -274,7 +276,7 @@ def test_open3d_backend_agrees_with_numpy_and_exits_cleanly(tmp_path):
         proc = subprocess.run([sys.executable, "-c", _BOTH, str(Path(__file__).parent), str(out)], env=env,
                               capture_output=True, text=True, timeout=150)
     except subprocess.TimeoutExpired:
-        pytest.skip("Open3D's renderer stalled for 150 s (Filament on a software Vulkan; see lodkit/render.py)")
+        pytest.skip("Open3D's renderer stalled for 150 s (Filament on a software Vulkan; see lodkit/viz)")
     # exit code 0: the renderer alive at exit (two sizes were used) does not abort the interpreter
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert json.loads(proc.stdout.strip().splitlines()[-1]) == {"ok": True}

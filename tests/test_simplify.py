@@ -329,12 +329,12 @@ def test_errors_are_value_errors():
 
 
 # ---------------------------------------------------------------------- real meshes
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def load(name):
     return lodkit.load(shared_mesh(name))
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def topo(name):
     return lodkit.topology(load(name))
 

@@ -1,6 +1,7 @@
 """lodkit.topology: exact counts on hand-made meshes, a slow reference, and the shared meshes."""
 from __future__ import annotations
 
+import dataclasses
 import json
 import time
 from collections import defaultdict
@@ -192,7 +193,7 @@ def test_report_as_dict_and_str():
     assert len(lines) == len(d)
     assert len({len(line) for line in lines}) == 1          # aligned: every line the same width
     assert lines[0].startswith("n vertices") and lines[0].endswith("4")
-    with pytest.raises(Exception):
+    with pytest.raises(dataclasses.FrozenInstanceError):
         r.n_faces = 3                                       # frozen
 
 

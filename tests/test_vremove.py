@@ -4,7 +4,6 @@ median filter of gated kernels, and ``simplify`` with a removal metric (run with
 PlaneFan test kernel: cost = distance to the average plane, fan from the closest-line apex)."""
 from __future__ import annotations
 
-import ast
 import functools
 import importlib
 from pathlib import Path
@@ -19,12 +18,13 @@ from conftest import shared_mesh
 from lodkit import MetricError, OptionError
 from lodkit._core.halfedge import build, triangulation_ok
 from lodkit._core.retriangulate import py_closest_line_apex, py_fan_from
-from lodkit._core.testkernels import PlaneFan
 from lodkit._core.vremove import STATE_NAMES, MedianFilter, VertexRemover
 from lodkit.metrics.base import Option, RemovalMetric
+from native import load
 from test_simplify import BROKEN, check_real_result, face_soups, manifold_meshes, signed_volume
 
 REPO = Path(__file__).resolve().parent.parent
+PlaneFan = load("lodkit_testkernels").PlaneFan      # tests/native/lodkit_testkernels.pyx
 SETTINGS = settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 
@@ -69,7 +69,8 @@ def polar_disk(rings=4, per_ring=12, rng=None):
     for r in range(1, rings):
         for i in range(per_ring):
             if r % 2:
-                f += [[ring(r, i), ring(r + 1, i), ring(r + 1, i + 1)], [ring(r, i), ring(r + 1, i + 1), ring(r, i + 1)]]
+                f += [[ring(r, i), ring(r + 1, i), ring(r + 1, i + 1)],
+                      [ring(r, i), ring(r + 1, i + 1), ring(r, i + 1)]]
             else:
                 f += [[ring(r, i), ring(r + 1, i - 1), ring(r + 1, i)], [ring(r, i), ring(r + 1, i), ring(r, i + 1)]]
     return lodkit.Mesh(np.array(v), np.array(f))
@@ -614,7 +615,7 @@ def test_removal_properties(case, ratio, boundary, angle):
 
 
 # ---------------------------------------------------------------------- real meshes
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def load(name):
     return lodkit.load(shared_mesh(name))
 
@@ -662,9 +663,9 @@ def test_star_local_cache_gives_the_same_run(name):
     """schroeder and volume say star_local = True: a popped candidate's triangles come from
     the cache instead of a second evaluation.  The same kernels without the flag (evaluated
     again on every pop) give the same run, with more kernel calls."""
+    from lodkit._core import vremove
     from lodkit._core.schroeder_kernel import SchroederKernel
     from lodkit._core.volume_kernel import VolumeKernel
-    from lodkit._core import vremove
     from lodkit.metrics.schroeder import Schroeder
     from lodkit.metrics.volume import Volume
 

@@ -25,9 +25,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from _common import camera, load, open3d_mesh, panel_size, parser  # noqa: E402
+
 import lodkit  # noqa: E402
 import lodkit.render as lr  # noqa: E402
-from _common import camera, load, open3d_mesh, panel_size, parser  # noqa: E402
 
 
 def importance(mesh: lodkit.Mesh) -> np.ndarray:

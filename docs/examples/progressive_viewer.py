@@ -20,9 +20,10 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from _common import camera, load, open3d_mesh, panel_size, parser  # noqa: E402
+
 import lodkit  # noqa: E402
 import lodkit.render as lr  # noqa: E402
-from _common import camera, load, open3d_mesh, panel_size, parser  # noqa: E402
 
 STRIP = (1.0, 0.3, 0.1, 0.03, 0.01)
 

@@ -17,9 +17,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from _common import camera, load, open3d_mesh, panel_size, parser  # noqa: E402
+
 import lodkit  # noqa: E402
 import lodkit.render as lr  # noqa: E402
-from _common import camera, load, open3d_mesh, panel_size, parser  # noqa: E402
 
 
 def lods(mesh: lodkit.Mesh, ratios: list[float], metric: str) -> list[tuple[str, lodkit.Mesh]]:
@@ -41,7 +42,7 @@ def main(argv=None) -> int:
         ap.error(f"--ratios must be numbers, got {args.ratios!r}")
     mesh, name = load(args)
     chain = lods(mesh, ratios, args.metric)
-    for label, m in chain:
+    for label, _ in chain:
         print(f"{name}: {label}")
     if args.png:
         w, h = panel_size(args)

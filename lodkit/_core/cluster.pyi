@@ -1,10 +1,9 @@
 """Type stubs for lodkit._core.cluster (Cython): the per-cell passes of lodkit.cluster."""
-from typing import Optional
 
 import numpy as np
 
 def cell_sums(P: np.ndarray, F: np.ndarray, label: np.ndarray, n_cells: int,
-              quadrics: bool) -> tuple[np.ndarray, np.ndarray, Optional[np.ndarray]]:
+              quadrics: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Summed positions (k, 3), vertex counts (k,) and, with ``quadrics``, the summed
     area-weighted face quadrics (k, 11: a11 a12 a13 a22 a23 a33 b1 b2 b3 c w) per cell;
     P (n, 3) float64, F (m, 3) int32, label (n,) int64."""

@@ -115,7 +115,7 @@ def place_quadric(const double[:, ::1] Q, const double[:, ::1] mean, const doubl
     way from the centroid to the minimiser: all of it (to 1e-9 in three steps at mu = trace/3)
     where A constrains the point, nothing where A is singular (a cell whose faces are one
     plane keeps the centroid's in-plane coordinates), a little where A is weak."""
-    cdef Py_ssize_t k = Q.shape[0], i, j, it
+    cdef Py_ssize_t k = Q.shape[0], i, j, _step
     if mean.shape[0] != k or cell_lo.shape[0] != k or Q.shape[1] < 10:
         raise ValueError("Q, mean and cell_lo must have one row per cell")
     out_arr = np.empty((k, 3), dtype=np.float64)
@@ -143,7 +143,7 @@ def place_quadric(const double[:, ::1] Q, const double[:, ::1] mean, const doubl
             c33 = a11 * a22 - a12 * a12
             det = a11 * c11 + a12 * c12 + a13 * c13
             if det > 0.0 and lam > 0.0:
-                for it in range(steps):
+                for _step in range(steps):
                     # r = -b - A x (with the plain A)
                     r0 = -Q[i, 6] - (Q[i, 0] * x0 + a12 * x1 + a13 * x2)
                     r1 = -Q[i, 7] - (a12 * x0 + Q[i, 3] * x1 + a23 * x2)

@@ -4,7 +4,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .kernel import Kernel
+from ..kernel import Kernel
 
 #: ``mode`` codes: replace the cost with weight * omega, or scale the cost so far
 MODE_REPLACE: int

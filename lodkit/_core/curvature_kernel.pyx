@@ -21,8 +21,8 @@ the core's placement stands).
 """
 import numpy as np
 
-from .kernel cimport (Kernel, Candidate, vertex_position, KERNEL_OK, KERNEL_API_VERSION,
-                      VERTEX_FIXED, VERTEX_BOUNDARY)
+from lodkit.kernel cimport (Kernel, Candidate, vertex_position, KERNEL_OK, KERNEL_API_VERSION,
+                            VERTEX_FIXED, VERTEX_BOUNDARY)
 
 from libc.math cimport sqrt
 

@@ -1,7 +1,8 @@
 # cython: language_level=3
 from .halfedge cimport HalfEdgeMesh, HEArrays
 from .heap cimport IndexedHeap
-from .kernel cimport Kernel, KernelMesh
+from lodkit.kernel cimport Kernel, KernelMesh
+from .chain cimport KernelChain
 from .fields cimport FieldSet
 from .quadric cimport AttributeQuadrics
 from .checks cimport CheckLimits
@@ -68,6 +69,7 @@ cdef class EdgeCollapser:
     # the metric past the quadric: fields, native kernels
     cdef FieldSet fields
     cdef Kernel kernel              # first of the chain, None if no kernels
+    cdef KernelChain chain          # the kernels in order (lodkit._core.chain), None if none
     cdef Kernel wide_kernel         # the only wide kernel (it may name the vertices), or None
     cdef int[::1] edge_stamp        # wide re-rank: edges already re-ranked for this collapse
     cdef int recost_counter

@@ -25,15 +25,17 @@ from libc.math cimport sqrt, INFINITY
 from .halfedge cimport HalfEdgeMesh, he_next, he_prev, he_dest, he_ring_next, he_is_boundary
 from .heap cimport IndexedHeap
 from .vec3 cimport cross3, dot3, same_point
-from .kernel cimport (Kernel, Candidate, chain_place, chain_commit, fill_candidate,
-                      KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VERTEX_FIXED, VERTEX_BOUNDARY)
+from lodkit.kernel cimport (Kernel, Candidate, fill_candidate, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR,
+                            VERTEX_FIXED, VERTEX_BOUNDARY)
+from .chain cimport chain_place, chain_commit, chain_cost_range, chain_failed
+from .chain import make_chain
 from .common cimport (QSIZE, VSTRIDE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, RUN_ERROR, BOUNDARY_LOCK,
                       BOUNDARY_PRESERVE, BOUNDARY_FREE, PLACE_OPTIMAL, PLACE_ENDPOINT)
 from .quadric cimport (AttributeQuadrics, sq, collapse_error, quadric_eval, take_if_lower, quadric_solve,
                        quadric_solve_truncated)
 from .checks cimport (check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality, face_volume,
                       turns_inside_out)
-from .fields cimport FieldSet, chain_cost_range, chain_failed, STEP_VFIELD, STEP_EFIELD
+from .fields cimport FieldSet, STEP_VFIELD, STEP_EFIELD
 from .quadric import face_unit_normals
 
 cnp.import_array()
@@ -225,13 +227,13 @@ cdef class EdgeCollapser:
                                steps, len(kernels))
         for k in kernels:            # type-checks each one
             if k is None:
-                raise TypeError("kernels must be lodkit._core.kernel.Kernel instances")
+                raise TypeError("kernels must be lodkit.kernel.Kernel instances")
+        self.chain = make_chain(kernels)
         self.kernel = kernels[0] if kernels else None
         self.opt.kernel_places = False
         self.opt.wide_recost = False
         self.wide_kernel = None
         if self.kernel is not None:
-            self.kernel._chain(kernels[1:])
             for k in kernels:
                 self.opt.kernel_places |= k.places
                 self.opt.wide_recost |= k.wide
@@ -463,7 +465,7 @@ cdef class EdgeCollapser:
         if self.kernel is not None:
             fill_candidate(&cand, &self.kmesh, e, h, u, v, r_out[0], kept, p, 0.0, 0.0)
             if self.opt.kernel_places:
-                rc = chain_place(self.kernel, &cand)
+                rc = chain_place(self.chain, &cand)
                 if rc != KERNEL_OK:
                     return self.kernel_refused(rc)
                 if not ((cand.removed == u and cand.kept == v) or (cand.removed == v and cand.kept == u)):
@@ -503,10 +505,10 @@ cdef class EdgeCollapser:
                 # removed / kept / p in cand are current: set above, or by place() and copied out
                 cand.cost = total
                 cand.error = e_err
-                if step[1] == 0 and self.kernel._next is None:
+                if step[1] == 0 and self.chain.next is None:
                     rc = self.kernel.cost(&cand)
                 else:
-                    rc = chain_cost_range(self.kernel, &cand, step[1], step[2] - step[1])
+                    rc = chain_cost_range(self.chain, &cand, step[1], step[2] - step[1])
                 if rc != KERNEL_OK:
                     return self.kernel_refused(rc)
                 total = cand.cost
@@ -520,7 +522,7 @@ cdef class EdgeCollapser:
             self.n_vetoed += 1
             return -1
         self.failed = True            # KERNEL_ERROR, or anything else a kernel should not return
-        if not chain_failed(self.kernel):
+        if not chain_failed(self.chain):
             self.kernel.fail(b"a kernel returned an unknown status (not KERNEL_OK, KERNEL_VETO nor KERNEL_ERROR)")
         return -2
 
@@ -876,7 +878,7 @@ cdef class EdgeCollapser:
         if self.kernel is not None:
             # both ends are k now: u, v are not meaningful, removed / kept are
             fill_candidate(&cand, &self.kmesh, dead[0], h, r, k, r, k, p, cost, err)
-            if chain_commit(self.kernel, &cand) == KERNEL_ERROR:
+            if chain_commit(self.chain, &cand) == KERNEL_ERROR:
                 self.failed = True
                 return
         if rerank:
@@ -1108,11 +1110,9 @@ cdef class EdgeCollapser:
     @property
     def error_message(self):
         """The message of the kernel that failed ('' if none did)."""
-        k = self.kernel
-        while k is not None:
+        for k in (self.chain.kernels() if self.chain is not None else ()):
             if k.failed:
                 return k.message
-            k = k._next_kernel()
         return ""
 
     @property

@@ -2,7 +2,6 @@
 """Precomputed per-vertex and per-edge fields of the edge-collapse metrics: how a field
 merges on collapse, how a vertex field gives an edge its value, how the value enters the
 cost, and the order (``steps``) in which fields and native kernels apply after the quadric."""
-from .kernel cimport Kernel, Candidate
 
 # field rules: how a field merges on collapse, how a vertex field gives an edge its value,
 # and how the value enters the cost
@@ -57,8 +56,6 @@ cdef inline double merge_value(double kept, double removed, int rule) noexcept n
     return kept
 
 
-cdef int chain_cost_range(Kernel k, Candidate* c, int skip, int count) noexcept nogil
-cdef bint chain_failed(Kernel k) noexcept nogil
 
 
 cdef class FieldSet:

@@ -4,28 +4,9 @@ arrays and rules, the order of the steps after the quadric, merging on collapse.
 import numpy as np
 cimport numpy as cnp
 
-from .kernel cimport KERNEL_OK
+
 
 cnp.import_array()
-
-
-cdef int chain_cost_range(Kernel k, Candidate* c, int skip, int count) noexcept nogil:
-    """cost() of ``count`` kernels of the chain, starting ``skip`` kernels past ``k``."""
-    cdef int rc
-    if skip > 0:
-        return chain_cost_range(k._next, c, skip - 1, count)
-    rc = k.cost(c)
-    if rc != KERNEL_OK:
-        return rc
-    if count > 1 and k._next is not None:
-        return chain_cost_range(k._next, c, 0, count - 1)
-    return KERNEL_OK
-
-
-cdef bint chain_failed(Kernel k) noexcept nogil:
-    if k.failed:
-        return True
-    return k._next is not None and chain_failed(k._next)
 
 
 def _field_arrays(values, rules, int rows, str what):

@@ -45,7 +45,7 @@ cdef class HalfEdgeMesh:
     cdef readonly int n_alive_faces
     cdef readonly int n_alive_vertices
     cdef readonly int n_split_vertices    # copies made to split non-manifold vertices
-    cdef readonly int n_nonmanifold_edges # edges cut because of >2 faces or clashing orientation
+    cdef readonly int n_nonmanifold_edges  # edges cut because of >2 faces or clashing orientation
     cdef int[::1] corner
     cdef int[::1] twin
     cdef int[::1] edge

@@ -1,5 +1,5 @@
 """Type stubs for lodkit._core.heap (Cython)."""
-from typing import Iterable
+from collections.abc import Iterable
 
 class IndexedHeap:
     """Indexed 4-ary min-heap of candidate ids 0..capacity-1, ordered by (key, id)."""

@@ -4,7 +4,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .kernel import Kernel
+from ..kernel import Kernel
 
 class MELODKernel(Kernel):
     """Half-edge key w_o * max(sum Q_t, acc_o) + boundary term, re-costed over the stars

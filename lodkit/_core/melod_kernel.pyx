@@ -27,10 +27,10 @@ import numpy as np
 from ..metrics.base import face_vectors, vertex_sums
 from libc.math cimport sqrt, INFINITY
 
-from .halfedge cimport HEArrays, he_next, he_prev, he_dest, he_ring_next
+from .halfedge cimport HEArrays, he_prev, he_dest, he_ring_next
 from .vec3 cimport sub3, cross3, dot3, norm3, same_point
-from .kernel cimport (Kernel, Candidate, KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_API_VERSION,
-                      VERTEX_FIXED, VERTEX_BOUNDARY)
+from lodkit.kernel cimport (Kernel, Candidate, KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_API_VERSION,
+                            VERTEX_FIXED, VERTEX_BOUNDARY)
 
 cdef enum:
     ACC_OFF = 0       # no accumulation
@@ -338,7 +338,7 @@ cdef class MELODKernel(Kernel):
         cdef const KernelMesh* m = c.mesh
         cdef const HEArrays* a = m.he
         cdef int k = c.kept
-        cdef int start, y, ny, w, i
+        cdef int start, y, ny, i
         cdef double acc = self.cache_key if self.accumulate == ACC_KEY else self.cache_acc
         if c.edge != self.cache_edge or c.removed != self.cache_removed:
             # a collapse the driver did along with the one ranked last (the other side of a

@@ -36,7 +36,8 @@ import numpy as np
 cimport numpy as cnp
 
 from .halfedge cimport HEArrays, he_prev, he_dest, he_ring_next
-from .kernel cimport Candidate, chain_cost, fill_candidate, KERNEL_OK, VERTEX_FIXED, VERTEX_BOUNDARY
+from lodkit.kernel cimport Candidate, fill_candidate, KERNEL_OK, VERTEX_FIXED, VERTEX_BOUNDARY
+from .chain cimport chain_cost
 from .common cimport QSIZE, VSTRIDE, BOUNDARY_FREE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, RUN_ERROR
 from .quadric cimport collapse_error, quadric_eval
 from .checks cimport turns_inside_out
@@ -148,7 +149,7 @@ cdef int collapse_pass_c(PassCollapser c, const int* E, int n_cand, const double
                 # the kernels judged the core's position: ask them again about this one
                 # (only their verdict counts here; the batch has ranked already)
                 fill_candidate(&cand, &c.kmesh, e, h, u, v, r, v if r == u else u, p, cost, err)
-                rc = chain_cost(c.kernel, &cand)
+                rc = chain_cost(c.chain, &cand)
                 if rc != KERNEL_OK:
                     if c.kernel_refused(rc) == -2:
                         return -1

@@ -1,7 +1,7 @@
 """Type stubs for lodkit._core.qem_kernel (Cython): QEM as a native kernel (``qem_native``)."""
 from typing import Any, ClassVar
 
-from .kernel import Kernel
+from ..kernel import Kernel
 
 class QEMKernel(Kernel):
     """Area-weighted plane quadrics (plus the 'preserve' boundary planes), summed on collapse

@@ -7,9 +7,8 @@ core chose -- but computed through the public kernel interface, the way a plugin
 It exists to measure what the interface costs (bench/) and as a worked example.
 """
 import numpy as np
-from libc.string cimport memset
 
-from .kernel cimport Kernel, Candidate, KERNEL_OK, KERNEL_API_VERSION
+from lodkit.kernel cimport Kernel, Candidate, KERNEL_OK, KERNEL_API_VERSION
 
 
 cdef class QEMKernel(Kernel):

@@ -2,8 +2,8 @@
 """A :c:type:`Star` over bare positions, for the removal kernels' ``evaluate_star`` test
 helpers (schroeder_kernel, volume_kernel): one star of a point set handed to a kernel's
 ``evaluate`` without a half-edge mesh (``KernelMesh.he`` is NULL, no face slots)."""
-from .kernel cimport KernelMesh
-from .removal cimport Star
+from lodkit.kernel cimport KernelMesh
+from lodkit.removal cimport Star
 
 
 cdef inline void star_on_points(KernelMesh* mesh, Star* star, const double* positions, int n_vertices,

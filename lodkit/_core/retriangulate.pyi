@@ -1,7 +1,7 @@
 """Type stubs for lodkit._core.retriangulate (Cython): hole re-triangulation for vertex
 removal.  The nogil routines (split_loop, fan_from, closest_line_apex) are cimported from
 retriangulate.pxd; these are their Python test wrappers."""
-from typing import Optional, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -9,9 +9,9 @@ from numpy.typing import ArrayLike, NDArray
 #: smallest accepted aspect ratio of a split in split_loop (vtkDecimate's 1/25)
 SPLIT_MIN_ASPECT: float
 
-def py_split_loop(points: ArrayLike, normal: Optional[ArrayLike] = None,
-                  force: Optional[Sequence[int]] = None,
-                  min_aspect: Optional[float] = None) -> Optional[NDArray[np.int32]]:
+def py_split_loop(points: ArrayLike, normal: ArrayLike | None = None,
+                  force: Sequence[int] | None = None,
+                  min_aspect: float | None = None) -> NDArray[np.int32] | None:
     """Schroeder's recursive loop splitting of the loop ``points`` (k, 3): (k - 2, 3)
     triangles as loop indices, or None when no valid triangulation exists."""
 

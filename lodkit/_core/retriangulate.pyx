@@ -23,7 +23,7 @@
 # with one empty side: every other vertex must lie on the loop's side of the plane through
 # that edge (Schroeder's own vtkDecimate does this for the new boundary edge of a boundary
 # vertex); the loop is then triangulated without constraint.
-from libc.math cimport sqrt, fabs, INFINITY
+from libc.math cimport sqrt, INFINITY
 from libc.float cimport DBL_MIN, DBL_MAX
 
 # Schroeder's vtkDecimate: AspectRatio = 25, a split is refused when
@@ -146,8 +146,12 @@ cdef int split_loop_aspect(const double* P, int stride, const int* loop, int k,
             p0 = &P[stride * loop[cur[0]]]
             p1 = &P[stride * loop[cur[1]]]
             p2 = &P[stride * loop[cur[2]]]
-            e0 = p1[0] - p0[0]; e1 = p1[1] - p0[1]; e2 = p1[2] - p0[2]
-            f0 = p2[0] - p0[0]; f1 = p2[1] - p0[1]; f2 = p2[2] - p0[2]
+            e0 = p1[0] - p0[0]
+            e1 = p1[1] - p0[1]
+            e2 = p1[2] - p0[2]
+            f0 = p2[0] - p0[0]
+            f1 = p2[1] - p0[1]
+            f2 = p2[2] - p0[2]
             if not ((e1 * f2 - e2 * f1) * normal[0] + (e2 * f0 - e0 * f2) * normal[1]
                     + (e0 * f1 - e1 * f0) * normal[2]) > 0.0:
                 return -1               # a flat or inverted triangle (only a k = 3 loop)
@@ -247,6 +251,7 @@ def py_split_loop(points, normal=None, force=None, min_aspect=None):
         return None
     return np.asarray(tri)[:3 * n].reshape(n, 3).copy()
 # ---- end split_loop --------------------------------------------------------------------
+
 
 # ---- fan_from, closest_line_apex (NAME=vremove) ------------------------------------------
 

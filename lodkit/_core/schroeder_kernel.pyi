@@ -1,10 +1,10 @@
 """Type stubs for lodkit._core.schroeder_kernel (Cython): the native kernel of the
 ``schroeder`` metric (Schroeder, Zarge & Lorensen 1992 vertex decimation)."""
-from typing import Any, ClassVar, Optional, TypedDict
+from typing import Any, ClassVar, TypedDict
 
 import numpy as np
 
-from .removal import RemovalKernel
+from ..removal import RemovalKernel
 
 #: vertex classes (codes of ``evaluate_star(...)["cls"]``)
 SIMPLE: int
@@ -22,11 +22,11 @@ DEFAULT_MIN_ASPECT: float
 class _StarEvaluation(TypedDict):
     cls: int
     name: str
-    features: Optional[tuple[int, int]]
+    features: tuple[int, int] | None
     vetoed: bool
-    error: Optional[float]
-    cost: Optional[float]
-    triangles: Optional[np.ndarray]
+    error: float | None
+    cost: float | None
+    triangles: np.ndarray | None
 
 class SchroederKernel(RemovalKernel):
     """Classifies each star, costs a removal by the distance to the average plane (simple

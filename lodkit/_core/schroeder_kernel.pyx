@@ -49,8 +49,8 @@ import numpy as np
 
 from libc.math cimport sqrt, NAN
 
-from .kernel cimport KernelMesh, KERNEL_OK, KERNEL_VETO
-from .removal cimport RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION
+from lodkit.kernel cimport KernelMesh, KERNEL_OK, KERNEL_VETO
+from lodkit.removal cimport RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION
 from .retriangulate cimport split_loop_aspect
 from .removal_star cimport star_on_points
 from .vec3 cimport sub3, cross3, dot3, norm3

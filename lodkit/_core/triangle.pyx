@@ -18,7 +18,7 @@ from libc.math cimport INFINITY
 
 from .halfedge cimport he_next, he_prev, he_dest, he_ring_next
 from .vec3 cimport dot3
-from .kernel cimport VERTEX_FIXED, VERTEX_BOUNDARY
+from lodkit.kernel cimport VERTEX_FIXED, VERTEX_BOUNDARY
 from .common cimport QSIZE, VSTRIDE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, BOUNDARY_PRESERVE, PLACE_ENDPOINT
 from .quadric cimport sq, collapse_error, quadric_eval, take_if_lower, quadric_solve, quadric_solve_truncated
 from .edge cimport EdgeCollapser, SEAM_NONE

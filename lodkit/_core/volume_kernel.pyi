@@ -1,11 +1,12 @@
 """Type stubs for lodkit._core.volume_kernel (Cython): the native kernel of the ``volume``
 metric (Chuon & Guha: vol(V) = angle(V) * ht(V)^3, hyperbolic vertices kept, closest-line
 fan re-triangulation)."""
-from typing import Any, ClassVar, Optional, Sequence
+from collections.abc import Sequence
+from typing import Any, ClassVar
 
 import numpy as np
 
-from .removal import RemovalKernel
+from ..removal import RemovalKernel
 
 #: classification codes of a star
 DEGENERATE: int
@@ -38,8 +39,8 @@ class VolumeKernel(RemovalKernel):
         """Why the kernel holds vertices back now, in words (appended to a run's stop_detail)."""
     def prepare(self, ctx: Any, options: dict[str, Any]) -> None:
         """Options ``median`` (bool, default True: gated), ``tolerance`` (radians in
-        [0, 0.1), default 1e-9) and ``fallback`` (bool, default True); ``ctx.n_vertices`` (or ``options["n_vertices"]`` without a
-        context) sizes the per-vertex hyperbolic marks."""
+        [0, 0.1), default 1e-9) and ``fallback`` (bool, default True); ``ctx.n_vertices`` (or
+        ``options["n_vertices"]`` without a context) sizes the per-vertex hyperbolic marks."""
     def hyperbolic_mask(self) -> np.ndarray:
         """(n,) bool: the vertex slots hyperbolic at their last evaluation (not removed)."""
 
@@ -56,7 +57,7 @@ def measure(center: Sequence[float], neighbours: Any, closed: bool = True,
     """Classify and measure a star: ``class``, ``on_hull``, ``angle``, ``height``,
     ``volume``, ``pole``, ``margin``."""
 
-def evaluate_star(positions: Any, v: int, link: Any, closed: bool = True, fixed: Optional[Any] = None,
+def evaluate_star(positions: Any, v: int, link: Any, closed: bool = True, fixed: Any | None = None,
                   median: bool = True, tolerance: float = 1e-9, fallback: bool = True) -> dict[str, Any]:
     """``VolumeKernel.evaluate`` on one star of a point set: ``status`` ("ok", "veto",
     "error"), ``cost``, ``error``, ``gate``, ``tris`` ((k-2, 3) indices into ``link``) and

@@ -58,8 +58,8 @@ import numpy as np
 
 from libc.math cimport sqrt, fabs, atan2, acos, cos, NAN, INFINITY, M_PI
 
-from .kernel cimport (KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VERTEX_FIXED)
-from .removal cimport (RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION)
+from lodkit.kernel cimport (KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VERTEX_FIXED)
+from lodkit.removal cimport (RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION)
 from .retriangulate cimport closest_line_apex, fan_from
 from .removal_star cimport star_on_points
 from .vec3 cimport dot3, cross3
@@ -279,7 +279,7 @@ cdef void jacobi3(double* A, double* vecs) noexcept nogil:
     """Diagonalise the symmetric 3x3 ``A`` (row-major, overwritten: its diagonal ends up the
     eigenvalues) by cyclic Jacobi rotations; ``vecs`` (row-major) gets the eigenvectors as
     columns."""
-    cdef int sweep, p, q, r, i
+    cdef int _sweep, p, q, r, i
     cdef double off, scale, apq, theta, t, c, s, app, aqq, arp, arq, vip, viq
     for i in range(9):
         vecs[i] = 0.0
@@ -287,7 +287,7 @@ cdef void jacobi3(double* A, double* vecs) noexcept nogil:
     scale = fabs(A[0]) + fabs(A[4]) + fabs(A[8]) + fabs(A[1]) + fabs(A[2]) + fabs(A[5])
     if scale == 0.0:
         return
-    for sweep in range(50):
+    for _sweep in range(50):
         off = fabs(A[1]) + fabs(A[2]) + fabs(A[5])
         if off <= 1e-15 * scale:
             return
@@ -389,7 +389,7 @@ cdef double plane_height(const double* u, int k) noexcept nogil:
     cdef double A[9]
     cdef double E[9]
     cdef double n[3]
-    cdef double x, y, z, lo, hi, mid, t
+    cdef double x, y, z, hi, mid, t
     cdef int i, imin, imax
     c[0] = c[1] = c[2] = 0.0
     for i in range(k):
@@ -717,7 +717,7 @@ cdef class VolumeKernel(RemovalKernel):
         """(n,) bool: the vertex slots hyperbolic at their last evaluation (not removed)."""
         return np.asarray(self._state[:self.n_state]) == MARK_HYPERBOLIC
 
-    def veto_note(self):
+    cpdef str veto_note(self):
         """Why the kernel holds vertices back now, in words (for a run's stop_detail)."""
         h, d, v = self.counts[MARK_HYPERBOLIC], self.counts[MARK_DEGENERATE], self.counts[MARK_VALENCE]
         parts = []

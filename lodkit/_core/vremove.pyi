@@ -4,8 +4,8 @@ from typing import Any, Optional
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..removal import RemovalKernel
 from .halfedge import HalfEdgeMesh
-from .removal import RemovalKernel
 
 #: run() statuses: face target reached, step budget spent, no valid removal left, kernel failed
 RUN_TARGET: int

@@ -66,8 +66,8 @@ def run(work: Work, compiled, settings: dict, *, target: int, max_error: float, 
         stop, detail = STOP_MAX_ERROR, f"{held['max_error']} candidate removals exceed max_error"
     else:
         stop, detail = STOP_NO_COLLAPSE, _detail(remover, held)
-        if held.get("kernel") and hasattr(kernel, "veto_note"):    # e.g. volume: "... hyperbolic"
-            detail += "; " + kernel.veto_note()
+        note = kernel.veto_note() if held.get("kernel") else ""   # e.g. volume: "... hyperbolic"
+        detail += "; " + note if note else ""
     refused = remover.refusals
     return Run(
         core=remover,

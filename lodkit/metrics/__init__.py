@@ -20,15 +20,33 @@ from __future__ import annotations
 
 import importlib
 import os
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from importlib import metadata
-from typing import Any, Callable, Iterable, Optional
+from typing import Any
 
-from .._version import __version__
+from ..version import __version__
 from ..errors import MetricError, OptionError, UnknownMetricError
-from .base import (ATTRIBUTE_WIDTHS, KINDS, Batch, BatchMetric, FieldMetric, KernelMetric, Metric,
-                   MetricContext, Option, QuadricMetric, RemovalMetric, check_metric_class, pack_quadrics,
-                   packed_size, unpack_quadrics)
+from ..kernel import API_VERSION as KERNEL_API
+from ..removal import API_VERSION as REMOVAL_API
+from ..version import __version__
+from .base import (
+    ATTRIBUTE_WIDTHS,
+    KINDS,
+    Batch,
+    BatchMetric,
+    FieldMetric,
+    KernelMetric,
+    Metric,
+    MetricContext,
+    Option,
+    QuadricMetric,
+    RemovalMetric,
+    check_metric_class,
+    pack_quadrics,
+    packed_size,
+    unpack_quadrics,
+)
 
 __all__ = [
     "GROUP", "DISCOVERY_ENV", "MetricInfo", "available", "get", "create", "register",
@@ -70,10 +88,10 @@ class MetricInfo:
     version: str
     target: str
     source: str
-    loaded: Optional[bool] = None
-    kind: Optional[str] = None
+    loaded: bool | None = None
+    kind: str | None = None
     description: str = ""
-    error: Optional[str] = None
+    error: str | None = None
 
     @property
     def qualified(self) -> str:
@@ -84,9 +102,9 @@ class _Entry:
     def __init__(self, info: MetricInfo, loader: Callable[[], Any]):
         self.info = info
         self.loader = loader
-        self.cls: Optional[type] = None
+        self.cls: type | None = None
 
-    def load(self) -> Optional[type]:
+    def load(self) -> type | None:
         if self.info.loaded is not None:
             return self.cls
         try:
@@ -94,6 +112,10 @@ class _Entry:
         except Exception as exc:  # a broken plugin must not break the others
             self.info.loaded = False
             self.info.error = f"import failed: {type(exc).__name__}: {exc}"
+            if "size changed" in str(exc):         # Cython's check of a base type's layout
+                self.info.error += (f" (the plugin was compiled against another lodkit; this one has kernel API "
+                                    f"version {KERNEL_API}, removal kernel API version {REMOVAL_API}: rebuild "
+                                    f"the plugin against it, e.g. pip install --no-build-isolation --force-reinstall)")
             return None
         problem = check_metric_class(obj)
         if problem:
@@ -107,7 +129,7 @@ class _Entry:
         return obj
 
 
-_entries: Optional[dict[str, list[_Entry]]] = None
+_entries: dict[str, list[_Entry]] | None = None
 _registered: dict[str, _Entry] = {}
 
 

@@ -48,7 +48,8 @@ class _AttributesOption(Option):
         else:
             raise OptionError(f"metric {metric!r}: option {name!r} must be {self.describe()}, got {value!r}")
         if not names:
-            raise OptionError(f"metric {metric!r}: option {name!r} names no attribute; use None for every one the mesh has")
+            raise OptionError(f"metric {metric!r}: option {name!r} names no attribute; "
+                              "use None for every one the mesh has")
         for v in names:
             if v not in ATTRIBUTE_WIDTHS:
                 raise OptionError(f"metric {metric!r}: option {name!r}: unknown attribute {v!r}; "

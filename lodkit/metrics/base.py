@@ -280,7 +280,7 @@ class FieldMetric(Metric):
 
 class KernelMetric(Metric):
     """A native kernel: ``kernel`` is a ``cdef class`` subclassing
-    ``lodkit._core.kernel.Kernel``; one instance is made per run and prepared with
+    ``lodkit.kernel.Kernel``; one instance is made per run and prepared with
     ``prepare(ctx, options)``."""
 
     kind = "kernel"
@@ -294,7 +294,7 @@ class KernelMetric(Metric):
 
 class RemovalMetric(Metric):
     """A vertex-removal metric: ``kernel`` is a ``cdef class`` subclassing
-    ``lodkit._core.removal.RemovalKernel`` that costs removing a vertex and re-triangulates
+    ``lodkit.removal.RemovalKernel`` that costs removing a vertex and re-triangulates
     its hole (removal.pxd).  It runs on the vertex-removal driver, alone: it cannot be
     combined with edge-collapse metrics."""
 
@@ -460,10 +460,10 @@ def check_metric_class(obj: Any) -> Optional[str]:
         return f"has per={obj.per!r}; a field is per 'vertex' or per 'edge'"
     if obj.kind in ("kernel", "removal"):
         if obj.kind == "kernel":
-            from .._core.kernel import API_VERSION, Kernel as Base
+            from ..kernel import API_VERSION, Kernel as Base
             constant = "KERNEL_API_VERSION"
         else:
-            from .._core.removal import API_VERSION, RemovalKernel as Base
+            from ..removal import API_VERSION, RemovalKernel as Base
             constant = "REMOVAL_API_VERSION"
         where = f"{Base.__module__}.{Base.__name__}"
         api = "kernel API" if obj.kind == "kernel" else "removal kernel API"

@@ -1,6 +1,6 @@
 """Build the native kernel against the lodkit that is installed.
 
-Cython finds ``lodkit/_core/kernel.pxd`` (lodkit installs its .pxd files as package data)
+Cython finds ``lodkit/kernel.pxd`` (lodkit installs its .pxd files as package data)
 through the include path given here: the directory holding the installed ``lodkit``
 package, wherever and however it was installed (site-packages, editable, a source tree).
 """
@@ -17,9 +17,9 @@ def lodkit_include_dir() -> str:
         raise SystemExit("lodkit-max-edge: lodkit is not installed in this environment; install lodkit "
                          "first, then this plugin with `pip install --no-build-isolation`")
     package_dir = list(spec.submodule_search_locations)[0]
-    if not os.path.isfile(os.path.join(package_dir, "_core", "kernel.pxd")):
-        raise SystemExit(f"lodkit-max-edge: {package_dir} has no _core/kernel.pxd; this lodkit does "
-                         f"not ship the kernel interface")
+    if not os.path.isfile(os.path.join(package_dir, "kernel.pxd")):
+        raise SystemExit(f"lodkit-max-edge: {package_dir} has no kernel.pxd; this lodkit is older than "
+                         f"the kernel interface at lodkit/kernel.pxd (kernel API 3) this plugin is written for")
     return os.path.dirname(package_dir)
 
 

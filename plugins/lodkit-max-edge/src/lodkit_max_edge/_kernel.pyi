@@ -1,6 +1,6 @@
 from typing import Any
 
-from lodkit._core.kernel import Kernel
+from lodkit.kernel import Kernel
 
 class MaxEdgeKernel(Kernel):
     max_length: float

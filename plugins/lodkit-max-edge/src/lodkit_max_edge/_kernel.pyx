@@ -1,8 +1,8 @@
 # cython: language_level=3
 """The native kernel of ``max_edge_length`` (see the package docstring for the rule)."""
-from lodkit._core.kernel cimport (Kernel, Candidate, KernelMesh, HEArrays, vertex_position,
-                                  he_prev, he_dest, he_ring_next,
-                                  KERNEL_OK, KERNEL_VETO, KERNEL_API_VERSION)
+from lodkit.kernel cimport (Kernel, Candidate, KernelMesh, HEArrays, vertex_position,
+                            he_prev, he_dest, he_ring_next,
+                            KERNEL_OK, KERNEL_VETO, KERNEL_API_VERSION)
 
 
 cdef inline double dist2(const double* a, const double* b) noexcept nogil:

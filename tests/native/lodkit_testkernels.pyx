@@ -7,7 +7,7 @@ FailAfter      reports an error from nogil code after ``n`` cost calls
 MidpointPlacer places the kept vertex at the edge midpoint (a kernel that ``places``)
 ScaleBy        multiplies the cost so far by ``factor`` and counts its calls
 """
-from .kernel cimport Kernel, Candidate, KernelMesh, vertex_position, KERNEL_OK, KERNEL_VETO, KERNEL_API_VERSION
+from lodkit.kernel cimport Kernel, Candidate, vertex_position, KERNEL_OK, KERNEL_VETO, KERNEL_API_VERSION
 
 
 cdef class VetoAll(Kernel):
@@ -78,9 +78,9 @@ cdef class CommitVeto(Kernel):
 
 
 # ---- vertex-removal test kernels (removal.pxd) -----------------------------------------
-from .removal cimport RemovalKernel, Star, Removal
-from .retriangulate cimport fan_from, closest_line_apex
-from .vec3 cimport sub3, cross3, norm3
+from lodkit.removal cimport RemovalKernel, Star, Removal
+from lodkit._core.retriangulate cimport fan_from, closest_line_apex
+from lodkit._core.vec3 cimport sub3, cross3, norm3
 from libc.math cimport sqrt, fabs
 
 

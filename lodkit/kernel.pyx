@@ -1,5 +1,5 @@
 # cython: language_level=3
-"""The native metric interface: see kernel.pxd for the contract."""
+"""The native metric interface (``lodkit.kernel``): see kernel.pxd for the contract."""
 from libc.string cimport strncpy
 
 API_VERSION = KERNEL_API_VERSION
@@ -14,7 +14,6 @@ cdef class Kernel:
     api_version = KERNEL_API_VERSION
 
     def __cinit__(self):
-        self._next = None
         self.places = False
         self.wide = False
         self.changed = NULL
@@ -49,18 +48,6 @@ cdef class Kernel:
         """The message given to ``fail`` (empty if it was never called)."""
         return (<bytes>self._message).decode("utf-8", "replace")
 
-    def _next_kernel(self):
-        return self._next
-
-    def _chain(self, kernels):
-        """Link this kernel to the following ones (driver use)."""
-        cdef Kernel k = self
-        cdef Kernel nxt
-        for nxt in kernels:
-            k._next = nxt
-            k = nxt
-        k._next = None
-
     # for tests: drive a kernel by hand on a bare candidate
     def _call(self, str which, int u, int v, int removed, int kept, p, double cost):
         cdef Candidate c
@@ -77,33 +64,3 @@ cdef class Kernel:
         else:
             raise ValueError(which)
         return rc, c.cost, (c.p[0], c.p[1], c.p[2]), c.removed, c.kept
-
-
-cdef int chain_place(Kernel k, Candidate* c) noexcept nogil:
-    cdef int rc
-    if k.places:
-        rc = k.place(c)
-        if rc != KERNEL_OK:
-            return rc
-    if k._next is not None:
-        return chain_place(k._next, c)
-    return KERNEL_OK
-
-
-cdef int chain_cost(Kernel k, Candidate* c) noexcept nogil:
-    cdef int rc = k.cost(c)
-    if rc != KERNEL_OK:
-        return rc
-    if k._next is not None:
-        return chain_cost(k._next, c)
-    return KERNEL_OK
-
-
-cdef int chain_commit(Kernel k, const Candidate* c) noexcept nogil:
-    cdef int rc = k.commit(c)
-    if rc != KERNEL_OK:
-        # a collapse that is done cannot be vetoed: anything but OK is an error
-        return rc if rc == KERNEL_ERROR else k.fail(b"commit() must return KERNEL_OK or KERNEL_ERROR")
-    if k._next is not None:
-        return chain_commit(k._next, c)
-    return KERNEL_OK

@@ -1,7 +1,7 @@
 # cython: language_level=3
-"""Base class of vertex-removal kernels: see removal.pxd for the contract."""
+"""Base class of vertex-removal kernels (``lodkit.removal``): see removal.pxd for the contract."""
 from libc.string cimport strncpy
-from .kernel cimport KERNEL_OK, KERNEL_VETO, KERNEL_ERROR
+from lodkit.kernel cimport KERNEL_OK, KERNEL_VETO, KERNEL_ERROR
 
 API_VERSION = REMOVAL_API_VERSION
 MAX_STAR = MAX_VALENCE
@@ -12,6 +12,8 @@ cdef class RemovalKernel:
     removal (a subclass must override it)."""
 
     api_version = REMOVAL_API_VERSION
+    # optional hook: True when evaluate() depends on the star alone (the driver caches it)
+    star_local = False
 
     def __cinit__(self):
         self.gated = False
@@ -41,3 +43,8 @@ cdef class RemovalKernel:
     def message(self):
         """The message given to ``fail`` (empty if it was never called)."""
         return (<bytes>self._message).decode("utf-8", "replace")
+
+    cpdef str veto_note(self):
+        """Why the kernel held vertices back, in words, appended to a run's stop_detail when
+        it vetoed some ('' by default: nothing is appended)."""
+        return ""
