@@ -420,7 +420,8 @@ def render(doc: dict) -> str:
       "starts); **×lodkit**, **×meshopt** = median over rounds of (method time / that round's lodkit or "
       "meshoptimizer time at the same ratio); **M tri/s** = input faces / time; **s/M faces** = time per million "
       "input faces; **faces** = faces reached (target); **thr** = CPU time / wall time of the call (threads "
-      "actually busy; asked-for count in brackets when a variant passes `threads=`).")
+      "actually busy; asked-for count in brackets when a variant passes `threads=`; well below 1 for a "
+      "single-threaded library means the call waited for a CPU: the machine was busy).")
     if doc.get("variants"):
         w("")
         w("lodkit variants: " + "; ".join(f"`{k}` = `simplify(..., {', '.join(f'{a}={v!r}' for a, v in kw.items())})`"
