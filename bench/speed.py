@@ -227,7 +227,7 @@ def time_worker(args) -> int:
                 if t1 - t0 > args.max_call:
                     skipped.add((name, ratio))
                     emit(kind="note", method=name, ratio=ratio,
-                         note=f"one call took {t1 - t0:.1f} s > --max-call {args.max_call_s:g} s: no more rounds")
+                         note=f"one call took {t1 - t0:.1f} s > --max-call {args.max_call:g} s: no more rounds")
             except Exception as exc:  # noqa: BLE001
                 skipped.add((name, ratio))
                 emit(kind="failed", method=name, ratio=ratio, round=rnd, error=f"{type(exc).__name__}: {exc}",
