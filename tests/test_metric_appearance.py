@@ -516,7 +516,11 @@ def test_attributes_survive_load_simplify_save(tmp_path, ext, carried):
     mesh = lodkit.load(src)
     for name in carried:
         assert getattr(mesh, name) is not None, name
-    res = lodkit.simplify(mesh, target_ratio=0.25, metric="appearance")
+    # the greedy order keeps every vertex of this coarse sphere inside the range of its faces'
+    # positions; the pass driver's puts one 4% outside the unit sphere, where the attribute
+    # clamp (docs/metrics/appearance.md) moves its uv off the linear field by 0.005: this test
+    # is about the file round trip, so it fixes the order
+    res = lodkit.simplify(mesh, target_ratio=0.25, metric="appearance", driver="greedy")
     assert res.stop_reason == "target_faces"
     dst = tmp_path / f"out.{ext}"
     lodkit.save(res.mesh, dst)

@@ -160,7 +160,8 @@ def test_first_collapses_follow_the_reference_greedy_order():
     mesh as it was, with the reference's key (half-edge cost, importance, accumulation)."""
     m = bumpy_sphere(3)
     n_steps = 40
-    r = lodkit.simplify(m, target_faces=m.n_faces - 2 * n_steps, metric="melod", record=True)
+    # the paper's order is the greedy one: always the cheapest half-edge next
+    r = lodkit.simplify(m, target_faces=m.n_faces - 2 * n_steps, metric="melod", record=True, driver="greedy")
     assert r.n_collapses == n_steps
     ref = Reference(normalised(m), m.faces)
     rec = r.collapses
@@ -181,7 +182,8 @@ def test_first_collapses_follow_the_reference_greedy_order():
 def test_options_change_the_key_as_documented(opts):
     m = bumpy_sphere(4)
     n_steps = 15
-    r = lodkit.simplify(m, target_faces=m.n_faces - 2 * n_steps, metric=("melod", opts), record=True)
+    r = lodkit.simplify(m, target_faces=m.n_faces - 2 * n_steps, metric=("melod", opts), record=True,
+                        driver="greedy")
     ref = Reference(normalised(m), m.faces, accumulate=opts.get("accumulate", "cost"))
     if opts.get("importance") is False:
         ref.w = lambda v: 1.0
@@ -220,7 +222,7 @@ def test_boundary_rules_and_penalty():
     v, f = grid(7, 6, np.random.default_rng(8), amplitude=0.6)
     m = lodkit.Mesh(v, f)
     for opts in ({}, {"phi": "origin", "boundary_lambda": 40.0, "scale_boundary": False}):
-        r = lodkit.simplify(m, target_faces=12, metric=("melod", opts), record=True)
+        r = lodkit.simplify(m, target_faces=12, metric=("melod", opts), record=True, driver="greedy")
         ref = Reference(normalised(m), m.faces, lam=opts.get("boundary_lambda", 10.0),
                         phi=opts.get("phi", "head"), scale_boundary=opts.get("scale_boundary", True))
         n_boundary_moves = 0
@@ -258,8 +260,13 @@ def test_record_is_a_progressive_mesh():
 
 def test_runs_down_to_the_smallest_mesh():
     m = bumpy_sphere(7, 10, 7)
-    r = lodkit.simplify(m, target_faces=0, metric="melod")
+    # the greedy order ends at the tetrahedron; the pass driver's (a different path) ends at
+    # a bipyramid whose every collapse fails the flip checks, also a valid stop
+    r = lodkit.simplify(m, target_faces=0, metric="melod", driver="greedy")
     assert r.mesh.n_faces == 4 and r.stop_reason == "no_valid_collapse"
+    p = lodkit.simplify(m, target_faces=0, metric="melod")
+    assert p.mesh.n_faces <= 6 and p.stop_reason == "no_valid_collapse"
+    check_result(m, p, 0)
     check_result(m, r, 0)
     v, f = torus_or_sphere("torus", 12, 8, np.random.default_rng(2))
     t = lodkit.Mesh(v, f)

@@ -294,7 +294,6 @@ cdef class PassDriver:
     cdef int kmax
     cdef readonly int n_passes
     cdef readonly long n_checked     # candidates planned and checked in a pass (diagnostics)
-    cdef readonly long n_ranked      # plans made by ranking
     cdef readonly int threads
     cdef readonly double fraction
     cdef bint parallel_ok
@@ -436,7 +435,7 @@ cdef class PassDriver:
 
     cdef void dirty_neighbour(self, int w) noexcept nogil:
         cdef int start, y, ny
-        cdef bint all_edges = self.c.wide_recost      # wide kernels: costs read the stars
+        cdef bint all_edges = self.c.opt.wide_recost      # wide kernels: costs read the stars
         if not all_edges and not self.c.refused[w]:
             return
         self.c.refused[w] = 0
@@ -666,6 +665,14 @@ cdef class PassDriver:
             if self.c.failed:
                 return RUN_ERROR
             valid = self.compact()
+            if valid == 0 and self.c.collapses_since_rescan > 0:
+                # as the greedy driver does when its heap runs dry: rank every live edge
+                # again (a refusal can be lifted by a collapse two rings away, which
+                # dirtied nothing around it), and go on if that finds any
+                for i in range(self.n_live):
+                    self.state[self.live[i]] = ST_DIRTY
+                self.c.collapses_since_rescan = 0
+                continue
             if valid == 0:
                 over = 0
                 for i in range(self.n_live):

@@ -72,14 +72,10 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
     if compiled.batch:
         status, rejected_error, n_passes = run_passes(collapser, compiled, work, target, bar)
     elif passes:
-        import os
-        driver = PassDriver(collapser, threads=int(settings["threads"][0]), fraction=float(os.environ.get("LODKIT_FRACTION", "6")))
+        driver = PassDriver(collapser, threads=int(settings["threads"][0]))
         status = run_chunked(driver, hm, target, bar)
         rejected_error = collapser.n_rejected_error
         n_passes = driver.n_passes
-        import os
-        if os.environ.get("LODKIT_DEBUG_PASSES"):
-            print("checked", driver.n_checked, "collapses", collapser.n_collapses, "passes", n_passes)
     else:
         status = run_chunked(collapser, hm, target, bar)
         rejected_error = collapser.n_rejected_error
