@@ -16,7 +16,6 @@ _only = [m for m in os.environ.get("LODKIT_BUILD_ONLY", "").split(",") if m]
 if _only:
     MODULES = [m for m in MODULES if m in _only]
     PUBLIC_MODULES = [m for m in PUBLIC_MODULES if m in _only]
-    PUBLIC_MODULES = [m for m in PUBLIC_MODULES if m in _only]
 
 # Modules with OpenMP loops (cython.parallel.prange).  Without OpenMP they build and run
 # with one thread, with the same output (docs/performance.md, "Threads").

@@ -32,9 +32,10 @@ HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 sys.path.insert(0, str(HERE))
 
-import lodkit  # noqa: E402
 from meshes import MESH_DIR  # noqa: E402
 from report import splice_section  # noqa: E402
+
+import lodkit  # noqa: E402
 
 MESHES = ["bunny", "fandisk", "cow", "boot", "colored_airplane", "spot_triangulated", "mountain", "igea"]
 RATIOS = [0.1, 0.02, 0.005]

@@ -51,7 +51,6 @@ Writes bench/results/speed.json and the "Speed" section of docs/benchmarks.md (b
 from __future__ import annotations
 
 import argparse
-import gc
 import inspect
 import json
 import os
@@ -105,11 +104,12 @@ def parse_variants(specs: list[str]) -> dict[str, dict]:
         name, sep, js = spec.partition("=")
         name = name.strip()
         if not sep or not name:
-            raise SystemExit(f"--lodkit-kwargs {spec!r}: expected NAME=JSON, e.g. lodkit-greedy='{{\"driver\": \"greedy\"}}'")
+            raise SystemExit(f"--lodkit-kwargs {spec!r}: expected NAME=JSON, "
+                             f"e.g. lodkit-greedy='{{\"driver\": \"greedy\"}}'")
         try:
             kw = json.loads(js)
         except ValueError as exc:
-            raise SystemExit(f"--lodkit-kwargs {name}: not valid JSON ({exc}): {js!r}")
+            raise SystemExit(f"--lodkit-kwargs {name}: not valid JSON ({exc}): {js!r}") from None
         if not isinstance(kw, dict):
             raise SystemExit(f"--lodkit-kwargs {name}: expected a JSON object of keyword arguments, got {js!r}")
         if name in PEERS:
@@ -268,7 +268,7 @@ def mem_worker(args) -> int:
             tracemalloc.start()
             tracemalloc.reset_peak()
             cur0, _ = tracemalloc.get_traced_memory()
-            raw = m.call(st)
+            m.call(st)
             _, tpeak = tracemalloc.get_traced_memory()
             tracemalloc.stop()
             res["traced_bytes"] = int(tpeak - cur0)
@@ -304,7 +304,8 @@ def _spawn(role: str, npz: Path, methods: str, ratios: str, variants: dict, resu
     return f"worker exited with {p.returncode}{sig}: {' | '.join(p.stderr.strip().splitlines()[-3:])[-300:]}"
 
 
-def time_mesh(mesh: str, npz: Path, methods: list[str], ratios: list[float], variants: dict, args, tmp: Path) -> list[dict]:
+def time_mesh(mesh: str, npz: Path, methods: list[str], ratios: list[float], variants: dict, args,
+              tmp: Path) -> list[dict]:
     """Run the timing worker; if it dies, blame the case it had started and run again without that method."""
     lines: list[dict] = []
     crashed: list[dict] = []
@@ -327,7 +328,8 @@ def time_mesh(mesh: str, npz: Path, methods: list[str], ratios: list[float], var
     return lines + crashed
 
 
-def summarise(mesh: str, minfo: dict, lines: list[dict], methods: list[str], ratios: list[float], variants: dict) -> list[dict]:
+def summarise(mesh: str, minfo: dict, lines: list[dict], methods: list[str], ratios: list[float],
+              variants: dict) -> list[dict]:
     rows = []
     times = {}
     for x in lines:
@@ -370,7 +372,8 @@ def summarise(mesh: str, minfo: dict, lines: list[dict], methods: list[str], rat
     return rows
 
 
-def measure_memory(mesh: str, npz: Path, names: list[str], ratios: list[float], variants: dict, args, tmp: Path) -> list[dict]:
+def measure_memory(mesh: str, npz: Path, names: list[str], ratios: list[float], variants: dict, args,
+                   tmp: Path) -> list[dict]:
     out = []
     for m in names:
         for r in ratios:
@@ -432,9 +435,11 @@ def render(doc: dict) -> str:
     for r in doc["rows"]:
         head = f"{r['mesh']} ({r['faces_in'] / 1e3:.0f}k)"
         if r.get("status") != "ok":
-            w(f"| {head} | {r['ratio']:g} | {r['method']} | {r.get('status')}: {str(r.get('error') or '')[:100]} | | | | | | |")
+            err = str(r.get("error") or "")[:100]
+            w(f"| {head} | {r['ratio']:g} | {r['method']} | {r.get('status')}: {err} | | | | | | |")
             continue
-        thr = _f(r.get("threads_used"), ".1f") + (f" ({r['threads_asked']})" if r.get("threads_asked") is not None else "")
+        asked = r.get("threads_asked")
+        thr = _f(r.get("threads_used"), ".1f") + (f" ({asked})" if asked is not None else "")
         rounds = "" if r["rounds"] == S["rounds"] else f" ×{r['rounds']}"
         w(f"| {head} | {r['ratio']:g} | {r['method']} | {_t(r['time_s'])}{rounds} | {_f(r.get('x_lodkit'))} |"
           f" {_f(r.get('x_meshopt'))} | {_f(r['mtri_per_s'])} | {_f(r['s_per_mface'], '.3f')} |"
@@ -574,7 +579,8 @@ def main(argv=None) -> int:
             with np.load(npz) as z:
                 minfo = {"faces": int(len(z["faces"])), "vertices": int(len(z["vertices"])), "source": str(z["source"])}
             doc["meshes"][mesh] = minfo
-            print(f"{mesh}: {minfo['faces']} faces, {minfo['vertices']} vertices ({time.perf_counter() - t0:.1f} s to load)",
+            print(f"{mesh}: {minfo['faces']} faces, {minfo['vertices']} vertices "
+                  f"({time.perf_counter() - t0:.1f} s to load)",
                   flush=True)
             lines = time_mesh(mesh, npz, methods, ratios, variants, args, tmp)
             rows = summarise(mesh, minfo, lines, methods, ratios, variants)

@@ -4,18 +4,18 @@
 >>> result = lodkit.simplify(lodkit.load("bunny.ply"), target_ratio=0.1)
 >>> lodkit.save(result.mesh, "bunny_10.ply")
 """
-from .errors import LodkitError, MeshError, MeshIOError, MetricError, OptionError, UnknownMetricError
-from .mesh import Mesh
-from .io import load, save
+from . import metrics
 from .api import SimplifyResult, simplify
 from .cluster import ClusterResult, cluster
-from .curvature import point_curvature
-from .topology import TopologyReport, topology
-from .progressive import ProgressiveMesh, progressive
-from .evaluate import Evaluation, Evaluator, evaluate
 from .compare import Comparison, compare
-from . import metrics
-from .version import __version__
+from .curvature import point_curvature
+from .errors import LodkitError, MeshError, MeshIOError, MetricError, OptionError, UnknownMetricError
+from .evaluate import Evaluation, Evaluator, evaluate
+from .io import load, save
+from .mesh import Mesh
+from .progressive import ProgressiveMesh, progressive
+from .topology import TopologyReport, topology
+from .version import __version__ as __version__
 
 __all__ = [
     "ClusterResult",

@@ -16,15 +16,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._core.decimate import add_boundary_planes
-from .removal import RemovalKernel
 from ._pipeline import PLANE_SIZE, Work
 from .errors import MetricError
 from .metrics import ATTRIBUTE_WIDTHS, MetricContext, packed_size
+from .removal import RemovalKernel
 
 __all__ = ["Compiled", "compile_metrics", "removal_kernel", "batch_result", "checked"]
 
 # rows of the core's ``steps``: (kind, first, end) over the vertex-field columns, the
-# edge-field columns and the kernel chain (decimate.pxd STEP_VFIELD / STEP_EFIELD / STEP_KERNEL)
+# edge-field columns and the kernel chain (fields.pxd STEP_VFIELD / STEP_EFIELD / STEP_KERNEL)
 STEP_VERTEX_FIELD = 0
 STEP_EDGE_FIELD = 1
 STEP_KERNEL = 2

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Optional
+from typing import Any
 
 import numpy as np
 
@@ -28,19 +28,19 @@ from .metrics import MetricContext
 from .pairs import contract_pairs
 from .settings import locked_mask
 
-# The core's per-vertex row (lodkit/_core/decimate.pxd, QSIZE and VSTRIDE): the quadric
+# The core's per-vertex row (lodkit/_core/common.pxd, QSIZE and VSTRIDE): the quadric
 # a11 a12 a13 a22 a23 a33 b1 b2 b3 c w (w = summed face area), then the position x y z.
 QSIZE = 11
 VSTRIDE = 14
 PLANE_SIZE = 10            # the quadric without w: the packed 3D plane quadric a metric gives
 
-# What a driver's run(target, max_steps) returns (decimate.pxd RunStatus; vremove.RUN_*)
+# What a driver's run(target, max_steps) returns (common.pxd RunStatus)
 RUN_TARGET = 0             # face target reached
 RUN_CHUNK = 1              # max_steps operations done: call again
 RUN_EXHAUSTED = 2          # no legal operation left (or none within max_error)
 RUN_ERROR = 3              # a native kernel failed (the driver's error_message)
 
-# Entries of seam_partners() besides a partner slot (decimate.pxd SEAM_NONE / SEAM_STAYS)
+# Entries of seam_partners() besides a partner slot (edge.pxd SEAM_NONE / SEAM_STAYS)
 SEAM_NONE = -1             # not on an attribute seam
 SEAM_STAYS = -2            # a seam copy that may neither move nor go
 
@@ -58,7 +58,7 @@ class Prepared:
     """A mesh cleaned and turned into half-edge arrays, ready for a driver."""
 
     hm: Any                      # lodkit._core.halfedge.HalfEdgeMesh
-    positions: Optional[np.ndarray]  # (n_slots, 3) normalised positions (dropped once copied)
+    positions: np.ndarray | None  # (n_slots, 3) normalised positions (dropped once copied)
     input_vertex: np.ndarray     # (n_slots,) input vertex index of each slot
     input_face: np.ndarray       # (m_kept,) input face index of each face slot
     center: np.ndarray
@@ -140,15 +140,15 @@ class Work:
     src: Mesh                    # the mesh the half-edge arrays were built from
     prep: Prepared
     fixed: np.ndarray            # (n_slots,) bool: may neither move nor go
-    seams: Optional[np.ndarray]  # seam_partners(), None without seams
+    seams: np.ndarray | None  # seam_partners(), None without seams
     n_seam_fixed: int            # seam copies made fixed
     names: list                  # (attribute name, width) in column order of ``attributes``
     layout: dict                 # attribute name -> its first column in ``attributes``
-    attributes: Optional[np.ndarray]   # (n_slots, k) the input's attributes, None without any
+    attributes: np.ndarray | None   # (n_slots, k) the input's attributes, None without any
     vdata: np.ndarray            # (n_slots, VSTRIDE): plain face quadric, then position
     input_faces: int             # faces of the mesh as given (before pair contraction)
-    pair_report: Optional[dict] = None
-    welded_faces: Optional[np.ndarray] = None   # after pair contraction: input face of each face
+    pair_report: dict | None = None
+    welded_faces: np.ndarray | None = None   # after pair contraction: input face of each face
 
     @property
     def positions(self) -> np.ndarray:
@@ -198,7 +198,7 @@ def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolu
                 input_faces, pair_report, welded_faces)
 
 
-def seam_partners(src: Mesh, prep: Prepared, fixed: np.ndarray) -> Optional[np.ndarray]:
+def seam_partners(src: Mesh, prep: Prepared, fixed: np.ndarray) -> np.ndarray | None:
     """Attribute seams of the input, for the collapser's ``seam_partners``: (n_slots,)
     int32 holding each seam vertex's partner slot, SEAM_NONE (-1) off the seams and
     SEAM_STAYS (-2) for a seam copy that must stay; None when there are no seams.
@@ -329,8 +329,8 @@ class Run:
 
     core: Any                    # the core's driver object (its records, once the run is over)
     positions: np.ndarray        # (n_slots, 3) normalised positions
-    moved: Optional[np.ndarray]  # (n_slots,) bool, the slots whose position is new (None: none)
-    attributes: Optional[np.ndarray]   # (n_slots, k) attributes after the run
+    moved: np.ndarray | None  # (n_slots,) bool, the slots whose position is new (None: none)
+    attributes: np.ndarray | None   # (n_slots, k) attributes after the run
     max_error: float             # largest error done, normalised
     n_collapses: int
     stop: str                    # a STOP_* reason

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Any, Optional
+from typing import Any
 
 import numpy as np
 
@@ -17,8 +17,18 @@ from ._pipeline import STOP_MAX_ERROR, STOP_NO_COLLAPSE, STOP_TARGET, Prepared, 
 from .drivers import DRIVERS
 from .mesh import as_mesh, is_open3d
 from .metrics import create as create_metrics
-from .settings import (BOUNDARY_POLICIES, OPERATORS, PLACEMENTS, SETTING_DEFAULTS, check_settings,
-                       resolve_driver, resolve_operator, resolve_settings, resolve_target, resolve_threads)
+from .settings import (
+    BOUNDARY_POLICIES,
+    OPERATORS,
+    PLACEMENTS,
+    SETTING_DEFAULTS,
+    check_settings,
+    resolve_driver,
+    resolve_operator,
+    resolve_settings,
+    resolve_target,
+    resolve_threads,
+)
 
 __all__ = ["SimplifyResult", "simplify", "prepare", "Prepared", "STOP_TARGET", "STOP_MAX_ERROR",
            "STOP_NO_COLLAPSE", "SETTING_DEFAULTS", "PLACEMENTS", "BOUNDARY_POLICIES", "OPERATORS",
@@ -47,7 +57,7 @@ class SimplifyResult:
     n_collapses: int
     elapsed: float = 0.0
     report: dict = field(default_factory=dict)
-    collapses: Optional[dict] = None
+    collapses: dict | None = None
 
     def __repr__(self) -> str:
         return (f"SimplifyResult({self.mesh!r}, error={self.error:.3g}, "
@@ -57,23 +67,23 @@ class SimplifyResult:
 def simplify(
     mesh,
     *,
-    target_faces: Optional[int] = None,
-    target_ratio: Optional[float] = None,
-    max_error: Optional[float] = None,
+    target_faces: int | None = None,
+    target_ratio: float | None = None,
+    max_error: float | None = None,
     absolute: bool = False,
     metric="qem",
-    placement: Optional[str] = None,
-    boundary: Optional[str] = None,
-    boundary_weight: Optional[float] = None,
+    placement: str | None = None,
+    boundary: str | None = None,
+    boundary_weight: float | None = None,
     locked=None,
-    max_normal_angle: Optional[float] = None,
-    min_quality: Optional[float] = None,
+    max_normal_angle: float | None = None,
+    min_quality: float | None = None,
     progress: bool = False,
     record: bool = False,
-    pair_threshold: Optional[float] = None,
+    pair_threshold: float | None = None,
     operator: str = "edge",
-    driver: Optional[str] = None,
-    threads: Optional[int] = None,
+    driver: str | None = None,
+    threads: int | None = None,
 ) -> SimplifyResult:
     """Simplify a triangle mesh by greedy edge collapse with quadric error metrics (or by
     triangle collapse or vertex removal: ``operator``).

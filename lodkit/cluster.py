@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any, Optional
+from typing import Any
 
 import numpy as np
 
@@ -120,9 +120,9 @@ class _Clustering:
 def cluster(
     mesh,
     *,
-    cell_size: Optional[float] = None,
-    target_vertices: Optional[int] = None,
-    target_faces: Optional[int] = None,
+    cell_size: float | None = None,
+    target_vertices: int | None = None,
+    target_faces: int | None = None,
     representative: str = "quadric",
     absolute: bool = False,
 ) -> ClusterResult:
@@ -353,7 +353,7 @@ def _search(data: _Input, want: int, faces: bool):
     h = min(max(h, 1e-7), 2.0)
     best, best_miss = None, math.inf
     tried = []
-    for step in range(1, _SEARCH_STEPS + 1):
+    for _ in range(_SEARCH_STEPS):
         g = _apply_grid(data, h, count_only=True)
         n = g.face_cells.shape[0] - g.n_duplicate if faces else _n_used_cells(g)
         miss = abs(math.log(max(n, 1) / want))
@@ -372,7 +372,7 @@ def _search(data: _Input, want: int, faces: bool):
         if any(abs(h_next - t) <= 1e-12 * t for t, _ in tried):
             break
         h = h_next
-    return _apply_grid(data, best), step
+    return _apply_grid(data, best), len(tried)
 
 
 def _n_used_cells(g: _Clustering) -> int:

@@ -175,7 +175,7 @@ def is_open3d(mesh) -> bool:
     return type(mesh).__name__ == "TriangleMesh" and hasattr(mesh, "triangles")
 
 
-def as_mesh(mesh, what: Optional[str] = None, *, tensor: bool = False, load=None) -> Mesh:
+def as_mesh(mesh, what: str | None = None, *, tensor: bool = False, load=None) -> Mesh:
     """A :class:`Mesh` from a Mesh (as is), a legacy Open3D ``TriangleMesh`` or a
     ``(vertices, faces)`` tuple; with ``tensor`` also an ``open3d.t.geometry.TriangleMesh``;
     with a ``load`` function (:func:`lodkit.load`) also a file path, read with it.

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import heapq
 import math
-from typing import Optional
 
 import numpy as np
 
@@ -39,7 +38,7 @@ __all__ = ["contract_pairs"]
 _DET_TOLERANCE = 1e-9
 
 
-def contract_pairs(mesh: Mesh, threshold, *, absolute: bool = False, locked: Optional[np.ndarray] = None):
+def contract_pairs(mesh: Mesh, threshold, *, absolute: bool = False, locked: np.ndarray | None = None):
     """Merge the close vertex pairs of ``mesh`` (see the module docstring).
 
     threshold : the distance T, a fraction of the bbox diagonal (model units with ``absolute``);

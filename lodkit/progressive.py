@@ -15,7 +15,7 @@ import json
 import os
 import zipfile
 from dataclasses import dataclass
-from typing import Any, Optional
+from typing import Any
 
 import numpy as np
 
@@ -62,12 +62,12 @@ class Level:
         return int(self.vertex_map.shape[0])
 
 
-def progressive(mesh, metric="qem", *, min_faces: int = 0, max_error: Optional[float] = None,
+def progressive(mesh, metric="qem", *, min_faces: int = 0, max_error: float | None = None,
                 absolute: bool = False,
-                placement: Optional[str] = None, boundary: Optional[str] = None,
-                boundary_weight: Optional[float] = None, locked=None,
-                max_normal_angle: Optional[float] = None, min_quality: Optional[float] = None,
-                progress: bool = False, **options) -> "ProgressiveMesh":
+                placement: str | None = None, boundary: str | None = None,
+                boundary_weight: float | None = None, locked=None,
+                max_normal_angle: float | None = None, min_quality: float | None = None,
+                progress: bool = False, **options) -> ProgressiveMesh:
     """Simplify ``mesh`` once, down to ``min_faces`` faces or as far as the collapses go,
     and return the :class:`ProgressiveMesh` of the run.
 
@@ -427,12 +427,12 @@ class ProgressiveMesh:
                      float(self.errors_per_step[s]), int(s))
 
     # ------------------------------------------------------------------ the cursor
-    def cursor(self, step: Optional[int] = None) -> "Cursor":
+    def cursor(self, step: int | None = None) -> Cursor:
         """A new cursor (independent of ``pm.refine`` / ``pm.coarsen``), at ``step``
         (default: the base mesh)."""
         return Cursor(self, self.n_steps if step is None else step)
 
-    def _default_cursor(self) -> "Cursor":
+    def _default_cursor(self) -> Cursor:
         if self._cursor is None:
             self._cursor = Cursor(self, self.n_steps)
         return self._cursor
@@ -514,7 +514,7 @@ class ProgressiveMesh:
             raise MeshIOError(f"cannot save {p}: {exc.strerror or exc}") from exc
 
     @classmethod
-    def load(cls, path) -> "ProgressiveMesh":
+    def load(cls, path) -> ProgressiveMesh:
         """Read a file written by :meth:`save`; MeshIOError if it is not one (or is damaged)."""
         p = os.fspath(path)
         try:

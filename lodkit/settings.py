@@ -31,7 +31,7 @@ SETTING_DEFAULTS = {
 }
 
 # The numbers the core takes: the values of the enums Placement, BoundaryPolicy and Operator
-# in lodkit/_core/decimate.pxd (the vertex-removal driver takes the same boundary numbers).
+# in lodkit/_core/common.pxd (the vertex-removal driver takes the same boundary numbers).
 PLACEMENTS = {"optimal": 0, "endpoint": 1}
 BOUNDARY_POLICIES = {"lock": 0, "preserve": 1, "free": 2}
 #: the collapse driver's candidates: edges, or faces collapsed as two edge collapses
@@ -41,7 +41,7 @@ COLLAPSE_OPERATORS = {"edge": 0, "triangle": 1}
 OPERATORS = ("edge", "triangle", "vertex_removal")
 
 #: simplify(driver=): how edge collapse picks its collapses -- "pass": error-limited passes
-#: over independent sets in memory order (lodkit/_core/passdriver.pyx; the default), or
+#: over independent sets in memory order (lodkit/_core/passes.pyx; the default), or
 #: "greedy": always the cheapest candidate, from an indexed heap (the reference order)
 EDGE_DRIVERS = ("pass", "greedy")
 

@@ -624,7 +624,8 @@ def test_option_errors(spec, message):
 def test_bad_options_fail_before_any_work(monkeypatch):
     import lodkit._pipeline
 
-    monkeypatch.setattr(lodkit._pipeline, "prepare", lambda *a: pytest.fail("prepared the mesh before checking metric="))
+    monkeypatch.setattr(lodkit._pipeline, "prepare",
+                        lambda *a, **k: pytest.fail("prepared the mesh before checking metric="))
     with pytest.raises(OptionError, match="'weight'"):
         lodkit.simplify(grid_mesh(4, 4), target_ratio=0.5, metric=[("qem", {"weight": -2})])
     with pytest.raises(UnknownMetricError):

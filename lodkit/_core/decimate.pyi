@@ -1,5 +1,5 @@
 """Type stubs for lodkit._core.decimate (Cython): the edge-collapse drivers' entry point."""
-from typing import Iterable, Optional
+from collections.abc import Iterable
 
 from numpy.typing import ArrayLike
 
@@ -13,9 +13,9 @@ from .quadric import vertex_quadrics as vertex_quadrics
 
 def EdgeCollapser(
     hm: HalfEdgeMesh,
-    positions: Optional[ArrayLike],
+    positions: ArrayLike | None,
     quadrics: ArrayLike,
-    attributes: Optional[ArrayLike],
+    attributes: ArrayLike | None,
     fixed: ArrayLike,
     placement: int = ...,
     boundary: int = ...,
@@ -26,16 +26,16 @@ def EdgeCollapser(
     closed_connected: bool = ...,
     quadric_weight: float = ...,
     error_scale: float = ...,
-    vertex_fields: Optional[ArrayLike] = ...,
-    vertex_rules: Optional[ArrayLike] = ...,
-    edge_fields: Optional[ArrayLike] = ...,
-    edge_rules: Optional[ArrayLike] = ...,
+    vertex_fields: ArrayLike | None = ...,
+    vertex_rules: ArrayLike | None = ...,
+    edge_fields: ArrayLike | None = ...,
+    edge_rules: ArrayLike | None = ...,
     kernels: Iterable[Kernel] = ...,
     use_heap: bool = ...,
-    attribute_quadrics: Optional[ArrayLike] = ...,
-    attribute_columns: Optional[ArrayLike] = ...,
-    steps: Optional[ArrayLike] = ...,
-    seam_partners: Optional[ArrayLike] = ...,
+    attribute_quadrics: ArrayLike | None = ...,
+    attribute_columns: ArrayLike | None = ...,
+    steps: ArrayLike | None = ...,
+    seam_partners: ArrayLike | None = ...,
     operator: int = ...,
 ) -> _EdgeCollapser:
     """The edge-collapse driver for these arguments: operator 0 with use_heap True

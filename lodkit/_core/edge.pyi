@@ -1,5 +1,6 @@
 """Type stubs for lodkit._core.edge (Cython)."""
-from typing import Iterable, Optional, TypedDict
+from collections.abc import Iterable
+from typing import TypedDict
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -48,9 +49,9 @@ class EdgeCollapser:
     def __init__(
         self,
         hm: HalfEdgeMesh,
-        positions: Optional[ArrayLike],
+        positions: ArrayLike | None,
         quadrics: ArrayLike,
-        attributes: Optional[ArrayLike],
+        attributes: ArrayLike | None,
         fixed: ArrayLike,
         placement: int = ...,
         boundary: int = ...,
@@ -61,16 +62,16 @@ class EdgeCollapser:
         closed_connected: bool = ...,
         quadric_weight: float = ...,
         error_scale: float = ...,
-        vertex_fields: Optional[ArrayLike] = ...,
-        vertex_rules: Optional[ArrayLike] = ...,
-        edge_fields: Optional[ArrayLike] = ...,
-        edge_rules: Optional[ArrayLike] = ...,
+        vertex_fields: ArrayLike | None = ...,
+        vertex_rules: ArrayLike | None = ...,
+        edge_fields: ArrayLike | None = ...,
+        edge_rules: ArrayLike | None = ...,
         kernels: Iterable[Kernel] = ...,
         use_heap: bool = ...,
-        attribute_quadrics: Optional[ArrayLike] = ...,
-        attribute_columns: Optional[ArrayLike] = ...,
-        steps: Optional[ArrayLike] = ...,
-        seam_partners: Optional[ArrayLike] = ...,
+        attribute_quadrics: ArrayLike | None = ...,
+        attribute_columns: ArrayLike | None = ...,
+        steps: ArrayLike | None = ...,
+        seam_partners: ArrayLike | None = ...,
     ) -> None:
         """quadric_weight: factor of the quadric in the cost (0: the quadric only places);
         error_scale: error = sqrt(error_scale * Q(p) / area); vertex_fields (n, k) and
@@ -82,12 +83,12 @@ class EdgeCollapser:
         steps: (k, 3) rows (kind, first, end) ordering fields and kernels; seam_partners
         (n,) int: each seam vertex's partner slot, -1 off the seams, -2 a seam copy that
         stays (see lodkit._pipeline.seam_partners)."""
-    def _setup_seams(self, partners: Optional[ArrayLike]) -> None: ...
+    def _setup_seams(self, partners: ArrayLike | None) -> None: ...
     def run(self, target_faces: int, max_steps: int = ...) -> int:
         """0: target reached, 1: step budget used, 2: no legal collapse left, 3: a kernel failed."""
-    def plan_all(self) -> Optional[_Plan]:
+    def plan_all(self) -> _Plan | None:
         """Plan every live edge (batch driver); None if a kernel failed."""
-    def collapse_pass(self, edges: ArrayLike, positions: Optional[ArrayLike] = ..., target_faces: int = ...) -> int:
+    def collapse_pass(self, edges: ArrayLike, positions: ArrayLike | None = ..., target_faces: int = ...) -> int:
         """Collapse, in the order given, the edges no earlier collapse of this pass touched;
         the number of collapses, or -1 if a kernel failed.  Here: RuntimeError (the pass
         driver is :class:`lodkit._core.passes.PassCollapser`)."""
@@ -102,9 +103,9 @@ class EdgeCollapser:
         """(n_edges, k) current edge fields (merged on collapse)."""
     def release(self) -> None:
         """Free the heap, quadrics and input normals after the run."""
-    def plan_edge(self, u: int, v: int) -> Optional[tuple[int, int, NDArray[np.float64], float, float]]:
+    def plan_edge(self, u: int, v: int) -> tuple[int, int, NDArray[np.float64], float, float] | None:
         """(removed, kept, position, cost, error) for edge (u, v), or None."""
-    def plan_face(self, f: int) -> Optional[tuple[int, int, int, NDArray[np.float64], float, float]]:
+    def plan_face(self, f: int) -> tuple[int, int, int, NDArray[np.float64], float, float] | None:
         """Triangle collapse only (:class:`lodkit._core.triangle.TriangleCollapser`): here
         RuntimeError."""
     def check_face(self, f: int) -> bool:
@@ -118,7 +119,7 @@ class EdgeCollapser:
     @property
     def n_alive_faces(self) -> int: ...
     @property
-    def seam_partners(self) -> Optional[NDArray[np.intc]]:
+    def seam_partners(self) -> NDArray[np.intc] | None:
         """Each slot's seam partner (-1 none, -2 stays) as used, or None without seams."""
     @property
     def positions(self) -> NDArray[np.float64]: ...

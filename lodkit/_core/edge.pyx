@@ -343,9 +343,12 @@ cdef class EdgeCollapser:
                 denom = (q[0] * du[0] * du[0] + 2 * q[1] * du[0] * du[1] + 2 * q[2] * du[0] * du[2]
                          + q[3] * du[1] * du[1] + 2 * q[4] * du[1] * du[2] + q[5] * du[2] * du[2])
                 if denom > 0.0:
-                    t = -((q[0] * self.P[VSTRIDE * u + 0] + q[1] * self.P[VSTRIDE * u + 1] + q[2] * self.P[VSTRIDE * u + 2] + q[6]) * du[0]
-                          + (q[1] * self.P[VSTRIDE * u + 0] + q[3] * self.P[VSTRIDE * u + 1] + q[4] * self.P[VSTRIDE * u + 2] + q[7]) * du[1]
-                          + (q[2] * self.P[VSTRIDE * u + 0] + q[4] * self.P[VSTRIDE * u + 1] + q[5] * self.P[VSTRIDE * u + 2] + q[8]) * du[2]) / denom
+                    t = -((q[0] * self.P[VSTRIDE * u + 0] + q[1] * self.P[VSTRIDE * u + 1]
+                           + q[2] * self.P[VSTRIDE * u + 2] + q[6]) * du[0]
+                          + (q[1] * self.P[VSTRIDE * u + 0] + q[3] * self.P[VSTRIDE * u + 1]
+                             + q[4] * self.P[VSTRIDE * u + 2] + q[7]) * du[1]
+                          + (q[2] * self.P[VSTRIDE * u + 0] + q[4] * self.P[VSTRIDE * u + 1]
+                             + q[5] * self.P[VSTRIDE * u + 2] + q[8]) * du[2]) / denom
                     if 0.0 < t < 1.0:
                         for i in range(3):
                             cand[i] = self.P[VSTRIDE * u + i] + t * du[i]
@@ -411,7 +414,8 @@ cdef class EdgeCollapser:
         if fu and fv:
             return -1
         for i in range(QSIZE):
-            q[i] = (self.Q[VSTRIDE * ua + i] + self.Q[VSTRIDE * va + i]) + (self.Q[VSTRIDE * ub + i] + self.Q[VSTRIDE * vb + i])
+            q[i] = ((self.Q[VSTRIDE * ua + i] + self.Q[VSTRIDE * va + i])
+                    + (self.Q[VSTRIDE * ub + i] + self.Q[VSTRIDE * vb + i]))
         if self.aq.dim > 0:
             for i in range(QSIZE):
                 qg[i] = q[i]
@@ -557,7 +561,8 @@ cdef class EdgeCollapser:
                     b = he_dest(self.m, y)
                     c = self.m.corner[he_prev(y)]
                     cross3(&self.P[VSTRIDE * b], &self.P[VSTRIDE * c], bc)
-                    dvol[0] += ((p[0] - self.P[VSTRIDE * center]) * bc[0] + (p[1] - self.P[VSTRIDE * center + 1]) * bc[1]
+                    dvol[0] += ((p[0] - self.P[VSTRIDE * center]) * bc[0]
+                                + (p[1] - self.P[VSTRIDE * center + 1]) * bc[1]
                                 + (p[2] - self.P[VSTRIDE * center + 2]) * bc[2])
                 prev_len1 = 0.0
             else:
@@ -570,7 +575,8 @@ cdef class EdgeCollapser:
                 if self.closed_volume != 0.0:
                     # change of the cone from the origin over this face: (p - old) . (b x c)
                     cross3(&self.P[VSTRIDE * b], &self.P[VSTRIDE * c], bc)
-                    dvol[0] += ((p[0] - self.P[VSTRIDE * center]) * bc[0] + (p[1] - self.P[VSTRIDE * center + 1]) * bc[1]
+                    dvol[0] += ((p[0] - self.P[VSTRIDE * center]) * bc[0]
+                                + (p[1] - self.P[VSTRIDE * center + 1]) * bc[1]
                                 + (p[2] - self.P[VSTRIDE * center + 2]) * bc[2])
                 len0 = sqrt(dot3(n0, n0))
                 prev_ok = prev_len1

@@ -56,8 +56,6 @@ cdef inline double merge_value(double kept, double removed, int rule) noexcept n
     return kept
 
 
-
-
 cdef class FieldSet:
     cdef readonly int n_vfields
     cdef readonly int n_efields

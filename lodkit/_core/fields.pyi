@@ -1,5 +1,4 @@
 """Type stubs for lodkit._core.fields (Cython)."""
-from typing import Optional
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -15,11 +14,11 @@ class FieldSet:
         self,
         n_vertices: int,
         n_edges: int,
-        vertex_fields: Optional[ArrayLike] = ...,
-        vertex_rules: Optional[ArrayLike] = ...,
-        edge_fields: Optional[ArrayLike] = ...,
-        edge_rules: Optional[ArrayLike] = ...,
-        steps: Optional[ArrayLike] = ...,
+        vertex_fields: ArrayLike | None = ...,
+        vertex_rules: ArrayLike | None = ...,
+        edge_fields: ArrayLike | None = ...,
+        edge_rules: ArrayLike | None = ...,
+        steps: ArrayLike | None = ...,
         n_kernels: int = ...,
     ) -> None: ...
     @property

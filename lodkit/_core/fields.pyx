@@ -4,8 +4,6 @@ arrays and rules, the order of the steps after the quadric, merging on collapse.
 import numpy as np
 cimport numpy as cnp
 
-
-
 cnp.import_array()
 
 
@@ -91,7 +89,8 @@ cdef class FieldSet:
             if es < 0 or ed < 0:
                 continue
             for j in range(ne):
-                self.EF[ne * es + j] = merge_value(self.EF[ne * es + j], self.EF[ne * ed + j], <int>self.erules[j, RULE_MERGE])
+                self.EF[ne * es + j] = merge_value(self.EF[ne * es + j], self.EF[ne * ed + j],
+                                                   <int>self.erules[j, RULE_MERGE])
 
     @property
     def vertex_values(self):

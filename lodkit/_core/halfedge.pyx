@@ -131,7 +131,6 @@ cdef class HalfEdgeMesh:
         """
         cdef int u = self.c.corner[h]
         cdef int v = self.dest(h)
-        cdef int hb = self.c.twin[h]
         cdef int su = self.source(u)
         cdef int sv = self.source(v)
         cdef int common, x
@@ -233,7 +232,7 @@ cdef class HalfEdgeMesh:
         """Is there a face (u, b, c) and a face (v, b, c), by input vertex, over all copies of
         u and v?  Collapsing u-v would make them one face twice.  O(valence^2); only asked
         for meshes that have split vertices."""
-        cdef int su = self.source(u), sv = self.source(v)
+        cdef int sv = self.source(v)
         cdef int x, y, hx, hy, sx, ex, bx, cx, by, cy
         x = u
         while True:
@@ -581,7 +580,7 @@ cdef int replace_star(HalfEdgeMesh hm, int v, const int* link, const int* face, 
     cdef int dh[3 * MAX_VALENCE]        # new half-edges that are no link edge, with their ends
     cdef int da[3 * MAX_VALENCE]
     cdef int db[3 * MAX_VALENCE]
-    cdef int nd = 0, pool = 0, i, j, t, c, f, h, a, b, x, nxt, n_dead = 0, hv = -1
+    cdef int nd = 0, pool = 0, i, j, t, c, f, h, a, b, x, n_dead = 0, hv = -1
     for i in range(nf):
         f = face[i]
         h = 3 * f

@@ -1,5 +1,5 @@
 """Type stubs for lodkit._core.passes (Cython)."""
-from typing import Any, Optional
+from typing import Any
 
 from numpy.typing import ArrayLike
 
@@ -10,7 +10,7 @@ class PassCollapser(EdgeCollapser):
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         """The arguments of :class:`lodkit._core.edge.EdgeCollapser`."""
-    def collapse_pass(self, edges: ArrayLike, positions: Optional[ArrayLike] = ..., target_faces: int = ...) -> int:
+    def collapse_pass(self, edges: ArrayLike, positions: ArrayLike | None = ..., target_faces: int = ...) -> int:
         """Collapse, in the order given, the edges no earlier collapse of this pass touched;
         the number of collapses, or -1 if a kernel failed."""
 

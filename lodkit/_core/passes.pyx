@@ -137,7 +137,8 @@ cdef int collapse_pass_c(PassCollapser c, const int* E, int n_cand, const double
         if PO != NULL and c.SP != NULL and (c.SP[u] != SEAM_NONE or c.SP[v] != SEAM_NONE):
             pass            # a seam vertex stays where it is, whatever a batch metric says
         elif PO != NULL and not ((c.vflags[u] | c.vflags[v])
-                                 & (VERTEX_FIXED if c.opt.boundary == BOUNDARY_FREE else VERTEX_FIXED | VERTEX_BOUNDARY)):
+                                 & (VERTEX_FIXED if c.opt.boundary == BOUNDARY_FREE
+                                    else VERTEX_FIXED | VERTEX_BOUNDARY)):
             # the batch metric placed it: both ends are free to move
             p[0] = PO[3 * i]
             p[1] = PO[3 * i + 1]
@@ -286,8 +287,9 @@ cdef class PassDriver:
     cdef int[::1] hist
     # one row per candidate of a pass (at most ceil(live edges / fraction)): its plan and
     # check on the pass-start state, then the accepted rows in order
-    cdef int[:, ::1] plan_he         # (kmax, 6): h, removed, seam partner half-edge, check,
-                                     # then once accepted: kept, its seam partner (-1: none)
+    # plan_he (kmax, 6): h, removed, seam partner half-edge, check, then once accepted: the
+    # kept vertex and its seam partner (-1: none)
+    cdef int[:, ::1] plan_he
     cdef double[:, ::1] plan_x       # (kmax, 7): position (3), cost, error, volume change(s)
     cdef int[:, ::1] dead            # (kmax, 3): the dead edges of each accepted collapse
     cdef int[::1] accepted
@@ -304,7 +306,6 @@ cdef class PassDriver:
         self.c = collapser
         self.m = collapser.m
         cdef int ne = collapser.hm.n_edges
-        cdef int nv = collapser.hm.n_vertices
         self.cost = np.zeros(max(ne, 1), dtype=np.float32)
         self.state = np.zeros(max(ne, 1), dtype=np.uint8)
         self.live = np.nonzero(np.asarray(collapser.hm.edge_alive, dtype=bool))[0].astype(np.intc)
@@ -638,8 +639,8 @@ cdef class PassDriver:
             faces += 2 if self.m.twin[self.plan_he[i, 0]] >= 0 else 1
         for j in prange(n_acc, num_threads=self.threads, schedule="dynamic", chunksize=32):
             i = self.accepted[j]
-            self.c.perform_local(self.plan_he[i, 0], self.plan_he[i, 1], &self.plan_x[i, 0], self.plan_x[i, 3],
-                            self.plan_x[i, 4], -1.0, base + j, &self.dead[j, 0])
+            self.c.perform_local(self.plan_he[i, 0], self.plan_he[i, 1], &self.plan_x[i, 0],
+                                 self.plan_x[i, 3], self.plan_x[i, 4], -1.0, base + j, &self.dead[j, 0])
         self.c.hm.n_alive_faces -= faces
         self.c.hm.n_alive_vertices -= n_acc
         if self.c.closed_volume != 0.0:

@@ -1,5 +1,4 @@
 """Type stubs for lodkit._core.quadric (Cython)."""
-from typing import Optional
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -11,13 +10,13 @@ def face_unit_normals(hm: HalfEdgeMesh, positions: ArrayLike) -> NDArray[np.int1
     degenerate faces)."""
 
 def vertex_quadrics(
-    hm: HalfEdgeMesh, positions: ArrayLike, boundary_weight: float = ..., out: Optional[NDArray[np.float64]] = ...
+    hm: HalfEdgeMesh, positions: ArrayLike, boundary_weight: float = ..., out: NDArray[np.float64] | None = ...
 ) -> NDArray[np.float64]:
     """(n, 11) area-weighted plane quadrics (a11 a12 a13 a22 a23 a33 b1 b2 b3 c w)."""
 
 def general_quadric_marginal(
-    g: ArrayLike, D: int, p: Optional[ArrayLike] = ...
-) -> tuple[NDArray[np.float64], Optional[NDArray[np.float64]]]:
+    g: ArrayLike, D: int, p: ArrayLike | None = ...
+) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
     """The marginal of one packed D-dimensional quadric (3 <= D <= 16): its 3D quadric (10,)
     and, with ``p``, the attributes (D - 3,) that minimise it there (None without ``p`` or
     when the attribute block is singular).  For tests."""
@@ -36,6 +35,6 @@ class AttributeQuadrics:
         self,
         hm: HalfEdgeMesh,
         attributes: NDArray[np.float64],
-        gq: Optional[ArrayLike] = ...,
-        columns: Optional[ArrayLike] = ...,
+        gq: ArrayLike | None = ...,
+        columns: ArrayLike | None = ...,
     ) -> None: ...

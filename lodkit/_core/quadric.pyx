@@ -22,15 +22,25 @@ cdef void sym3_eigen(const double* q, double* w, double* V) noexcept nogil:
     """Eigen-decomposition of the symmetric 3x3 block of a quadric by cyclic Jacobi
     rotations: eigenvalues ``w[0..2]``, eigenvectors in the columns of ``V`` (row-major)."""
     cdef double a[3][3]
-    cdef int i, j, k, sweep, pp, qq
-    cdef double off, theta, t, c, s, tau, apq, app, aqq, akp, akq, vkp, vkq
-    a[0][0] = q[0]; a[0][1] = q[1]; a[0][2] = q[2]
-    a[1][0] = q[1]; a[1][1] = q[3]; a[1][2] = q[4]
-    a[2][0] = q[2]; a[2][1] = q[4]; a[2][2] = q[5]
+    cdef int i, j, k, pp, qq
+    cdef double off, theta, t, c, s, apq, app, aqq, akp, akq, vkp, vkq
+    cdef int sym[9]
+    sym[0] = 0
+    sym[1] = 1
+    sym[2] = 2
+    sym[3] = 1
+    sym[4] = 3
+    sym[5] = 4
+    sym[6] = 2
+    sym[7] = 4
+    sym[8] = 5
+    for i in range(3):
+        for j in range(3):
+            a[i][j] = q[sym[3 * i + j]]
     for i in range(3):
         for j in range(3):
             V[3 * i + j] = 1.0 if i == j else 0.0
-    for sweep in range(12):
+    for _ in range(12):
         off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2]
         if off <= 1e-20 * (a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2]) or off == 0.0:
             break
@@ -177,9 +187,16 @@ cdef bint gq_marginal(const double* g, int D, double* q3, const double* p, doubl
                 M[i * m + j] = A[(3 + i) * D + 3 + j] + (ridge if i == j else 0.0)
         ok = cholesky(M, m, 1e-15)
     # position block
-    q3[0] = A[0]; q3[1] = A[1]; q3[2] = A[2]
-    q3[3] = A[D + 1]; q3[4] = A[D + 2]; q3[5] = A[2 * D + 2]
-    q3[6] = b[0]; q3[7] = b[1]; q3[8] = b[2]; q3[9] = c
+    q3[0] = A[0]
+    q3[1] = A[1]
+    q3[2] = A[2]
+    q3[3] = A[D + 1]
+    q3[4] = A[D + 2]
+    q3[5] = A[2 * D + 2]
+    q3[6] = b[0]
+    q3[7] = b[1]
+    q3[8] = b[2]
+    q3[9] = c
     if not ok:
         return False
     for j in range(3):

@@ -1,5 +1,6 @@
 # cython: language_level=3
-"""Hole re-triangulation (placeholder: being written; see retriangulate.pxd)."""
+"""Hole re-triangulation for vertex removal: recursive loop splitting and fans (retriangulate.pxd says what each
+function does)."""
 
 # ---- split_loop: Schroeder et al. 1992 recursive loop splitting (NAME=schroeder) ----------
 #

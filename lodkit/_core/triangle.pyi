@@ -1,5 +1,5 @@
 """Type stubs for lodkit._core.triangle (Cython)."""
-from typing import Any, Optional
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -12,7 +12,7 @@ class TriangleCollapser(EdgeCollapser):
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         """The arguments of :class:`lodkit._core.edge.EdgeCollapser`."""
-    def plan_face(self, f: int) -> Optional[tuple[int, int, int, NDArray[np.float64], float, float]]:
+    def plan_face(self, f: int) -> tuple[int, int, int, NDArray[np.float64], float, float] | None:
         """(kept, first removed, second removed, position, cost, error) for face f, or None."""
     def check_face(self, f: int) -> bool:
         """Would face f collapse now (all checks of both collapses)?  Changes nothing."""

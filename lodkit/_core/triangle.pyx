@@ -162,7 +162,8 @@ cdef class TriangleCollapser(EdgeCollapser):
             for j in range(3):
                 if first >= 0 and j != first - 3 * f and j != (first - 3 * f + 1) % 3:
                     continue
-                d = sq(p[0] - self.P[VSTRIDE * v[j]]) + sq(p[1] - self.P[VSTRIDE * v[j] + 1]) + sq(p[2] - self.P[VSTRIDE * v[j] + 2])
+                d = (sq(p[0] - self.P[VSTRIDE * v[j]]) + sq(p[1] - self.P[VSTRIDE * v[j] + 1])
+                     + sq(p[2] - self.P[VSTRIDE * v[j] + 2]))
                 if ik < 0 or d < dbest or (d == dbest and v[j] < v[ik]):
                     dbest = d
                     ik = j

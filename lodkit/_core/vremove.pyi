@@ -1,5 +1,5 @@
 """Type stubs for lodkit._core.vremove (Cython): the vertex-removal driver."""
-from typing import Any, Optional
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -25,7 +25,7 @@ class MedianFilter:
         """Insert ``cid`` with ``value`` or change its value; NaN removes it."""
     def remove(self, cid: int) -> None:
         """Remove ``cid`` (absent ids are ignored)."""
-    def median(self) -> Optional[float]:
+    def median(self) -> float | None:
         """The ceil(n/2)-th smallest value; None when empty."""
     def band(self, a: float, b: float) -> NDArray[np.intc]:
         """Sorted ids whose value v has a <= v < b."""
@@ -66,7 +66,7 @@ class VertexRemover:
     @property
     def n_alive_faces(self) -> int: ...
     @property
-    def median(self) -> Optional[float]:
+    def median(self) -> float | None:
         """Gated kernels: the current median gate of the candidates."""
     @property
     def states(self) -> NDArray[np.uint8]:

@@ -29,8 +29,8 @@ from lodkit.kernel cimport KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VER
 from lodkit.removal cimport RemovalKernel, Star, Removal, MAX_VALENCE as STAR_MAX_VALENCE
 from . cimport common
 from .common cimport MAX_VALENCE, BOUNDARY_LOCK, BOUNDARY_PRESERVE, BOUNDARY_FREE
-from .checks cimport (CheckLimits, check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality, face_volume,
-                      turns_inside_out)
+from .checks cimport (CheckLimits, check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality,
+                      face_volume, turns_inside_out)
 
 cnp.import_array()
 
@@ -353,7 +353,7 @@ cdef class VertexRemover:
     cdef unsigned char[::1] ctri    # 3 MAX_VALENCE per vertex slot: the triangles (link indices)
     cdef unsigned char[::1] ck      # the star's k at that evaluation
     cdef unsigned char[::1] cn      # the number of triangles
-    cdef int slot_plan[MAX_VALENCE] # geometry_ok: the face slot each new triangle takes
+    cdef int slot_plan[MAX_VALENCE]  # geometry_ok: the face slot each new triangle takes
     cdef RemovalRecords rec
 
     def __init__(self, HalfEdgeMesh hm, positions, RemovalKernel kernel, fixed,
@@ -767,7 +767,8 @@ cdef class VertexRemover:
                 b = self.rem.tri[3 * t + (c + 1) % 3]
                 if b != (a + 1) % k or (not s.closed and a == k - 1):
                     continue
-                if lold[a] > 0.0 and angle_exceeds(dot3(&nnew[3 * t], &nold[3 * a]), self.lim.cos_max_angle, lnew[t], lold[a]):
+                if lold[a] > 0.0 and angle_exceeds(dot3(&nnew[3 * t], &nold[3 * a]), self.lim.cos_max_angle,
+                                                   lnew[t], lold[a]):
                     return ST_GEOMETRY
                 if not self.lim.check_orig:
                     continue

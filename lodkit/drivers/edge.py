@@ -1,5 +1,5 @@
 """Edge collapse (``operator="edge"``): the core's EdgeCollapser, run by the core's pass
-driver (``driver="pass"``, the default: lodkit/_core/passdriver.pyx), greedily from its heap
+driver (``driver="pass"``, the default: lodkit/_core/passes.pyx), greedily from its heap
 (``driver="greedy"``), or, with batch metrics, by the Python pass driver
 (:func:`run_passes`).  Triangle collapse (lodkit.drivers.triangle) runs through
 :func:`run_collapser` too."""
@@ -12,8 +12,18 @@ import numpy as np
 from .._compile import Compiled, batch_result, compile_metrics
 from .._core.decimate import EdgeCollapser
 from .._core.passes import PassDriver
-from .._pipeline import (RUN_EXHAUSTED, RUN_TARGET, STOP_MAX_ERROR, STOP_NO_COLLAPSE, STOP_TARGET, Run, Work,
-                         closed_connected, progress_bar, run_chunked)
+from .._pipeline import (
+    RUN_EXHAUSTED,
+    RUN_TARGET,
+    STOP_MAX_ERROR,
+    STOP_NO_COLLAPSE,
+    STOP_TARGET,
+    Run,
+    Work,
+    closed_connected,
+    progress_bar,
+    run_chunked,
+)
 from ..errors import MetricError
 from ..metrics import Batch
 from ..settings import BOUNDARY_POLICIES, COLLAPSE_OPERATORS, PLACEMENTS
@@ -126,7 +136,8 @@ def _no_collapse_detail(collapser) -> str:
         return (f"every candidate collapse was vetoed by a metric kernel "
                 f"({collapser.n_vetoed} vetoes); the mesh is unchanged")
     if collapser.n_vetoed:
-        return f"the remaining candidates failed the checks or were vetoed by a metric kernel ({collapser.n_vetoed} vetoes)"
+        return (f"the remaining candidates failed the checks or were vetoed by a metric kernel "
+                f"({collapser.n_vetoed} vetoes)")
     return "every remaining collapse would break the topology, flip or degrade a face, or move a locked vertex"
 
 

@@ -7,8 +7,17 @@ import numpy as np
 
 from .._compile import removal_kernel
 from .._core import vremove
-from .._pipeline import (RUN_TARGET, STOP_MAX_ERROR, STOP_NO_COLLAPSE, STOP_TARGET, Run, Work, closed_connected,
-                         progress_bar, run_chunked)
+from .._pipeline import (
+    RUN_TARGET,
+    STOP_MAX_ERROR,
+    STOP_NO_COLLAPSE,
+    STOP_TARGET,
+    Run,
+    Work,
+    closed_connected,
+    progress_bar,
+    run_chunked,
+)
 from ..errors import MetricError, OptionError
 from ..settings import BOUNDARY_POLICIES
 
@@ -95,7 +104,8 @@ def _raise_if_failed(remover, metric) -> None:
 
 
 def _detail(remover, held) -> str:
-    if remover.n_collapses == 0 and held["kernel"] and not any(v for k, v in held.items() if k not in ("kernel", "fixed")):
+    others = any(v for k, v in held.items() if k not in ("kernel", "fixed"))
+    if remover.n_collapses == 0 and held["kernel"] and not others:
         return f"the metric kernel vetoed every removal ({held['kernel']} vertices); the mesh is unchanged"
     parts = [f"{n} {k}" for k, n in held.items() if n and k != "fixed"]
     why = ", ".join(parts) if parts else "none"

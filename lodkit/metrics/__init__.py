@@ -25,7 +25,6 @@ from dataclasses import dataclass
 from importlib import metadata
 from typing import Any
 
-from ..version import __version__
 from ..errors import MetricError, OptionError, UnknownMetricError
 from ..kernel import API_VERSION as KERNEL_API
 from ..removal import API_VERSION as REMOVAL_API

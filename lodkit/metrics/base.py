@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any, ClassVar, Optional
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -40,8 +40,8 @@ class Option:
     choices : the allowed values of a str option
     """
 
-    def __init__(self, default: Any, *, kind: Any = float, min: Optional[float] = None,
-                 max: Optional[float] = None, choices: Optional[tuple] = None, doc: str = "",
+    def __init__(self, default: Any, *, kind: Any = float, min: float | None = None,
+                 max: float | None = None, choices: tuple | None = None, doc: str = "",
                  allow_none: bool = False):
         self.default = default
         # the type, or its name ("array" is an array of numbers)
@@ -178,7 +178,7 @@ class Metric:
     def weight(self) -> float:
         return float(self.params["weight"])
 
-    def prepare(self, ctx: "MetricContext") -> None:
+    def prepare(self, ctx: MetricContext) -> None:
         """Called once before the run (all kinds); the default does nothing."""
 
     def __repr__(self) -> str:
@@ -239,7 +239,7 @@ class QuadricMetric(Metric):
     def dimension(cls) -> int:
         return 3 + sum(ATTRIBUTE_WIDTHS[a] for a in cls.attributes)
 
-    def quadrics(self, ctx: "MetricContext") -> np.ndarray:
+    def quadrics(self, ctx: MetricContext) -> np.ndarray:
         raise NotImplementedError
 
 
@@ -263,11 +263,12 @@ class FieldMetric(Metric):
     options = {
         "merge": Option("max", kind=str, choices=_MERGES, doc="rule for the kept vertex / surviving edge"),
         "value": Option("max", kind=str, choices=_VALUES, doc="value of an edge from its two ends"),
-        "mode": Option("scale", kind=str, choices=_MODES, doc="scale: cost * (offset + weight * value); add: cost + weight * value"),
+        "mode": Option("scale", kind=str, choices=_MODES,
+                       doc="scale: cost * (offset + weight * value); add: cost + weight * value"),
         "offset": Option(1.0, doc="the offset of the scale mode"),
     }
 
-    def values(self, ctx: "MetricContext") -> np.ndarray:
+    def values(self, ctx: MetricContext) -> np.ndarray:
         raise NotImplementedError
 
     def rules(self, k: int) -> np.ndarray:
@@ -286,7 +287,7 @@ class KernelMetric(Metric):
     kind = "kernel"
     kernel: ClassVar[Any] = None
 
-    def make_kernel(self, ctx: "MetricContext"):
+    def make_kernel(self, ctx: MetricContext):
         k = self.kernel()
         k.prepare(ctx, dict(self.params))
         return k
@@ -301,7 +302,7 @@ class RemovalMetric(Metric):
     kind = "removal"
     kernel: ClassVar[Any] = None
 
-    def make_kernel(self, ctx: "MetricContext"):
+    def make_kernel(self, ctx: MetricContext):
         k = self.kernel()
         k.prepare(ctx, dict(self.params))
         return k
@@ -321,7 +322,7 @@ class BatchMetric(Metric):
                            doc="share of the ranked candidates tried in each pass"),
     }
 
-    def costs(self, batch: "Batch"):
+    def costs(self, batch: Batch):
         raise NotImplementedError
 
 
@@ -394,7 +395,7 @@ class MetricContext:
             self._boundary = self.halfedge.boundary_vertices
         return self._boundary
 
-    def vertex_attribute(self, name: str) -> Optional[np.ndarray]:
+    def vertex_attribute(self, name: str) -> np.ndarray | None:
         """The input's per-vertex ``normals``, ``colors`` or ``uvs``, one row per slot (None if absent)."""
         arr = getattr(self.mesh, name, None)
         if arr is None:
@@ -435,7 +436,7 @@ class Batch:
         return np.sqrt(np.einsum("ij,ij->i", d, d))
 
 
-def check_metric_class(obj: Any) -> Optional[str]:
+def check_metric_class(obj: Any) -> str | None:
     """Why ``obj`` is not a usable metric class (None if it is)."""
     if not isinstance(obj, type) or not issubclass(obj, Metric):
         return f"gives {obj!r}, not a subclass of lodkit.metrics.Metric"
@@ -451,7 +452,8 @@ def check_metric_class(obj: Any) -> Optional[str]:
                 + ", ".join(SETTING_DEFAULTS))
     if obj.kind == "quadric":
         attrs = getattr(obj, "attributes", ())
-        if not isinstance(attrs, tuple) or any(a not in ATTRIBUTE_WIDTHS for a in attrs) or len(set(attrs)) != len(attrs):
+        if (not isinstance(attrs, tuple) or any(a not in ATTRIBUTE_WIDTHS for a in attrs)
+                or len(set(attrs)) != len(attrs)):
             return (f"has attributes={attrs!r}; a quadric ranges over a tuple of distinct names among "
                     + ", ".join(ATTRIBUTE_WIDTHS))
         if obj.dimension() > 16:
@@ -460,10 +462,12 @@ def check_metric_class(obj: Any) -> Optional[str]:
         return f"has per={obj.per!r}; a field is per 'vertex' or per 'edge'"
     if obj.kind in ("kernel", "removal"):
         if obj.kind == "kernel":
-            from ..kernel import API_VERSION, Kernel as Base
+            from ..kernel import API_VERSION
+            from ..kernel import Kernel as Base
             constant = "KERNEL_API_VERSION"
         else:
-            from ..removal import API_VERSION, RemovalKernel as Base
+            from ..removal import API_VERSION
+            from ..removal import RemovalKernel as Base
             constant = "REMOVAL_API_VERSION"
         where = f"{Base.__module__}.{Base.__name__}"
         api = "kernel API" if obj.kind == "kernel" else "removal kernel API"
