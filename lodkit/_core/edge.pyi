@@ -16,7 +16,8 @@ class Records:
         """The first n records as a dict of arrays (copies)."""
 
 class _Plan(TypedDict):
-    """What :meth:`EdgeCollapser.plan_all` returns: one row per edge that may collapse."""
+    """What :meth:`lodkit._core.passes.PassCollapser.plan_all` returns: one row per edge that may
+    collapse."""
 
     edge: NDArray[np.intc]
     u: NDArray[np.intc]
@@ -86,8 +87,6 @@ class EdgeCollapser:
     def _setup_seams(self, partners: ArrayLike | None) -> None: ...
     def run(self, target_faces: int, max_steps: int = ...) -> int:
         """0: target reached, 1: step budget used, 2: no legal collapse left, 3: a kernel failed."""
-    def plan_all(self) -> _Plan | None:
-        """Plan every live edge (batch driver); None if a kernel failed."""
     def collapse_pass(self, edges: ArrayLike, positions: ArrayLike | None = ..., target_faces: int = ...) -> int:
         """Collapse, in the order given, the edges no earlier collapse of this pass touched;
         the number of collapses, or -1 if a kernel failed.  Here: RuntimeError (the pass

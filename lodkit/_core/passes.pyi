@@ -3,13 +3,15 @@ from typing import Any
 
 from numpy.typing import ArrayLike
 
-from .edge import EdgeCollapser
+from .edge import EdgeCollapser, _Plan
 
 class PassCollapser(EdgeCollapser):
     """Edge collapse driven in passes by a batch metric (made with use_heap=False)."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         """The arguments of :class:`lodkit._core.edge.EdgeCollapser`."""
+    def plan_all(self) -> _Plan | None:
+        """Plan every live edge (batch driver); None if a kernel failed."""
     def collapse_pass(self, edges: ArrayLike, positions: ArrayLike | None = ..., target_faces: int = ...) -> int:
         """Collapse, in the order given, the edges no earlier collapse of this pass touched;
         the number of collapses, or -1 if a kernel failed."""

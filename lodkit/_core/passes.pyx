@@ -23,7 +23,7 @@ else runs in a fixed order on one thread: the output is the same for any thread 
 docs/algorithms.md ("The pass driver") says why the limit is chosen so.
 
 **The batch pass driver** (:func:`collapse_pass_c`): Python ranks every candidate at once
-(``EdgeCollapser.plan_all`` and a vectorised cost), then one ``collapse_pass`` tries the
+(``PassCollapser.plan_all`` and a vectorised cost), then one ``collapse_pass`` tries the
 edges in that order, skipping those with an end an earlier collapse of the same pass touched
 (the kept vertex and its 1-ring; the 2-ring for wide kernels), so that every collapse sees the
 costs it was ranked with.  Each collapse is re-planned and checked as the heap driver's."""
@@ -54,6 +54,66 @@ cdef class PassCollapser(EdgeCollapser):
         super().__init__(*args, **kwargs)
         self.touched = np.zeros(self.hm.n_vertices if not self.opt.use_heap else 1, dtype=np.intc)
         self.pass_counter = 0
+
+    def plan_all(self):
+        """Plan every live edge (batch driver): a dict of ``edge``, ``u``, ``v``,
+        ``removed``, ``kept`` (int32 vertex slots), ``position`` (k, 3), ``cost`` and
+        ``error``, one row per edge that may collapse (within ``max_error``), or None if a
+        kernel failed."""
+        if self.released:
+            raise RuntimeError("this EdgeCollapser was released")
+        cdef int ne = self.hm.n_edges
+        cdef int e, h, r, hs, rc, k = 0
+        cdef double cost, err
+        cdef double p[3]
+        out_e = np.empty(ne, dtype=np.intc)
+        out_u = np.empty(ne, dtype=np.intc)
+        out_v = np.empty(ne, dtype=np.intc)
+        out_r = np.empty(ne, dtype=np.intc)
+        out_p = np.empty((ne, 3), dtype=np.float64)
+        out_c = np.empty(ne, dtype=np.float64)
+        out_x = np.empty(ne, dtype=np.float64)
+        cdef int[::1] OE = out_e
+        cdef int[::1] OU = out_u
+        cdef int[::1] OV = out_v
+        cdef int[::1] OR = out_r
+        cdef double[:, ::1] OP = out_p
+        cdef double[::1] OC = out_c
+        cdef double[::1] OX = out_x
+        self.n_vetoed = 0
+        self.n_rejected_error = 0
+        with nogil:
+            for e in range(ne):
+                if not self.m.edge_alive[e]:
+                    continue
+                rc = self.plan(e, &h, &r, &hs, p, &cost, &err)
+                if rc < 0:
+                    if self.failed:
+                        break
+                    continue
+                if hs >= 0 and self.m.edge[h] != e:
+                    continue              # side b of a seam pair: listed as side a's edge
+                if err > self.opt.max_error:
+                    self.n_rejected_error += 1
+                    continue
+                OE[k] = e
+                OU[k] = self.m.corner[h]
+                OV[k] = he_dest(self.m, h)
+                OR[k] = r
+                OP[k, 0] = p[0]
+                OP[k, 1] = p[1]
+                OP[k, 2] = p[2]
+                OC[k] = cost
+                OX[k] = err
+                k += 1
+        if self.failed:
+            return None
+        u = out_u[:k].copy()
+        v = out_v[:k].copy()
+        removed = out_r[:k].copy()
+        return {"edge": out_e[:k].copy(), "u": u, "v": v, "removed": removed,
+                "kept": np.where(removed == u, v, u).astype(np.intc),
+                "position": out_p[:k].copy(), "cost": out_c[:k].copy(), "error": out_x[:k].copy()}
 
     def collapse_pass(self, edges, positions=None, int target_faces=0):
         """Collapse, in the order given, the ``edges`` whose ends no earlier collapse of
