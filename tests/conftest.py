@@ -80,3 +80,17 @@ def pytest_sessionfinish(session, exitstatus):
     import gc
 
     gc.collect()
+
+
+def lodkit_subprocess_env(**extra) -> dict:
+    """The environment for a Python subprocess that must import the lodkit under test: the
+    installed copy in CI (the source tree there has no compiled extensions), the source tree
+    in a development checkout built in place.  Run it with ``cwd`` outside the repository
+    (``tmp_path``), or ``python -c`` / ``-m`` would put an unbuilt source tree first."""
+    import lodkit
+
+    root = str(Path(lodkit.__file__).resolve().parents[1])
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([root] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
+    env.update(extra)
+    return env

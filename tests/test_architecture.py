@@ -24,10 +24,11 @@ The rule, exactly:
 from __future__ import annotations
 
 import ast
-import os
 import subprocess
 import sys
 from pathlib import Path
+
+from conftest import lodkit_subprocess_env
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "lodkit"
@@ -165,10 +166,10 @@ def test_no_private_names_across_modules():
     assert not problems, "private names used across lodkit modules:\n" + "\n".join(problems)
 
 
-def test_import_lodkit_stays_light():
+def test_import_lodkit_stays_light(tmp_path):
     # heavy optional dependencies are imported where they are used, not by ``import lodkit``
     code = ("import sys, lodkit; heavy = [m for m in ('open3d', 'matplotlib', 'dask', 'scipy.spatial') "
             "if m in sys.modules]; print(','.join(heavy))")
-    env = dict(os.environ, PYTHONPATH=str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", ""))
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=lodkit_subprocess_env(),
+                         cwd=tmp_path, check=True)
     assert out.stdout.strip() == "", f"import lodkit imports {out.stdout.strip()}"

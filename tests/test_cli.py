@@ -211,9 +211,10 @@ def test_lodkit_error_from_the_library_is_one_line(tetra_ply, capsys, monkeypatc
     assert "got (4, 4)" in one_error_line(capsys)
 
 
-def test_python_dash_m():
+def test_python_dash_m(tmp_path):
+    # cwd outside the checkout: -m puts the current directory first on sys.path
     proc = subprocess.run([sys.executable, "-m", "lodkit", "--help"], capture_output=True, text=True,
-                          cwd=REPO, env={"PYTHONPATH": str(LODKIT_ROOT), "PATH": ""}, timeout=120)
+                          cwd=tmp_path, env={"PYTHONPATH": str(LODKIT_ROOT), "PATH": ""}, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.startswith("usage: lodkit")
 

@@ -14,6 +14,7 @@ import pytest
 
 import lodkit
 import lodkit.metrics as M
+from conftest import lodkit_subprocess_env
 from lodkit.kernel import API_VERSION, Kernel
 from lodkit.metrics import KernelMetric, Option, RemovalMetric
 from lodkit.removal import RemovalKernel
@@ -143,13 +144,14 @@ def test_a_plugin_built_for_another_layout_says_rebuild(tmp_path, monkeypatch):
         M.refresh()
 
 
-def test_no_lodkit_module_imports_the_old_paths():
+def test_no_lodkit_module_imports_the_old_paths(tmp_path):
     """lodkit itself uses the new paths: importing it raises no DeprecationWarning."""
     code = ("import warnings; warnings.simplefilter('error', DeprecationWarning); import lodkit, lodkit.metrics as M; "
             "[M.get(n) for n in ('qem_native', 'melod', 'schroeder', 'volume', 'curvature')]")
     import subprocess
 
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=lodkit_subprocess_env(),
+                          cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr[-2000:]
     with warnings.catch_warnings():
         warnings.simplefilter("error", DeprecationWarning)

@@ -7,7 +7,6 @@ frames, see lodkit/viz) and skipped when Open3D's renderer cannot start here.
 from __future__ import annotations
 
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -19,6 +18,7 @@ import lodkit
 import lodkit.render as lr
 import lodkit.viz.open3d_backend as o3b
 import lodkit.viz.text as font
+from conftest import lodkit_subprocess_env
 from lodkit.errors import MeshError, OptionError
 
 REPO = Path(lodkit.__file__).resolve().parents[1]
@@ -269,12 +269,11 @@ def test_open3d_backend_agrees_with_numpy_and_exits_cleanly(tmp_path):
     info = lr.backend_info()
     if "cannot" in info["reason"]:
         pytest.skip(f"Open3D's renderer cannot start here: {info['reason']}")
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO), os.environ.get("PYTHONPATH", "")]),
-               LODKIT_RENDER_BACKEND="open3d")
+    env = lodkit_subprocess_env(LODKIT_RENDER_BACKEND="open3d")
     out = tmp_path / "imgs.npz"
     try:
         proc = subprocess.run([sys.executable, "-c", _BOTH, str(Path(__file__).parent), str(out)], env=env,
-                              capture_output=True, text=True, timeout=150)
+                              capture_output=True, text=True, timeout=150, cwd=tmp_path)
     except subprocess.TimeoutExpired:
         pytest.skip("Open3D's renderer stalled for 150 s (Filament on a software Vulkan; see lodkit/viz)")
     # exit code 0: the renderer alive at exit (two sizes were used) does not abort the interpreter
