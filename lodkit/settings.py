@@ -40,10 +40,12 @@ COLLAPSE_OPERATORS = {"edge": 0, "triangle": 1}
 #: simplify(operator=): the operators, each run by its driver (lodkit.drivers.DRIVERS)
 OPERATORS = ("edge", "triangle", "vertex_removal")
 
-#: simplify(driver=): how edge collapse picks its collapses -- "pass": error-limited passes
-#: over independent sets in memory order (lodkit/_core/passes.pyx; the default), or
-#: "greedy": always the cheapest candidate, from an indexed heap (the reference order)
-EDGE_DRIVERS = ("pass", "greedy")
+#: simplify(driver=): how edge collapse picks its collapses -- "greedy": always the cheapest
+#: candidate, from an indexed heap (the reference order; the default), or "pass":
+#: error-limited passes over independent sets in memory order, on several threads
+#: (lodkit/_core/passes.pyx).  The default stays greedy until the pass driver is faster on
+#: the machines lodkit is measured on (docs/benchmarks.md, "Speed")
+EDGE_DRIVERS = ("greedy", "pass")
 
 
 def resolve_operator(operator, metrics) -> str:
@@ -87,7 +89,7 @@ def resolve_settings(metrics, **given) -> dict:
 
 
 def resolve_driver(driver) -> tuple:
-    """(driver, where it came from): the caller's ``driver=`` or the default, "pass"."""
+    """(driver, where it came from): the caller's ``driver=`` or the default, "greedy"."""
     if driver is None:
         return EDGE_DRIVERS[0], "lodkit"
     if not isinstance(driver, str) or driver not in EDGE_DRIVERS:

@@ -1,4 +1,4 @@
-"""The pass driver (``driver="pass"``, the default for edge collapse): the same guarantees as
+"""The pass driver (``driver="pass"``): the same guarantees as
 the greedy driver, output independent of the thread count, runs that are prefixes of longer
 runs, and a memory order that changes nothing but the speed.
 
@@ -44,39 +44,39 @@ def same_records(a, b) -> bool:
 
 
 # ------------------------------------------------------------------ options
-def test_pass_is_the_default_and_reported():
-    r = lodkit.simplify(torus(), target_ratio=0.5)
-    assert r.report["settings"]["driver"] == {"value": "pass", "from": "lodkit"}
-    assert r.report["passes"] > 0 and r.report["memory_order"] is True
-    g = lodkit.simplify(torus(), target_ratio=0.5, driver="greedy")
-    assert g.report["settings"]["driver"]["value"] == "greedy"
+def test_greedy_is_the_default_and_the_driver_is_reported():
+    g = lodkit.simplify(torus(), target_ratio=0.5)
+    assert g.report["settings"]["driver"] == {"value": "greedy", "from": "lodkit"}
     assert g.report["passes"] == 0 and g.report["memory_order"] is False
+    r = lodkit.simplify(torus(), target_ratio=0.5, driver="pass")
+    assert r.report["settings"]["driver"] == {"value": "pass", "from": "caller"}
+    assert r.report["passes"] > 0 and r.report["memory_order"] is True
 
 
 @pytest.mark.parametrize("options, message", [
-    ({"driver": "fast"}, "driver must be one of pass, greedy"),
+    ({"driver": "fast"}, "driver must be one of greedy, pass"),
     ({"threads": 0}, "threads must be a positive integer"),
     ({"threads": 1.5}, "threads must be a positive integer"),
     ({"threads": True}, "threads must be a positive integer"),
 ])
 def test_bad_driver_options(options, message):
     with pytest.raises(OptionError, match=message):
-        lodkit.simplify(torus(), target_ratio=0.5, **options)
+        lodkit.simplify(torus(), target_ratio=0.5, **{"driver": "pass", **options})
 
 
 def test_lodkit_threads_environment(monkeypatch):
     monkeypatch.setenv("LODKIT_THREADS", "3")
-    r = lodkit.simplify(torus(), target_ratio=0.5)
+    r = lodkit.simplify(torus(), target_ratio=0.5, driver="pass")
     assert r.report["settings"]["threads"] == {"value": 3, "from": "LODKIT_THREADS"}
     monkeypatch.setenv("LODKIT_THREADS", "many")
     with pytest.raises(OptionError, match="LODKIT_THREADS"):
-        lodkit.simplify(torus(), target_ratio=0.5)
+        lodkit.simplify(torus(), target_ratio=0.5, driver="pass")
 
 
 # ------------------------------------------------------------------ determinism
 def test_same_output_for_any_thread_count():
     mesh = torus(80, 40)
-    runs = [lodkit.simplify(mesh, target_ratio=0.05, threads=t, record=True) for t in (1, 2, 4, 1)]
+    runs = [lodkit.simplify(mesh, target_ratio=0.05, threads=t, record=True, driver="pass") for t in (1, 2, 4, 1)]
     for r in runs[1:]:
         assert same_result(runs[0], r)
         assert same_records(runs[0].collapses, r.collapses)
@@ -84,9 +84,9 @@ def test_same_output_for_any_thread_count():
 
 def test_same_output_for_any_thread_count_on_a_real_mesh():
     mesh = lodkit.load(shared_mesh("bunny.ply"))
-    a = lodkit.simplify(mesh, target_ratio=0.02, threads=1)
-    b = lodkit.simplify(mesh, target_ratio=0.02, threads=2)
-    c = lodkit.simplify(mesh, target_ratio=0.02, threads=4)
+    a = lodkit.simplify(mesh, target_ratio=0.02, threads=1, driver="pass")
+    b = lodkit.simplify(mesh, target_ratio=0.02, threads=2, driver="pass")
+    c = lodkit.simplify(mesh, target_ratio=0.02, threads=4, driver="pass")
     assert same_result(a, b) and same_result(a, c)
 
 
@@ -95,9 +95,9 @@ def test_shorter_runs_are_prefixes_of_longer_ones():
     """The schedule never looks at the target: a run to N faces is the start of a run to
     fewer, collapse for collapse."""
     mesh = torus(60, 30)
-    long = lodkit.simplify(mesh, target_faces=100, record=True)
+    long = lodkit.simplify(mesh, target_faces=100, record=True, driver="pass")
     for n in (3000, 1777, 900, 101):
-        short = lodkit.simplify(mesh, target_faces=n, record=True)
+        short = lodkit.simplify(mesh, target_faces=n, record=True, driver="pass")
         k = short.n_collapses
         assert short.mesh.n_faces <= n
         for key in short.collapses:
@@ -106,10 +106,10 @@ def test_shorter_runs_are_prefixes_of_longer_ones():
 
 def test_progressive_at_equals_simplify_with_the_pass_driver():
     mesh = torus(50, 24)
-    pm = lodkit.progressive(mesh)
+    pm = lodkit.progressive(mesh, driver="pass")
     for n in (2000, 640, 150):
         lvl = pm.level(faces=n)
-        r = lodkit.simplify(mesh, target_faces=n)
+        r = lodkit.simplify(mesh, target_faces=n, driver="pass")
         assert np.array_equal(lvl.mesh.faces, r.mesh.faces)
         assert np.array_equal(lvl.mesh.vertices, r.mesh.vertices)
         assert np.array_equal(lvl.face_map, r.face_map) and np.array_equal(lvl.vertex_map, r.vertex_map)
@@ -130,7 +130,7 @@ def test_output_order_does_not_depend_on_the_input_order():
     """Memory order is internal: the output lists vertices and faces in input order, and
     maps back exactly, whatever order the input came in."""
     mesh = torus(40, 20)
-    r = lodkit.simplify(mesh, target_ratio=0.2)
+    r = lodkit.simplify(mesh, target_ratio=0.2, driver="pass")
     assert np.all(np.diff(r.vertex_map) > 0) and np.all(np.diff(r.face_map) > 0)
     kept = ~np.any(np.isnan(r.mesh.vertices), axis=1)
     assert kept.all()
@@ -145,7 +145,7 @@ def test_output_order_does_not_depend_on_the_input_order():
        st.sampled_from(["optimal", "endpoint"]))
 def test_pass_driver_keeps_manifold_genus_and_orientation(n_major, n_minor, ratio, seed, placement):
     mesh = torus(n_major, n_minor, seed=seed)
-    r = lodkit.simplify(mesh, target_ratio=ratio, placement=placement, threads=2)
+    r = lodkit.simplify(mesh, target_ratio=ratio, placement=placement, threads=2, driver="pass")
     t = topology(r.mesh)
     assert t.is_manifold and t.is_oriented and t.is_closed
     assert t.genus == 1
@@ -157,7 +157,7 @@ def test_pass_driver_keeps_manifold_genus_and_orientation(n_major, n_minor, rati
 def test_real_meshes_keep_their_topology_and_boundaries(name):
     mesh = lodkit.load(shared_mesh(name))
     before = topology(mesh)
-    r = lodkit.simplify(mesh, target_ratio=0.05)
+    r = lodkit.simplify(mesh, target_ratio=0.05, driver="pass")
     after = topology(r.mesh)
     assert r.stop_reason == "target_faces"
     assert after.n_nonmanifold_edges == 0 and after.is_vertex_manifold
@@ -171,7 +171,7 @@ def test_quality_close_to_the_greedy_driver(name):
     """The pass driver's error stays near the greedy reference (docs/benchmarks.md has the
     Metro figures; this is the guard rail: within 25% on the collapse error)."""
     mesh = lodkit.load(shared_mesh(name))
-    p = lodkit.simplify(mesh, target_ratio=0.05)
+    p = lodkit.simplify(mesh, target_ratio=0.05, driver="pass")
     g = lodkit.simplify(mesh, target_ratio=0.05, driver="greedy")
     assert p.mesh.n_faces == g.mesh.n_faces or abs(p.mesh.n_faces - g.mesh.n_faces) <= 1
     ev_p = lodkit.evaluate(mesh, p.mesh, samples=20000, seed=1)
@@ -184,6 +184,6 @@ def test_every_metric_kind_runs_on_the_pass_driver():
     mesh = torus(40, 20)
     importance = ["qem", ("importance", {"values": np.linspace(0, 1, 800)})]
     for metric in ["qem", "melod", ("normal_qem", {"normals": "estimate"}), "curvature", "appearance", importance]:
-        r = lodkit.simplify(mesh, target_ratio=0.3, metric=metric)
+        r = lodkit.simplify(mesh, target_ratio=0.3, metric=metric, driver="pass")
         assert r.report["passes"] > 0, metric
         assert topology(r.mesh).is_manifold, metric

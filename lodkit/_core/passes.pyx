@@ -1,7 +1,7 @@
 # cython: language_level=3
 """Edge collapse in passes (``use_heap=False``): :class:`PassCollapser` and two drivers.
 
-**The pass driver** (:class:`PassDriver`, ``simplify(driver="pass")``, the default).  Each
+**The pass driver** (:class:`PassDriver`, ``simplify(driver="pass")``).  Each
 pass
 
 1. *ranks* every candidate whose cost may have changed since it was last ranked (an edge of

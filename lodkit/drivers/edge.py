@@ -1,6 +1,6 @@
-"""Edge collapse (``operator="edge"``): the core's EdgeCollapser, run by the core's pass
-driver (``driver="pass"``, the default: lodkit/_core/passes.pyx), greedily from its heap
-(``driver="greedy"``), or, with batch metrics, by the Python pass driver
+"""Edge collapse (``operator="edge"``): the core's EdgeCollapser, run greedily from its heap
+(``driver="greedy"``, the default), by the core's pass driver (``driver="pass"``:
+lodkit/_core/passes.pyx), or, with batch metrics, by the Python pass driver
 (:func:`run_passes`).  Triangle collapse (lodkit.drivers.triangle) runs through
 :func:`run_collapser` too."""
 from __future__ import annotations
