@@ -14,9 +14,8 @@ import os
 import sys
 import time
 
-import numpy as np
-
 from .errors import LodkitError, MeshIOError
+from .geometry import weld_positions
 from .version import __version__
 
 __all__ = ["main"]
@@ -573,8 +572,7 @@ def _weld_positions(mesh):
     """The mesh's faces over its distinct positions (attributes dropped): for topology only."""
     from .mesh import Mesh
 
-    positions, inverse = np.unique(mesh.vertices, axis=0, return_inverse=True)
-    return Mesh(positions, inverse.reshape(-1)[mesh.faces])
+    return Mesh(*weld_positions(mesh.vertices, mesh.faces))
 
 
 def _is_tty(stream) -> bool:
