@@ -191,8 +191,8 @@ cdef int collapse_pass_c(PassCollapser c, const int* E, int n_cand, const double
             if c.failed:
                 return -1
             done += 1
-            mark_touched(c, k, stamp)
-            mark_touched(c, ks, stamp)
+            mark_touched(c, k, stamp, c.opt.wide_recost)
+            mark_touched(c, ks, stamp, c.opt.wide_recost)
             continue
         if PO != NULL and c.SP != NULL and (c.SP[u] != SEAM_NONE or c.SP[v] != SEAM_NONE):
             pass            # a seam vertex stays where it is, whatever a batch metric says
@@ -229,24 +229,26 @@ cdef int collapse_pass_c(PassCollapser c, const int* E, int n_cand, const double
         if c.failed:
             return -1
         done += 1
-        mark_touched(c, k, stamp)
+        mark_touched(c, k, stamp, c.opt.wide_recost)
     return done
 
 
-cdef void mark_touched(PassCollapser c, int k, int stamp) noexcept nogil:
-    """Pass driver: mark the kept vertex k and its 1-ring (2-ring for wide kernels) as
-    touched in this pass, so no later collapse of the pass sees stale costs there."""
+cdef void mark_touched(PassCollapser c, int k, int stamp, bint two_rings) noexcept nogil:
+    """Mark k and its 1-ring (with ``two_rings``, its 2-ring) touched in this pass: the batch
+    driver marks a kept vertex so no later collapse of the pass sees stale costs there (the
+    2-ring for wide kernels); the pass driver marks each end of an accepted collapse's
+    closed 2-ring, the vertices whose closed 1-rings meet its own."""
     cdef int start = c.m.v_he[k]
     cdef int y = start
     cdef int ny
     c.touched[k] = stamp
     while True:
-        if c.opt.wide_recost:
+        if two_rings:
             touch_ring(c, he_dest(c.m, y), stamp)
         c.touched[he_dest(c.m, y)] = stamp
         ny = he_ring_next(c.m, y)
         if ny < 0:
-            if c.opt.wide_recost:
+            if two_rings:
                 touch_ring(c, c.m.corner[he_prev(y)], stamp)
             c.touched[c.m.corner[he_prev(y)]] = stamp
             return
@@ -542,24 +544,8 @@ cdef class PassDriver:
 
     cdef inline bint ring_free(self, int v, int stamp) noexcept nogil:
         """v's closed 1-ring meets no closed 1-ring of a collapse accepted in this pass: v is
-        not within two edges of an accepted collapse's end (:meth:`mark_ring`)."""
+        not within two edges of an accepted collapse's end (``mark_touched(..., True)``)."""
         return self.c.touched[v] != stamp
-
-    cdef void mark_ring(self, int v, int stamp) noexcept nogil:
-        """Mark v's closed 2-ring: the vertices whose closed 1-rings meet v's."""
-        cdef int start = self.m.v_he[v]
-        cdef int y = start
-        cdef int ny
-        self.c.touched[v] = stamp
-        while True:
-            touch_ring(self.c, he_dest(self.m, y), stamp)
-            ny = he_ring_next(self.m, y)
-            if ny < 0:
-                touch_ring(self.c, self.m.corner[he_prev(y)], stamp)
-                return
-            if ny == start:
-                return
-            y = ny
 
     cdef int perform_pass(self, int n_sel, int target_faces, int* done) noexcept nogil:
         """The pass's candidates, in cost order: checked (on several threads), then
@@ -652,12 +638,12 @@ cdef class PassDriver:
                     vol += x[5]
                     if ks >= 0:
                         vol += x[6]
-                self.mark_ring(r, stamp)
-                self.mark_ring(k, stamp)
+                mark_touched(self.c, r, stamp, True)
+                mark_touched(self.c, k, stamp, True)
                 faces_left -= 2 if self.m.twin[h] >= 0 else 1
                 if ks >= 0:
-                    self.mark_ring(rs, stamp)
-                    self.mark_ring(ks, stamp)
+                    mark_touched(self.c, rs, stamp, True)
+                    mark_touched(self.c, ks, stamp, True)
                     faces_left -= 2 if self.m.twin[hs] >= 0 else 1
                 self.plan_he[i, 4] = k
                 self.plan_he[i, 5] = ks
