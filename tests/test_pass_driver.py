@@ -187,3 +187,58 @@ def test_every_metric_kind_runs_on_the_pass_driver():
         r = lodkit.simplify(mesh, target_ratio=0.3, metric=metric, driver="pass")
         assert r.report["passes"] > 0, metric
         assert topology(r.mesh).is_manifold, metric
+
+
+# ------------------------------------------------------------------ blocks
+@pytest.fixture
+def small_blocks(monkeypatch):
+    """Blocks of 48 live vertices, so the small meshes below run many blocks a pass (the
+    default block holds thousands): the block stage, the candidates it leaves to the second
+    stage and the records written after it are all exercised."""
+    import lodkit.drivers.edge as edge_driver
+
+    monkeypatch.setattr(edge_driver, "PASS_BLOCK", 48)
+
+
+def test_blocks_give_the_same_output_for_any_thread_count(small_blocks):
+    mesh = torus(80, 40)
+    runs = [lodkit.simplify(mesh, target_ratio=0.05, threads=t, record=True, driver="pass") for t in (1, 2, 4, 2)]
+    for r in runs[1:]:
+        assert same_result(runs[0], r)
+        assert same_records(runs[0].collapses, r.collapses)
+
+
+def test_blocks_keep_runs_prefixes_of_longer_ones(small_blocks):
+    """A pass that may reach the target runs its block stage in plain cost order (to stop
+    exactly there); the passes of a longer run take the blocks one by one, on threads. Both
+    must make the same collapses, recorded in the same order."""
+    mesh = torus(60, 30, seed=3)
+    long = lodkit.simplify(mesh, target_faces=100, record=True, driver="pass", threads=2)
+    for n in (3111, 1777, 901, 240):
+        short = lodkit.simplify(mesh, target_faces=n, record=True, driver="pass", threads=1)
+        k = short.n_collapses
+        assert short.mesh.n_faces <= n
+        for key in short.collapses:
+            assert np.array_equal(short.collapses[key], long.collapses[key][:k]), key
+
+
+def test_blocks_keep_progressive_levels_equal_to_simplify(small_blocks):
+    mesh = torus(50, 24, seed=5)
+    pm = lodkit.progressive(mesh, driver="pass", threads=2)
+    for n in (2000, 640, 150):
+        lvl = pm.level(faces=n)
+        r = lodkit.simplify(mesh, target_faces=n, driver="pass", threads=2)
+        assert np.array_equal(lvl.mesh.faces, r.mesh.faces)
+        assert np.array_equal(lvl.mesh.vertices, r.mesh.vertices)
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(seed=st.integers(0, 10_000), ratio=st.sampled_from([0.3, 0.1, 0.02]))
+def test_blocks_keep_manifold_genus_and_orientation(small_blocks, seed, ratio):
+    mesh = torus(36, 18, seed=seed)
+    r = lodkit.simplify(mesh, target_ratio=ratio, driver="pass", threads=2)
+    t = topology(r.mesh)
+    assert t.is_manifold and t.is_oriented and t.is_closed
+    assert t.genus == 1
+    one = lodkit.simplify(mesh, target_ratio=ratio, driver="pass", threads=1)
+    assert same_result(r, one)

@@ -896,7 +896,8 @@ cdef class EdgeCollapser:
         half-edges, the kept vertex's flags, fields, quadric, attributes and position, and
         record ``row``.  No counter, heap or kernel is touched, so collapses of disjoint
         closed 1-rings can run at once (the pass driver); :meth:`perform` does the rest.
-        Returns the kept vertex; ``dead`` gets the dead edges."""
+        ``row`` < 0: no record (the pass driver writes it later).  Returns the kept vertex;
+        ``dead`` gets the dead edges."""
         cdef int merged_into[2]
         cdef int k, i, j
         cdef double t = 0.0, len2 = 0.0
@@ -911,7 +912,7 @@ cdef class EdgeCollapser:
                 t += (p[i] - self.P[VSTRIDE * r + i]) * (self.P[VSTRIDE * k + i] - self.P[VSTRIDE * r + i])
             t = t / len2 if len2 > 0.0 else 1.0
             t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
-        if self.rec.on:
+        if self.rec.on and row >= 0:
             self.rec.faces[row, 0] = h // 3
             self.rec.faces[row, 1] = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
         self.hm.collapse_uncounted(h, r, dead, merged_into)
@@ -929,7 +930,7 @@ cdef class EdgeCollapser:
             for i in range(3):
                 self.P[VSTRIDE * k + i] = p[i]
             self.moved[k] = 1
-        if self.rec.on:
+        if self.rec.on and row >= 0:
             self.rec.removed[row] = r
             self.rec.kept[row] = k
             self.rec.pos[row, 0] = p[0]

@@ -17,15 +17,17 @@ class PassCollapser(EdgeCollapser):
         the number of collapses, or -1 if a kernel failed."""
 
 class PassDriver:
-    """Runs a PassCollapser in error-limited passes over independent sets of collapses
+    """Runs a PassCollapser in error-limited passes, each in two stages: blocks of the
+    surface on several threads, then what reached out of its block, in cost order
     (``simplify(driver="pass")``); the output is the same for any ``threads``."""
 
     n_passes: int
-    n_checked: int
+    n_deferred: int
     threads: int
     fraction: float
 
-    def __init__(self, collapser: PassCollapser, fraction: float = ..., threads: int = ...) -> None: ...
+    def __init__(self, collapser: PassCollapser, fraction: float = ..., threads: int = ...,
+                 block: int = ...) -> None: ...
     def run(self, target_faces: int, max_steps: int = ...) -> int:
         """Collapse until ``target_faces`` faces are left, nothing legal is left, or a pass
         ends with ``max_steps`` collapses done; 0 target, 1 chunk, 2 exhausted, 3 kernel error."""

@@ -35,7 +35,7 @@ from libc.string cimport memcpy, memset
 import numpy as np
 cimport numpy as cnp
 
-from .halfedge cimport HEArrays, he_prev, he_dest, he_ring_next
+from .halfedge cimport HEArrays, he_next, he_prev, he_dest, he_ring_next
 from lodkit.kernel cimport Candidate, fill_candidate, KERNEL_OK, VERTEX_FIXED, VERTEX_BOUNDARY
 from .chain cimport chain_cost
 from .common cimport QSIZE, VSTRIDE, BOUNDARY_FREE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, RUN_ERROR
@@ -236,37 +236,48 @@ cdef int collapse_pass_c(PassCollapser c, const int* E, int n_cand, const double
 cdef void mark_touched(PassCollapser c, int k, int stamp, bint two_rings) noexcept nogil:
     """Mark k and its 1-ring (with ``two_rings``, its 2-ring) touched in this pass: the batch
     driver marks a kept vertex so no later collapse of the pass sees stale costs there (the
-    2-ring for wide kernels); the pass driver marks each end of an accepted collapse's
-    closed 2-ring, the vertices whose closed 1-rings meet its own."""
-    cdef int start = c.m.v_he[k]
+    2-ring for wide kernels)."""
+    mark_rings(c.m, &c.touched[0], k, stamp, two_rings)
+
+
+cdef void touch_ring(PassCollapser c, int w, int stamp) noexcept nogil:
+    """Mark w's neighbours touched in this pass (wide kernels: their costs changed)."""
+    mark_ring(c.m, &c.touched[0], w, stamp)
+
+
+cdef void mark_rings(HEArrays* m, int* marks, int k, int stamp, bint two_rings) noexcept nogil:
+    """``marks[w] = stamp`` for k and its 1-ring (with ``two_rings``: its 2-ring)."""
+    cdef int start = m.v_he[k]
     cdef int y = start
-    cdef int ny
-    c.touched[k] = stamp
+    cdef int ny, w
+    marks[k] = stamp
     while True:
+        w = he_dest(m, y)
         if two_rings:
-            touch_ring(c, he_dest(c.m, y), stamp)
-        c.touched[he_dest(c.m, y)] = stamp
-        ny = he_ring_next(c.m, y)
+            mark_ring(m, marks, w, stamp)
+        marks[w] = stamp
+        ny = he_ring_next(m, y)
         if ny < 0:
+            w = m.corner[he_prev(y)]
             if two_rings:
-                touch_ring(c, c.m.corner[he_prev(y)], stamp)
-            c.touched[c.m.corner[he_prev(y)]] = stamp
+                mark_ring(m, marks, w, stamp)
+            marks[w] = stamp
             return
         if ny == start:
             return
         y = ny
 
 
-cdef void touch_ring(PassCollapser c, int w, int stamp) noexcept nogil:
-    """Mark w's neighbours touched in this pass (wide kernels: their costs changed)."""
-    cdef int start = c.m.v_he[w]
+cdef void mark_ring(HEArrays* m, int* marks, int w, int stamp) noexcept nogil:
+    """``marks[x] = stamp`` for w's neighbours."""
+    cdef int start = m.v_he[w]
     cdef int y = start
     cdef int ny
     while True:
-        c.touched[he_dest(c.m, y)] = stamp
-        ny = he_ring_next(c.m, y)
+        marks[he_dest(m, y)] = stamp
+        ny = he_ring_next(m, y)
         if ny < 0:
-            c.touched[c.m.corner[he_prev(y)]] = stamp
+            marks[m.corner[he_prev(y)]] = stamp
             return
         if ny == start:
             return
@@ -288,6 +299,10 @@ cdef enum:
     CK_TOPOLOGY = 2     # refused by the link condition
     CK_GEOMETRY = 3     # refused by a flip / fold / quality / volume check
     CK_PAIR = 4         # a seam edge: both sides are checked when it comes up, in order
+
+cdef enum:
+    CF_DEFER = 1        # stage 1 left the candidate to stage 2 (out of its block, or a seam pair)
+    CF_DONE = 2         # stage 1 collapsed it
 
 cdef enum:
     N_BUCKETS = 65536   # histogram of the upper 16 bits of the float32 cost
@@ -334,10 +349,12 @@ cdef class PassDriver:
     """Runs a :class:`PassCollapser` (an EdgeCollapser made with ``use_heap=False``) in
     error-limited passes (the module docstring says how).
 
-    fraction : K = ceil(valid candidates / fraction) may go per pass (default 6: about
-               what one collapse's 1-ring excludes, so a pass is not mostly skips)
-    threads  : ranking threads (1 when the metric has native kernels: they may keep state
-               between calls)
+    fraction : K = ceil(valid candidates / fraction) may go per pass (default 6)
+    threads  : threads for ranking and for the blocks of a pass (1 when the metric has
+               native kernels -- they may keep state between calls -- or the mesh has
+               split non-manifold copies)
+    block    : live vertices per block (the slots are in Morton order, so a block is a
+               compact patch of the surface)
     """
     cdef PassCollapser c
     cdef HEArrays* m
@@ -348,26 +365,35 @@ cdef class PassDriver:
     cdef Keyed[::1] keyed_buf
     cdef int[::1] hist
     # one row per candidate of a pass (at most ceil(live edges / fraction)): its plan and
-    # check on the pass-start state, then the accepted rows in order
-    # plan_he (kmax, 6): h, removed, seam partner half-edge, check, then once accepted: the
-    # kept vertex and its seam partner (-1: none)
+    # checks. plan_he (kmax, 4): h, removed, seam partner half-edge (-1: none), check
     cdef int[:, ::1] plan_he
-    cdef double[:, ::1] plan_x       # (kmax, 7): position (3), cost, error, volume change(s)
-    cdef int[:, ::1] dead            # (kmax, 3): the dead edges of each accepted collapse
-    cdef int[::1] accepted
+    cdef double[:, ::1] plan_x       # (kmax, 6): position (3), cost, error, volume change
+    cdef int[:, ::1] rec_faces       # (kmax, 2): the faces a collapse of stage 1 removed
+    cdef unsigned char[::1] cflag    # (kmax,) CF_*
+    cdef int[::1] cblock             # (kmax,) the block of each candidate
+    cdef int[::1] blk_order          # (kmax,) candidates grouped by block, cost order within
+    cdef int[::1] blk_start          # (n_blocks + 1,)
+    cdef int[:, ::1] acc_i           # (n_blocks, 4): collapses, faces, topology / geometry refusals
+    cdef double[:, ::1] acc_x        # (n_blocks, 2): volume change, largest error
     cdef int kmax
+    cdef int block                   # live vertices a block should hold
+    cdef int bsize                   # vertex slots per block in this pass
+    cdef int n_blocks
     cdef readonly int n_passes
-    cdef readonly long n_checked     # candidates planned and checked in a pass (diagnostics)
+    cdef readonly long n_deferred    # candidates left to stage 2 (diagnostics)
     cdef readonly int threads
     cdef readonly double fraction
-    cdef bint parallel_ok
+    cdef bint single                 # kernels or split copies: every pass in cost order
 
-    def __init__(self, PassCollapser collapser, double fraction=6.0, int threads=1):
+    def __init__(self, PassCollapser collapser, double fraction=6.0, int threads=1, int block=4096):
         if not (fraction >= 1.0):
             raise ValueError("fraction must be >= 1")
+        if block < 1:
+            raise ValueError("block must be >= 1")
         self.c = collapser
         self.m = collapser.m
         cdef int ne = collapser.hm.n_edges
+        cdef int nv = collapser.hm.n_vertices
         self.cost = np.zeros(max(ne, 1), dtype=np.float32)
         self.state = np.zeros(max(ne, 1), dtype=np.uint8)
         self.live = np.nonzero(np.asarray(collapser.hm.edge_alive, dtype=bool))[0].astype(np.intc)
@@ -379,16 +405,26 @@ cdef class PassDriver:
         self.keyed_buf = np.zeros(max(self.n_live, 1), dtype=[("cost", np.float32), ("edge", np.intc)])
         self.hist = np.zeros(N_BUCKETS, dtype=np.intc)
         self.n_passes = 0
+        self.n_deferred = 0
         self.fraction = fraction
-        # native kernels may keep state between calls, and the link condition of a mesh
-        # with split copies marks shared scratch: those run on one thread
-        self.parallel_ok = collapser.kernel is None and not collapser.hm.has_copies
-        self.threads = threads if self.parallel_ok and threads > 1 else 1
+        # native kernels may keep state between calls (their commits must come in cost
+        # order), and the link condition of a mesh with split copies reads the copies'
+        # rings wherever they are: those run every pass in plain cost order, on one thread
+        self.single = collapser.kernel is not None or collapser.hm.has_copies
+        self.threads = threads if not self.single and threads > 1 else 1
         self.kmax = <int>((self.n_live + fraction - 1.0) / fraction) + 1
-        self.plan_he = np.zeros((self.kmax, 6), dtype=np.intc)
-        self.plan_x = np.zeros((self.kmax, 7), dtype=np.float64)
-        self.dead = np.zeros((self.kmax, 3), dtype=np.intc)
-        self.accepted = np.zeros(self.kmax, dtype=np.intc)
+        self.plan_he = np.zeros((self.kmax, 4), dtype=np.intc)
+        self.plan_x = np.zeros((self.kmax, 6), dtype=np.float64)
+        self.rec_faces = np.zeros((self.kmax if collapser.rec.on else 1, 2), dtype=np.intc)
+        self.cflag = np.zeros(self.kmax, dtype=np.uint8)
+        self.cblock = np.zeros(self.kmax, dtype=np.intc)
+        self.blk_order = np.zeros(self.kmax, dtype=np.intc)
+        self.block = block
+        self.bsize = block
+        self.n_blocks = 1 if self.single else max((nv + block - 1) // block, 1)
+        self.blk_start = np.zeros(self.n_blocks + 1, dtype=np.intc)
+        self.acc_i = np.zeros((self.n_blocks, 4), dtype=np.intc)
+        self.acc_x = np.zeros((self.n_blocks, 2), dtype=np.float64)
 
     # ------------------------------------------------------------- named steps
     cdef void rank(self) noexcept nogil:
@@ -519,7 +555,7 @@ cdef class PassDriver:
 
     cdef void check(self, int i) noexcept nogil:
         """Plan candidate ``i`` of the pass again (for its position, which ranking does not
-        keep) and run the checks on the pass-start state; writes row i only."""
+        keep) and run the checks on the current state; writes row i only."""
         cdef int e = self.keyed_buf[i].edge
         cdef int h, r, hs, k
         cdef double dvol = 0.0
@@ -542,161 +578,287 @@ cdef class PassDriver:
             self.plan_he[i, 3] = CK_OK
             x[5] = dvol
 
-    cdef inline bint ring_free(self, int v, int stamp) noexcept nogil:
-        """v's closed 1-ring meets no closed 1-ring of a collapse accepted in this pass: v is
-        not within two edges of an accepted collapse's end (``mark_touched(..., True)``)."""
-        return self.c.touched[v] != stamp
+    cdef int group(self, int n_sel) noexcept nogil:
+        """Group the pass's candidates by the block of their first end (a counting sort,
+        cost order kept within a block) and clear the blocks' tallies."""
+        cdef int i, b, e, acc = 0, size
+        cdef long long nv = self.c.hm.n_vertices
+        cdef long long alive = self.c.hm.n_alive_vertices
+        if not self.single:
+            # about `block` live vertices a block, whatever share of the slots is dead
+            self.bsize = <int>min(nv, (self.block * nv + alive - 1) // max(alive, 1))
+            if self.bsize < 1:
+                self.bsize = 1
+            self.n_blocks = <int>((nv + self.bsize - 1) // self.bsize)
+        memset(&self.blk_start[0], 0, (self.n_blocks + 1) * sizeof(int))
+        for i in range(n_sel):
+            e = self.keyed_buf[i].edge
+            b = 0 if self.single else self.m.corner[self.m.edge_he[e]] // self.bsize
+            self.cblock[i] = b
+            self.cflag[i] = 0
+            self.blk_start[b + 1] += 1
+        for b in range(self.n_blocks):
+            size = self.blk_start[b + 1]
+            self.blk_start[b] = acc
+            acc += size
+        self.blk_start[self.n_blocks] = acc
+        for i in range(n_sel):
+            b = self.cblock[i]
+            self.blk_order[self.blk_start[b]] = i
+            self.blk_start[b] += 1
+        for b in range(self.n_blocks - 1, 0, -1):
+            self.blk_start[b] = self.blk_start[b - 1]
+        self.blk_start[0] = 0
+        memset(&self.acc_i[0, 0], 0, self.n_blocks * 4 * sizeof(int))
+        memset(&self.acc_x[0, 0], 0, self.n_blocks * 2 * sizeof(double))
+        return 0
 
-    cdef int perform_pass(self, int n_sel, int target_faces, int* done) noexcept nogil:
-        """The pass's candidates, in cost order: checked (on several threads), then
-        accepted in order where their ends' closed 1-rings are disjoint from those of every
-        collapse accepted before -- so no accepted collapse changes anything another one
-        reads or writes, and the checks made on the pass-start state still hold -- then
-        collapsed (on several threads when no kernel keeps state and no seam pair is among
-        them).  RUN_TARGET once the target is reached, RUN_ERROR if a kernel failed, else
-        RUN_CHUNK."""
-        cdef int i, j, e, h, r, k, hs, rs, ks, st, stamp, n_acc = 0, faces_left, pos = 0, n_chunk, t, base
-        cdef int chunk = self.c.hm.n_alive_vertices // 200
-        cdef double vol
+    cdef inline bint in_block(self, int v, int b) noexcept nogil:
+        return self.single or v // self.bsize == b
+
+    cdef bint inside(self, int u, int v, int b) noexcept nogil:
+        """Is everything a collapse of edge u-v reads or writes in block b: the ends, their
+        neighbours and the vertices across the far edges of their fans?  A collapse writes
+        only faces whose corners are all in its closed 1-rings, so two collapses inside
+        different blocks never meet."""
+        return self.fan_inside(u, b) and self.fan_inside(v, b)
+
+    cdef bint fan_inside(self, int w, int b) noexcept nogil:
+        cdef int start, y, ny, t
+        if not self.in_block(w, b):
+            return False
+        start = self.m.v_he[w]
+        y = start
+        while True:
+            if not self.in_block(he_dest(self.m, y), b) or not self.in_block(self.m.corner[he_prev(y)], b):
+                return False
+            t = self.m.twin[he_next(y)]
+            if t >= 0 and not self.in_block(self.m.corner[he_prev(t)], b):
+                return False
+            ny = he_ring_next(self.m, y)
+            if ny < 0 or ny == start:
+                return True
+            y = ny
+
+    cdef int try_inside(self, int i, int stamp, int row) noexcept nogil:
+        """Stage 1 for candidate ``i``: collapse it if it lies inside its block and passes
+        every check, keeping the tallies in its block's row (``row`` < 0: its record is
+        written after the stage).  Returns the faces it removed (0: none); candidates that
+        reach out of their block, and seam pairs, are left to stage 2."""
+        cdef int b = self.cblock[i]
+        cdef int e = self.keyed_buf[i].edge
+        cdef int h, u, v, r, k, st, faces
+        cdef int dead[3]
+        cdef double* x
+        if not self.m.edge_alive[e]:
+            return 0
+        h = self.m.edge_he[e]
+        u = self.m.corner[h]
+        v = he_dest(self.m, h)
+        if self.c.touched[u] == stamp or self.c.touched[v] == stamp:
+            return 0                          # ranked on a state a collapse changed
+        if not self.single and not self.inside(u, v, b):
+            self.cflag[i] = CF_DEFER
+            return 0
+        self.check(i)
+        st = self.plan_he[i, 3]
+        if st == CK_PAIR:
+            self.cflag[i] = CF_DEFER
+            return 0
+        if st == CK_NONE:
+            self.state[e] = ST_NONE
+            return 0
+        h = self.plan_he[i, 0]
+        r = self.plan_he[i, 1]
+        k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
+        x = &self.plan_x[i, 0]
+        if st == CK_TOPOLOGY:
+            self.acc_i[b, 2] += 1
+            self.refuse(e, r, k)
+            return 0
+        if st == CK_GEOMETRY or (self.c.closed_volume != 0.0 and
+                                 turns_inside_out(self.c.closed_volume + self.acc_x[b, 0], x[5])):
+            self.acc_i[b, 3] += 1
+            self.refuse(e, r, k)
+            return 0
+        faces = 2 if self.m.twin[h] >= 0 else 1
+        if self.c.rec.on and row < 0:
+            self.rec_faces[i, 0] = h // 3
+            self.rec_faces[i, 1] = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
+        if self.single:
+            # kernels commit in order: the whole collapse now, counters included
+            self.c.perform(h, r, x, x[3], x[4], -1.0, x[5], False)
+        else:
+            self.c.perform_local(h, r, x, x[3], x[4], -1.0, row, dead)
+            self.acc_i[b, 0] += 1
+            self.acc_i[b, 1] += faces
+            self.acc_x[b, 0] += x[5]
+            if x[4] > self.acc_x[b, 1]:
+                self.acc_x[b, 1] = x[4]
+        self.cflag[i] = CF_DONE
+        self.lock(k, stamp)
+        self.dirty_ring(k)
+        return faces
+
+    cdef void walk_block(self, int b, int stamp) noexcept nogil:
+        cdef int j
+        for j in range(self.blk_start[b], self.blk_start[b + 1]):
+            self.try_inside(self.blk_order[j], stamp, -1)
+
+    cdef int walk_pass(self, int n_sel, int target_faces, int* done) noexcept nogil:
+        """One pass over the K cheapest candidates (keyed_buf[:n_sel]), in two stages.
+
+        Stage 1: the candidates are grouped into blocks of vertex slots (a block is a
+        patch of the surface: the slots are in Morton order).  Within its block, each
+        candidate in cost order is collapsed if it passes every check on the current
+        state, unless an end of it was kept by an earlier collapse of the pass (its cost
+        is stale: it waits for the next pass) or it reaches out of its block.  Blocks do
+        not meet, so they run on several threads; their tallies (faces, volume change)
+        are summed in block order.  The same collapses taken in plain cost order give
+        the same mesh: that is what the pass does when it may reach the face target, so
+        it stops exactly there, and the records are always in that order.
+        Stage 2: the candidates that reached out of their block (and seam pairs), in cost
+        order, on the state stage 1 left, with the same rules."""
+        cdef int i, b, e, h, r, k, hs, rs, ks, st, stamp, row, faces_left, n1 = 0
         cdef double dv2[2]
         cdef double* x
-        cdef bint in_order = self.threads == 1
-        if chunk < 64:
-            chunk = 64
+        cdef bint to_target
         self.c.pass_counter += 1
         stamp = self.c.pass_counter
+        self.group(n_sel)
+        row = self.c.n_collapses
         faces_left = self.c.hm.n_alive_faces
-        vol = self.c.closed_volume
-        while pos < n_sel and faces_left > target_faces:
-            # 1. the next candidates whose closed 1-rings are still free, checked on the
-            #    pass-start state (several threads); a chunk keeps the checks of candidates
-            #    that an earlier one of the chunk then blocks to a few percent
-            n_chunk = 0
-            while pos < n_sel and n_chunk < chunk:
-                e = self.keyed_buf[pos].edge
-                h = self.m.edge_he[e]
-                if self.ring_free(self.m.corner[h], stamp) and self.ring_free(he_dest(self.m, h), stamp):
-                    self.accepted[n_acc + n_chunk] = pos
-                    n_chunk += 1
-                pos += 1
-            self.n_checked += n_chunk
-            if self.threads > 1:
-                for t in prange(n_chunk, num_threads=self.threads, schedule="dynamic", chunksize=16):
-                    self.check(self.accepted[n_acc + t])
-            else:
-                for t in range(n_chunk):
-                    self.check(self.accepted[n_acc + t])
-                    if self.c.failed:
-                        return RUN_ERROR
-            # 2. accept them in cost order where no collapse accepted before marked their
-            #    rings (the accepted list is written over the chunk, never ahead of it)
-            base = n_acc
-            for t in range(n_chunk):
-                i = self.accepted[base + t]
+        # ---- stage 1
+        to_target = self.single or faces_left - 2 * n_sel <= target_faces
+        if to_target:
+            for i in range(n_sel):
                 if faces_left <= target_faces:
                     break
-                e = self.keyed_buf[i].edge
-                st = self.plan_he[i, 3]
-                if st == CK_NONE:
-                    self.state[e] = ST_NONE
-                    continue
-                h = self.plan_he[i, 0]
-                r = self.plan_he[i, 1]
-                hs = self.plan_he[i, 2]
-                k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
-                x = &self.plan_x[i, 0]
-                if not self.ring_free(r, stamp) or not self.ring_free(k, stamp):
-                    continue                  # next pass: a collapse of this one may change it
-                ks = -1
-                if st == CK_TOPOLOGY:
-                    self.c.n_rejected_topology += 1
-                    self.refuse(e, r, k)
-                    continue
-                if st == CK_GEOMETRY:
-                    self.c.n_rejected_geometry += 1
-                    self.refuse(e, r, k)
-                    continue
-                if st == CK_PAIR:
-                    rs = self.c.SP[r]
-                    ks = self.c.SP[k]
-                    if not self.ring_free(rs, stamp) or not self.ring_free(ks, stamp):
-                        continue
-                    if not self.c.pair_ok(h, r, k, hs, rs, ks, x, dv2):      # counts its refusals
-                        self.refuse(e, r, k)
-                        self.c.refused[rs] = 1
-                        self.c.refused[ks] = 1
-                        continue
-                    x[5] = dv2[0]
-                    x[6] = dv2[1]
-                    in_order = True           # a pair is two collapses: done in order
-                elif vol != 0.0 and turns_inside_out(vol, x[5]):
-                    # with this pass's earlier collapses the surface would turn inside out
-                    self.c.n_rejected_geometry += 1
-                    self.refuse(e, r, k)
-                    continue
-                if vol != 0.0:
-                    vol += x[5]
-                    if ks >= 0:
-                        vol += x[6]
-                mark_touched(self.c, r, stamp, True)
-                mark_touched(self.c, k, stamp, True)
-                faces_left -= 2 if self.m.twin[h] >= 0 else 1
-                if ks >= 0:
-                    mark_touched(self.c, rs, stamp, True)
-                    mark_touched(self.c, ks, stamp, True)
-                    faces_left -= 2 if self.m.twin[hs] >= 0 else 1
-                self.plan_he[i, 4] = k
-                self.plan_he[i, 5] = ks
-                self.accepted[n_acc] = i
-                n_acc += 1
-        # 3. collapse them
-        if in_order:
-            for j in range(n_acc):
-                i = self.accepted[j]
-                x = &self.plan_x[i, 0]
-                if self.plan_he[i, 5] >= 0:
-                    self.c.perform_pair(self.plan_he[i, 0], self.plan_he[i, 1], self.plan_he[i, 2],
-                                        self.c.SP[self.plan_he[i, 1]], x, x[3], x[4], &x[5])
-                else:
-                    self.c.perform(self.plan_he[i, 0], self.plan_he[i, 1], x, x[3], x[4], -1.0, x[5], False)
+                st = self.try_inside(i, stamp, row)
                 if self.c.failed:
                     return RUN_ERROR
+                if st > 0:
+                    faces_left -= st
+                    row += 1
+                    n1 += 1
+        elif self.threads > 1:
+            for b in prange(self.n_blocks, num_threads=self.threads, schedule="dynamic", chunksize=1):
+                self.walk_block(b, stamp)
         else:
-            self.perform_parallel(n_acc, vol)
-        done[0] += n_acc
-        # 4. what they changed is ranked again next pass
-        for j in range(n_acc):
-            i = self.accepted[j]
-            self.dirty_ring(self.plan_he[i, 4])
-            if self.plan_he[i, 5] >= 0:
-                self.dirty_ring(self.plan_he[i, 5])
+            for b in range(self.n_blocks):
+                self.walk_block(b, stamp)
+        if not self.single:
+            n1 = self.reduce(not to_target)
+        # ---- stage 2
+        for i in range(n_sel):
+            if self.c.hm.n_alive_faces <= target_faces:
+                break
+            if self.cflag[i] != CF_DEFER:
+                continue
+            self.n_deferred += 1
+            e = self.keyed_buf[i].edge
+            if not self.m.edge_alive[e]:
+                continue
+            h = self.m.edge_he[e]
+            if self.c.touched[self.m.corner[h]] == stamp or self.c.touched[he_dest(self.m, h)] == stamp:
+                continue
+            self.check(i)
+            st = self.plan_he[i, 3]
+            if st == CK_NONE:
+                self.state[e] = ST_NONE
+                continue
+            h = self.plan_he[i, 0]
+            r = self.plan_he[i, 1]
+            hs = self.plan_he[i, 2]
+            k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
+            x = &self.plan_x[i, 0]
+            if st == CK_TOPOLOGY:
+                self.c.n_rejected_topology += 1
+                self.refuse(e, r, k)
+                continue
+            if st == CK_GEOMETRY:
+                self.c.n_rejected_geometry += 1
+                self.refuse(e, r, k)
+                continue
+            ks = -1
+            if st == CK_PAIR:
+                rs = self.c.SP[r]
+                ks = self.c.SP[k]
+                if self.c.touched[rs] == stamp or self.c.touched[ks] == stamp:
+                    continue
+                if not self.c.pair_ok(h, r, k, hs, rs, ks, x, dv2):       # counts its refusals
+                    self.refuse(e, r, k)
+                    self.c.refused[rs] = 1
+                    self.c.refused[ks] = 1
+                    continue
+                self.c.perform_pair(h, r, hs, rs, x, x[3], x[4], dv2)
+            else:
+                self.c.perform(h, r, x, x[3], x[4], -1.0, x[5], False)
+            if self.c.failed:
+                return RUN_ERROR
+            n1 += 1
+            self.lock(k, stamp)
+            self.dirty_ring(k)
+            if ks >= 0:
+                self.lock(ks, stamp)
+                self.dirty_ring(ks)
+        done[0] += n1
         if self.c.hm.n_alive_faces <= target_faces:
             return RUN_TARGET
         return RUN_CHUNK
 
-    cdef void perform_parallel(self, int n_acc, double vol) noexcept nogil:
-        """Collapse the accepted candidates (single edges, no kernels) on several threads:
-        each writes only inside its closed 1-rings and its own record row; the counters are
-        then updated as :meth:`EdgeCollapser.perform` would have, in the same order."""
-        cdef int j, i, faces = 0, base = self.c.n_collapses
-        cdef double err
-        for j in range(n_acc):
-            i = self.accepted[j]
-            faces += 2 if self.m.twin[self.plan_he[i, 0]] >= 0 else 1
-        for j in prange(n_acc, num_threads=self.threads, schedule="dynamic", chunksize=32):
-            i = self.accepted[j]
-            self.c.perform_local(self.plan_he[i, 0], self.plan_he[i, 1], &self.plan_x[i, 0],
-                                 self.plan_x[i, 3], self.plan_x[i, 4], -1.0, base + j, &self.dead[j, 0])
+    cdef int reduce(self, bint write_records) noexcept nogil:
+        """After stage 1: the blocks' tallies into the collapser's counters, in block order;
+        with ``write_records``, the records of stage 1's collapses in cost order.  Returns
+        how many collapses stage 1 did."""
+        cdef int b, i, j, h, k, r, row, n = 0, faces = 0
+        cdef double vol = self.c.closed_volume
+        for b in range(self.n_blocks):
+            n += self.acc_i[b, 0]
+            faces += self.acc_i[b, 1]
+            self.c.n_rejected_topology += self.acc_i[b, 2]
+            self.c.n_rejected_geometry += self.acc_i[b, 3]
+            vol += self.acc_x[b, 0]
+            if self.acc_x[b, 1] > self.c.max_error_done:
+                self.c.max_error_done = self.acc_x[b, 1]
+        if write_records and self.c.rec.on:
+            row = self.c.n_collapses
+            for i in range(self.kmax):
+                if row >= self.c.n_collapses + n:
+                    break
+                if self.cflag[i] != CF_DONE:
+                    continue
+                r = self.plan_he[i, 1]
+                h = self.plan_he[i, 0]
+                k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
+                self.c.rec.faces[row, 0] = self.rec_faces[i, 0]
+                self.c.rec.faces[row, 1] = self.rec_faces[i, 1]
+                self.c.rec.removed[row] = r
+                self.c.rec.kept[row] = k
+                for j in range(3):
+                    self.c.rec.pos[row, j] = self.plan_x[i, j]
+                self.c.rec.cost[row] = self.plan_x[i, 3]
+                self.c.rec.error[row] = self.plan_x[i, 4]
+                self.c.rec.moved[row] = self.c.moved[k]
+                for j in range(self.c.n_attr):
+                    self.c.rec.attr[row, j] = self.c.A[self.c.n_attr * k + j]
+                row += 1
         self.c.hm.n_alive_faces -= faces
-        self.c.hm.n_alive_vertices -= n_acc
+        self.c.hm.n_alive_vertices -= n
         if self.c.closed_volume != 0.0:
             self.c.closed_volume = vol
-        self.c.n_collapses += n_acc
-        self.c.collapses_since_rescan += n_acc
-        for j in range(n_acc):
-            err = self.plan_x[self.accepted[j], 4]
-            if err > self.c.max_error_done:
-                self.c.max_error_done = err
+        self.c.n_collapses += n
+        self.c.collapses_since_rescan += n
+        return n
+
+    cdef inline void lock(self, int k, int stamp) noexcept nogil:
+        """After a collapse kept k: the candidates of the pass that end at k wait for the
+        next pass (for metrics with fields or kernels, those ending in k's 1-ring too; its
+        2-ring for kernels whose costs read the stars)."""
+        if self.c.opt.has_extras:
+            mark_rings(self.m, &self.c.touched[0], k, stamp, self.c.opt.wide_recost)
+        else:
+            self.c.touched[k] = stamp
 
     cdef inline void refuse(self, int e, int r, int k) noexcept nogil:
         self.state[e] = ST_REFUSED
@@ -734,7 +896,7 @@ cdef class PassDriver:
             if n_sel > k:
                 n_sel = k
             done = 0
-            status = self.perform_pass(n_sel, target_faces, &done)
+            status = self.walk_pass(n_sel, target_faces, &done)
             self.n_passes += 1
             steps += done
             if status != RUN_CHUNK:

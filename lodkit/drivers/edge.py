@@ -28,10 +28,15 @@ from ..errors import MetricError
 from ..metrics import Batch
 from ..settings import BOUNDARY_POLICIES, COLLAPSE_OPERATORS, PLACEMENTS
 
-__all__ = ["FIX_SEAMS", "check", "memory_order", "setup", "run", "run_collapser", "run_passes", "records"]
+__all__ = ["FIX_SEAMS", "PASS_BLOCK", "PASS_FRACTION", "check", "memory_order", "setup", "run", "run_collapser",
+           "run_passes", "records"]
 
 #: seam copies that can be paired collapse together with their partner: only the others stay
 FIX_SEAMS = False
+#: the pass driver's limit: the cheapest 1/PASS_FRACTION of the valid candidates go per pass
+PASS_FRACTION = 6.0
+#: live vertices per block of the pass driver's first stage (docs/algorithms.md)
+PASS_BLOCK = 4096
 
 
 def check(metrics, pair_threshold) -> None:
@@ -82,7 +87,7 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
     if compiled.batch:
         status, rejected_error, n_passes = run_passes(collapser, compiled, work, target, bar)
     elif passes:
-        driver = PassDriver(collapser, threads=int(settings["threads"][0]))
+        driver = PassDriver(collapser, threads=int(settings["threads"][0]), fraction=PASS_FRACTION, block=PASS_BLOCK)
         status = run_chunked(driver, hm, target, bar)
         rejected_error = collapser.n_rejected_error
         n_passes = driver.n_passes
