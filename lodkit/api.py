@@ -130,11 +130,11 @@ def simplify(
                        needs a "removal" metric such as "schroeder" or "volume", which runs
                        alone; docs/algorithms.md, "Vertex removal").  A removal metric implies
                        "vertex_removal": ``metric="schroeder"`` alone removes vertices
-    driver           : how edge collapse picks its collapses: "greedy" (default: always the
-                       cheapest collapse next, from an indexed heap: the reference order of
-                       the papers) or "pass" (error-limited passes over independent sets of
-                       collapses, in memory order, ranked, checked and collapsed on
-                       ``threads`` threads; docs/algorithms.md, "The pass driver").
+    driver           : how edge collapse picks its collapses: "pass" (default: error-limited
+                       passes over the cheapest candidates, walking blocks of the surface in
+                       memory order on ``threads`` threads; docs/algorithms.md, "The pass
+                       driver") or "greedy" (always the cheapest collapse next, from an
+                       indexed heap: the reference order of the papers).
                        Triangle collapse and batch metrics run their own loops and ignore it
     threads          : threads of the pass driver (default: ``$LODKIT_THREADS``,
                        else the cores this process may use).  The output is the same for any

@@ -40,12 +40,11 @@ COLLAPSE_OPERATORS = {"edge": 0, "triangle": 1}
 #: simplify(operator=): the operators, each run by its driver (lodkit.drivers.DRIVERS)
 OPERATORS = ("edge", "triangle", "vertex_removal")
 
-#: simplify(driver=): how edge collapse picks its collapses -- "greedy": always the cheapest
-#: candidate, from an indexed heap (the reference order; the default), or "pass":
-#: error-limited passes over independent sets in memory order, on several threads
-#: (lodkit/_core/passes.pyx).  The default stays greedy until the pass driver is faster on
-#: the machines lodkit is measured on (docs/benchmarks.md, "Speed")
-EDGE_DRIVERS = ("greedy", "pass")
+#: simplify(driver=): how edge collapse picks its collapses -- "pass" (the default):
+#: error-limited passes, each walking blocks of the surface in memory order on several
+#: threads (lodkit/_core/passes.pyx; docs/algorithms.md, "The pass driver"), or "greedy":
+#: always the cheapest candidate next, from an indexed heap (the papers' reference order)
+EDGE_DRIVERS = ("pass", "greedy")
 
 
 def resolve_operator(operator, metrics) -> str:
@@ -89,7 +88,7 @@ def resolve_settings(metrics, **given) -> dict:
 
 
 def resolve_driver(driver) -> tuple:
-    """(driver, where it came from): the caller's ``driver=`` or the default, "greedy"."""
+    """(driver, where it came from): the caller's ``driver=`` or the default, "pass"."""
     if driver is None:
         return EDGE_DRIVERS[0], "lodkit"
     if not isinstance(driver, str) or driver not in EDGE_DRIVERS:

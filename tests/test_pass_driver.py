@@ -44,17 +44,17 @@ def same_records(a, b) -> bool:
 
 
 # ------------------------------------------------------------------ options
-def test_greedy_is_the_default_and_the_driver_is_reported():
-    g = lodkit.simplify(torus(), target_ratio=0.5)
-    assert g.report["settings"]["driver"] == {"value": "greedy", "from": "lodkit"}
-    assert g.report["passes"] == 0 and g.report["memory_order"] is False
-    r = lodkit.simplify(torus(), target_ratio=0.5, driver="pass")
-    assert r.report["settings"]["driver"] == {"value": "pass", "from": "caller"}
+def test_pass_is_the_default_and_the_driver_is_reported():
+    r = lodkit.simplify(torus(), target_ratio=0.5)
+    assert r.report["settings"]["driver"] == {"value": "pass", "from": "lodkit"}
     assert r.report["passes"] > 0 and r.report["memory_order"] is True
+    g = lodkit.simplify(torus(), target_ratio=0.5, driver="greedy")
+    assert g.report["settings"]["driver"] == {"value": "greedy", "from": "caller"}
+    assert g.report["passes"] == 0 and g.report["memory_order"] is False
 
 
 @pytest.mark.parametrize("options, message", [
-    ({"driver": "fast"}, "driver must be one of greedy, pass"),
+    ({"driver": "fast"}, "driver must be one of pass, greedy"),
     ({"threads": 0}, "threads must be a positive integer"),
     ({"threads": 1.5}, "threads must be a positive integer"),
     ({"threads": True}, "threads must be a positive integer"),

@@ -23,6 +23,7 @@ class PassDriver:
 
     n_passes: int
     n_deferred: int
+    n_late: int
     threads: int
     fraction: float
 

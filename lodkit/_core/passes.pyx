@@ -381,6 +381,7 @@ cdef class PassDriver:
     cdef int n_blocks
     cdef readonly int n_passes
     cdef readonly long n_deferred    # candidates left to stage 2 (diagnostics)
+    cdef readonly long n_late        # collapses done in stage 2 (diagnostics)
     cdef readonly int threads
     cdef readonly double fraction
     cdef bint single                 # kernels or split copies: every pass in cost order
@@ -406,6 +407,7 @@ cdef class PassDriver:
         self.hist = np.zeros(N_BUCKETS, dtype=np.intc)
         self.n_passes = 0
         self.n_deferred = 0
+        self.n_late = 0
         self.fraction = fraction
         # native kernels may keep state between calls (their commits must come in cost
         # order), and the link condition of a mesh with split copies reads the copies'
@@ -686,8 +688,10 @@ cdef class PassDriver:
             self.rec_faces[i, 0] = h // 3
             self.rec_faces[i, 1] = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
         if self.single:
-            # kernels commit in order: the whole collapse now, counters included
-            self.c.perform(h, r, x, x[3], x[4], -1.0, x[5], False)
+            # kernels commit in order: the whole collapse now, counters included, but the
+            # volume, as for blocks, summed apart until the stage ends
+            self.c.perform(h, r, x, x[3], x[4], -1.0, 0.0, False)
+            self.acc_x[b, 0] += x[5]
         else:
             self.c.perform_local(h, r, x, x[3], x[4], -1.0, row, dead)
             self.acc_i[b, 0] += 1
@@ -747,7 +751,10 @@ cdef class PassDriver:
         else:
             for b in range(self.n_blocks):
                 self.walk_block(b, stamp)
-        if not self.single:
+        if self.single:
+            if self.c.closed_volume != 0.0:
+                self.c.closed_volume += self.acc_x[0, 0]
+        else:
             n1 = self.reduce(not to_target)
         # ---- stage 2
         for i in range(n_sel):
@@ -797,6 +804,7 @@ cdef class PassDriver:
             if self.c.failed:
                 return RUN_ERROR
             n1 += 1
+            self.n_late += 1
             self.lock(k, stamp)
             self.dirty_ring(k)
             if ks >= 0:
@@ -852,11 +860,11 @@ cdef class PassDriver:
         return n
 
     cdef inline void lock(self, int k, int stamp) noexcept nogil:
-        """After a collapse kept k: the candidates of the pass that end at k wait for the
-        next pass (for metrics with fields or kernels, those ending in k's 1-ring too; its
-        2-ring for kernels whose costs read the stars)."""
-        if self.c.opt.has_extras:
-            mark_rings(self.m, &self.c.touched[0], k, stamp, self.c.opt.wide_recost)
+        """After a collapse kept k: the candidates of the pass whose cost it changed wait for
+        the next pass -- those ending at k, or, for kernels whose costs read the stars, at k
+        or a neighbour (the edges the greedy driver re-costs)."""
+        if self.c.opt.wide_recost:
+            mark_rings(self.m, &self.c.touched[0], k, stamp, False)
         else:
             self.c.touched[k] = stamp
 

@@ -1,6 +1,6 @@
-"""Edge collapse (``operator="edge"``): the core's EdgeCollapser, run greedily from its heap
-(``driver="greedy"``, the default), by the core's pass driver (``driver="pass"``:
-lodkit/_core/passes.pyx), or, with batch metrics, by the Python pass driver
+"""Edge collapse (``operator="edge"``): the core's EdgeCollapser, run by the core's pass
+driver (``driver="pass"``, the default: lodkit/_core/passes.pyx), greedily from its heap
+(``driver="greedy"``), or, with batch metrics, by the Python pass driver
 (:func:`run_passes`).  Triangle collapse (lodkit.drivers.triangle) runs through
 :func:`run_collapser` too."""
 from __future__ import annotations
@@ -36,7 +36,7 @@ FIX_SEAMS = False
 #: the pass driver's limit: the cheapest 1/PASS_FRACTION of the valid candidates go per pass
 PASS_FRACTION = 6.0
 #: live vertices per block of the pass driver's first stage (docs/algorithms.md)
-PASS_BLOCK = 4096
+PASS_BLOCK = 8192
 
 
 def check(metrics, pair_threshold) -> None:
