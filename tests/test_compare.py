@@ -65,7 +65,7 @@ def _read_png(path):
 
 def test_files_exist_and_nothing_else(report):
     result, out, lines = report
-    names = {"hausdorff.png", "rms.png", "contact_sheet.png", "results.csv", "results.json",
+    names = {"hausdorff.png", "rms.png", "time.png", "contact_sheet.png", "results.csv", "results.json",
              "report.md", "report.html"}
     assert {p.name for p in out.iterdir()} == names          # no temporary files left behind
     assert set(result.files) == names
@@ -75,15 +75,15 @@ def test_files_exist_and_nothing_else(report):
 
 def test_pngs_are_valid_and_not_blank(report):
     result, out, _ = report
-    for name in ("hausdorff.png", "rms.png", "contact_sheet.png"):
+    for name in ("hausdorff.png", "rms.png", "time.png", "contact_sheet.png"):
         img = _read_png(out / name)
         assert img.ndim == 3 and img.shape[0] > 100 and img.shape[1] > 100
         rgb = img[..., :3]
         assert rgb.std() > 0.05, name                              # not one flat colour
         assert len(np.unique(rgb.reshape(-1, 3), axis=0)) > 50, name
-    # the sheet: 3 methods x 2 ratios of 160 x 120 pictures (plus padding)
+    # the sheet: 3 methods x (the original + 2 ratios) of 160 x 120 pictures (plus padding)
     sheet = _read_png(out / "contact_sheet.png")
-    assert sheet.shape[0] >= 3 * 120 and sheet.shape[1] >= 2 * 160
+    assert sheet.shape[0] >= 3 * 120 and sheet.shape[1] >= 3 * 160
 
 
 def test_runs_and_order(report, mesh):
@@ -130,12 +130,12 @@ def test_table_equals_evaluate_of_the_same_meshes(report, mesh):
 def test_reports_embed_the_pictures_and_the_table(report):
     result, out, _ = report
     md = (out / "report.md").read_text()
-    for name in ("hausdorff.png", "rms.png", "contact_sheet.png", "results.csv"):
+    for name in ("hausdorff.png", "rms.png", "time.png", "contact_sheet.png", "results.csv"):
         assert f"({name})" in md
     assert md.count("\n| qem |") == 2 and md.count("\n| melod |") == 2 and md.count("\n| open3d |") == 2
     html = (out / "report.html").read_text()
     assert html.startswith("<!DOCTYPE html>") and html.rstrip().endswith("</html>")
-    assert html.count('src="data:image/png;base64,') == 3
+    assert html.count('src="data:image/png;base64,') == 4
     assert html.count("<tr>") == 1 + len(result.runs)
     run = result.run("melod", 0.1)
     assert f"{run.evaluation.distance.hausdorff:.4g}" in html
