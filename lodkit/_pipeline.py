@@ -18,9 +18,9 @@ from typing import Any
 
 import numpy as np
 
+from . import _progress
 from ._core.decimate import vertex_quadrics
 from ._core.halfedge import build, count_face_components
-from . import _progress
 from .errors import MeshError
 from .geometry import morton_order
 from .mesh import Mesh

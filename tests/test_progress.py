@@ -82,3 +82,21 @@ def test_make_bar_and_callable():
     assert isinstance(cb, Callback)
     cb.update(3)
     assert seen == [3]
+
+
+def test_simplify_reports_to_a_callable_and_gives_the_same_mesh():
+    pytest.importorskip("lodkit._core.decimate")
+    import numpy as np
+
+    import lodkit
+    from lodkit.demo import demo_mesh
+
+    mesh = demo_mesh(20_000)
+    calls = []
+    with_hook = lodkit.simplify(mesh, target_ratio=0.05, progress=lambda d, t: calls.append((d, t)))
+    plain = lodkit.simplify(mesh, target_ratio=0.05)
+    assert len(calls) >= 2
+    assert [d for d, _ in calls] == sorted(d for d, _ in calls)          # a running total
+    assert calls[-1][0] == calls[-1][1] == calls[0][1]
+    np.testing.assert_array_equal(with_hook.mesh.faces, plain.mesh.faces)
+    np.testing.assert_array_equal(with_hook.mesh.vertices, plain.mesh.vertices)
