@@ -586,7 +586,9 @@ def _report_cells(comparison: Comparison) -> tuple[list[str], list[list[tuple[st
         for key, _, fmt, way in columns:
             value = row[key]
             text = ("–" if value is None or (isinstance(value, float) and math.isnan(value))
-                    else fmt.format(value).replace("_", " "))
+                    else fmt.format(value))
+            if key == "stop_reason":
+                text = text.replace("_", " ")
             mark = ""
             if way and id(run) in best[key]:
                 mark = "best"
