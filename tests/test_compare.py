@@ -211,8 +211,10 @@ def test_cli(tmp_path, mesh):
     with redirect_stderr(err):
         assert main(["compare", str(path), "--metrics", "nope", "--out", str(out)]) == 2
         assert main(["compare", str(path), "--size", "big", "--out", str(out)]) == 2
+        assert main(["compare", str(path), "--view", "sideways", "--out", str(out)]) == 2
     assert "unknown metric 'nope'" in err.getvalue()
     assert "expected WIDTHxHEIGHT" in err.getvalue()
+    assert "view must be 'front'" in err.getvalue()
 
 
 # ---------------------------------------------------------------------- the report's marks
