@@ -18,9 +18,9 @@ from typing import Any
 
 import numpy as np
 
+from . import _progress
 from ._core.decimate import vertex_quadrics
 from ._core.halfedge import build, count_face_components
-from ._progress import Progress
 from .errors import MeshError
 from .geometry import morton_order
 from .mesh import Mesh
@@ -301,11 +301,10 @@ def closed_connected(hm) -> bool:
     return not (hm.twins < 0).any() and count_face_components(hm) == 1
 
 
-def progress_bar(progress: bool, hm, target: int):
-    """A progress bar over the faces to remove (None when ``progress`` is off)."""
-    if not progress:
-        return None
-    return Progress(total=max(hm.n_alive_faces - target, 1), enabled=True)
+def progress_bar(progress, hm, target: int):
+    """A progress reporter over the faces to remove (:func:`lodkit._progress.make`: a tqdm
+    bar for True, the caller's function for a callable, None when ``progress`` is off)."""
+    return _progress.make(progress, max(hm.n_alive_faces - target, 1))
 
 
 def run_chunked(driver, hm, target: int, bar) -> int:

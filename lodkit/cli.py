@@ -117,11 +117,12 @@ def _build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("demo", help="simplify a generated test surface to several levels",
                        description="Generate the demo surface (creases, a boundary, fine detail, "
-                                   "colours), simplify it to 50 %%, 20 %%, 5 %% and 1 %% and write "
-                                   "one PLY per level.")
+                                   "colours), simplify it to 50 %%, 20 %%, 5 %% and 1 %%, write "
+                                   "one PLY per level and a picture of the levels (demo_lods.png).")
     p.add_argument("--out", default="lodkit-demo", metavar="DIR", help="output directory (default: lodkit-demo)")
     p.add_argument("--faces", type=_count, default=100_000, metavar="N",
                    help="faces of the demo surface (default: 100000)")
+    p.add_argument("--no-picture", action="store_true", help="do not render the levels into demo_lods.png")
     p.set_defaults(run=_run_demo)
 
     p = sub.add_parser("lods", help="write a chain of levels of detail from one simplification run",
@@ -169,6 +170,9 @@ def _build_parser() -> argparse.ArgumentParser:
                    help="size of each picture in the contact sheet (default: 320x240)")
     p.add_argument("--render-backend", choices=("open3d", "numpy"),
                    help="renderer for the contact sheet (default: Open3D's if it works here)")
+    p.add_argument("--view", default="front", metavar="front|AZ,EL",
+                   help="the contact sheet's camera: 'front' (default: the front of the mesh's principal axes, "
+                        "turned 30 degrees and raised 20) or AZ,EL degrees from that front view (0,0: straight on)")
     p.add_argument("--no-contact-sheet", action="store_true", help="do not render the LODs")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress lines")
     p.set_defaults(run=_run_compare)
@@ -497,7 +501,7 @@ def _run_lods(args) -> int:
 def _run_demo(args) -> int:
     from .demo import run_demo
 
-    run_demo(args.out, n_faces=args.faces, stream=sys.stdout)
+    run_demo(args.out, n_faces=args.faces, stream=sys.stdout, picture=not args.no_picture)
     return EXIT_OK
 
 
@@ -520,7 +524,7 @@ def _run_compare(args) -> int:
     log = None if args.quiet else (lambda line: print(line, file=sys.stderr, flush=True))
     result = compare(args.input, metrics=args.metrics, peers=args.peers, ratios=args.ratios, out=args.out,
                      samples=args.samples, seed=args.seed, contact_sheet=not args.no_contact_sheet,
-                     image_size=args.size, render_backend=args.render_backend, log=log)
+                     image_size=args.size, render_backend=args.render_backend, view=args.view, log=log)
     failed = sum(1 for r in result.runs if r.error)
     print(f"{len(result.runs)} runs ({failed} failed) -> {result.files['report.html']}, {result.files['report.md']}")
     return EXIT_OK

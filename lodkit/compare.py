@@ -10,8 +10,17 @@ With ``out`` the directory gets
 
     results.csv, results.json   the table (one row per method and ratio)
     hausdorff.png, rms.png      error against face count, one line per method (MELOD's Figure 5)
-    contact_sheet.png           the LODs rendered (rows = methods, columns = ratios)
+    time.png                    time of the simplification call against face count
+    contact_sheet.png           the LODs rendered (rows = methods, columns = the original and
+                                the ratios), each labelled with its faces and Hausdorff error
     report.md, report.html      everything above; the HTML embeds the images (self-contained)
+
+The table gives the target, the faces and vertices reached, why the run stopped and its
+time; per ratio the best value of each error column (and of the time) is marked, among
+the runs that reached their target. A run that stopped short of its target (more than
+:data:`SHORT_TOLERANCE` faces above it, e.g. a metric that ran out of valid collapses) is
+marked in the table, the plots and the contact sheet, and left out of the "best" marks: a
+result with more faces is not comparable.
 
 Every file is written to a temporary name in ``out`` and renamed into place, so each is
 either complete or absent. The plots need matplotlib (``pip install lodkit[plot]``); the
@@ -41,7 +50,11 @@ from .io import atomic_write, load
 from .mesh import Mesh, as_mesh
 from .metrics import create
 
-__all__ = ["PEERS", "Comparison", "Run", "MissingDependencyError", "compare"]
+__all__ = ["PEERS", "SHORT_TOLERANCE", "Comparison", "Run", "MissingDependencyError", "compare"]
+
+#: a run "stopped short" when it kept more than ``target + max(2, SHORT_TOLERANCE * target)``
+#: faces (an edge collapse removes two faces at once and peers land a face or two off)
+SHORT_TOLERANCE = 0.01
 
 
 class MissingDependencyError(LodkitError, ImportError):
@@ -127,11 +140,20 @@ class Run:
     evaluation: Evaluation | None = None
     error: str | None = None   # why the run or its evaluation failed (then no evaluation)
     mesh: Mesh | None = field(default=None, repr=False)
+    stop_reason: str | None = None   # simplify's stop_reason; for a peer "target_faces" or "stopped_short"
+
+    @property
+    def stopped_short(self) -> bool:
+        """True when the result kept clearly more faces than its target (see :data:`SHORT_TOLERANCE`)."""
+        if self.error is not None or self.mesh is None:
+            return False
+        return self.faces > self.target_faces + max(2, SHORT_TOLERANCE * self.target_faces)
 
     def row(self) -> dict:
         """The table row: plain values (distances as fractions of the bounding-box diagonal)."""
         out = {"method": self.method, "kind": self.kind, "ratio": self.ratio, "target_faces": self.target_faces,
-               "faces": self.faces, "vertices": self.vertices, "seconds": self.seconds}
+               "faces": self.faces, "vertices": self.vertices, "stop_reason": self.stop_reason,
+               "stopped_short": self.stopped_short, "seconds": self.seconds}
         ev = self.evaluation
         if ev is None:
             out.update({k: None for k in _METRIC_COLUMNS})
@@ -236,7 +258,7 @@ def _matplotlib():
 # ---------------------------------------------------------------------- the comparison
 def compare(mesh, *, metrics=("qem",), peers=(), ratios=(0.5, 0.1, 0.02), out=None,
             samples: int = DEFAULT_SAMPLES, seed: int = 0, contact_sheet: bool = True,
-            image_size: tuple = (320, 240), render_backend: str | None = None,
+            image_size: tuple = (320, 240), render_backend: str | None = None, view="front",
             simplify_options: dict | None = None, log: Callable[[str], None] | None = None) -> Comparison:
     """Simplify ``mesh`` with several methods to several ratios, time and evaluate each.
 
@@ -251,6 +273,11 @@ def compare(mesh, *, metrics=("qem",), peers=(), ratios=(0.5, 0.1, 0.02), out=No
     contact_sheet    : render the LODs (needs a working Open3D offscreen renderer)
     image_size       : (width, height) of each rendered LOD, in pixels
     render_backend   : "open3d" or "numpy" for :func:`lodkit.render.render` (None: its choice)
+    view             : the contact sheet's camera: "front" (:meth:`lodkit.render.Camera.front`:
+                       the front of the mesh's principal axes, turned 30° and raised 20°),
+                       ``(azimuth, elevation)`` in degrees from that front view (also as the
+                       string "AZ,EL"; "0,0" is straight on, "180,0" from behind), or a
+                       :class:`lodkit.render.Camera`
     simplify_options : extra keyword arguments for ``lodkit.simplify`` (boundary=, ...)
     log              : called with a line of text after each run (progress)
 
@@ -273,6 +300,7 @@ def compare(mesh, *, metrics=("qem",), peers=(), ratios=(0.5, 0.1, 0.02), out=No
         raise OptionError(f"a method is listed twice: {methods}")
     ratio_list = _check_ratios(ratios)
     width, height = _check_size(image_size)
+    view = _check_view(view)
     if render_backend not in (None, "open3d", "numpy"):
         raise OptionError(f"render_backend must be 'open3d', 'numpy' or None, got {render_backend!r}")
     options = dict(simplify_options or {})
@@ -298,10 +326,13 @@ def compare(mesh, *, metrics=("qem",), peers=(), ratios=(0.5, 0.1, 0.02), out=No
                     result = simplify(original, target_faces=run.target_faces, metric=spec, **options)
                     run.seconds = time.perf_counter() - t0
                     run.mesh = result.mesh
+                    run.stop_reason = str(result.stop_reason)
                 else:
                     V, F, C, run.seconds = PEERS[label][2](V0, F0, original.colors, run.target_faces)
                     run.mesh = Mesh(V, F, colors=C)
                 run.faces, run.vertices = run.mesh.n_faces, int(np.unique(run.mesh.faces).size)
+                if kind == "peer":
+                    run.stop_reason = "stopped_short" if run.stopped_short else "target_faces"
                 run.evaluation = evaluator.evaluate(run.mesh)
             except Exception as exc:  # noqa: BLE001
                 # a peer library's failure (whatever it raises), or a result evaluate() cannot
@@ -318,8 +349,24 @@ def compare(mesh, *, metrics=("qem",), peers=(), ratios=(0.5, 0.1, 0.02), out=No
                             diagonal=evaluator.diagonal, n_samples=evaluator.samples, seed=evaluator.seed,
                             methods=methods, ratios=ratio_list, runs=runs, files={})
     if out_dir is not None:
-        _write_report(comparison, original, out_dir, contact_sheet, width, height, peer_names, render_backend)
+        _write_report(comparison, original, out_dir, contact_sheet, width, height, peer_names, render_backend,
+                      view)
     return comparison
+
+
+def _check_view(view):
+    """"front", (azimuth, elevation) or a Camera; "AZ,EL" strings become the pair."""
+    if isinstance(view, viz.Camera) or view == "front":
+        return view
+    if isinstance(view, str):
+        view = view.split(",")
+    try:
+        az, el = (float(x) for x in view)
+    except (TypeError, ValueError):
+        raise OptionError(f"view must be 'front', (azimuth, elevation) in degrees or a Camera, got {view!r}") from None
+    if not (math.isfinite(az) and math.isfinite(el) and -90.0 < el < 90.0):
+        raise OptionError(f"view elevation must be strictly between -90 and 90 degrees, got {el}")
+    return az, el
 
 
 def _progress_line(run: Run) -> str:
@@ -327,7 +374,8 @@ def _progress_line(run: Run) -> str:
     if run.error:
         return head + "failed: " + run.error
     d = run.evaluation.distance
-    return head + f"{run.faces} faces, {run.seconds:.3f} s, hausdorff {d.hausdorff:.4g}, rms {d.rms:.4g}"
+    short = f" (stopped short of {run.target_faces})" if run.stopped_short else ""
+    return head + f"{run.faces} faces{short}, {run.seconds:.3f} s, hausdorff {d.hausdorff:.4g}, rms {d.rms:.4g}"
 
 
 def _check_size(size) -> tuple[int, int]:
@@ -356,57 +404,147 @@ def _atomic_write(path: Path, data: bytes) -> None:
     atomic_write(path, lambda fh: fh.write(data), binary=True)
 
 
-def _curve_png(comparison: Comparison, key: str, title: str) -> bytes:
+# (row key, plot title, y-axis label)
+_PLOTS = (("hausdorff", "Hausdorff distance", "Hausdorff / bbox diagonal"),
+          ("rms", "RMS distance", "RMS / bbox diagonal"),
+          ("seconds", "Time", "seconds (the simplification call)"))
+_PLOT_FILES = {"hausdorff": "hausdorff.png", "rms": "rms.png", "seconds": "time.png"}
+
+
+def _plain_int(value, _pos=None) -> str:
+    """A face count as a tick label: "6945", never "7×10³"."""
+    return f"{int(round(value))}"
+
+
+def _curve_figure(comparison: Comparison, key: str, title: str, ylabel: str):
+    """The matplotlib Figure of ``key`` against face count, one line per method; face-count
+    ticks at the targets (dotted lines), as plain integers; a run that stopped short of its
+    target ringed in red."""
     _matplotlib()
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+    from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter, NullLocator
 
     fig = Figure(figsize=(6.4, 4.4), dpi=100, layout="constrained")
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
-    all_y = []
+    all_y, all_x, shorts = [], [], []
     for method in comparison.methods:
-        pts = sorted((r.faces, r.row()[key]) for r in comparison.runs
-                     if r.method == method and r.evaluation is not None)
-        if not pts:
+        runs = sorted((r for r in comparison.runs if r.method == method and r.evaluation is not None
+                       and r.row()[key] is not None), key=lambda r: r.faces)
+        if not runs:
             continue
-        x, y = zip(*pts)
+        x = [r.faces for r in runs]
+        y = [r.row()[key] for r in runs]
+        all_x += x
         all_y += y
         ax.plot(x, y, marker="o", label=method)
+        for r, yy in zip(runs, y):
+            if r.stopped_short:
+                shorts.append((r.faces, yy))
+    if shorts:
+        # a red ring round each result that kept more faces than its target (off its dotted line)
+        ax.plot(*zip(*shorts), linestyle="none", marker="o", markersize=14, markerfacecolor="none",
+                markeredgecolor="#c00000", markeredgewidth=1.6, label="stopped short of its target", zorder=3)
     ax.set_xscale("log")
-    if all_y and min(all_y) > 0:
+    positive = all_y and min(all_y) > 0
+    if positive and max(all_y) / min(all_y) > 20:
         ax.set_yscale("log")      # errors span decades between the ratios
+    ticks = _thin_ticks(sorted({r.target_faces for r in comparison.runs}))
+    for t in ticks:
+        ax.axvline(t, color="#999999", linestyle=":", linewidth=0.8, zorder=0)   # the targets
+    ax.xaxis.set_major_locator(FixedLocator(ticks))
+    ax.xaxis.set_major_formatter(FuncFormatter(_plain_int))
+    ax.xaxis.set_minor_locator(NullLocator())
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    if ticks:
+        ax.set_xlim(min(ticks + all_x) / 1.25, max(ticks + all_x) * 1.25)
     ax.set_xlabel("faces")
-    ax.set_ylabel(f"{title.split()[0]} / bbox diagonal")
+    ax.set_ylabel(ylabel)
     ax.set_title(f"{title} vs face count ({Path(comparison.source).name}, {comparison.n_faces} faces)")
-    ax.grid(True, which="both", alpha=0.3)
+    ax.grid(True, which="major", alpha=0.3)
     if all_y:
         ax.legend()
+    return fig
+
+
+def _thin_ticks(ticks: list) -> list:
+    """Drop ticks closer than a factor 1.3 to the one kept before them (labels would overlap)."""
+    kept = []
+    for t in ticks:
+        if t > 0 and (not kept or t / kept[-1] >= 1.3):
+            kept.append(t)
+    return kept
+
+
+def _curve_png(comparison: Comparison, key: str, title: str, ylabel: str) -> bytes:
+    fig = _curve_figure(comparison, key, title, ylabel)
     buf = io.BytesIO()
     fig.savefig(buf, format="png")
     return buf.getvalue()
 
 
+def _camera(original: Mesh, width: int, height: int, view):
+    if isinstance(view, viz.Camera):
+        return view
+    if view == "front":
+        return viz.Camera.front(original, width, height)
+    az, el = view
+    return viz.Camera.front(original, width, height, azimuth=az, elevation=el)
+
+
 def _contact_sheet(comparison: Comparison, original: Mesh, width: int, height: int,
-                   backend: str | None) -> np.ndarray:
-    """Rows = methods, columns = ratios; one camera fitted to the original for every LOD, so
-    they are drawn alike; a failed run leaves its cell empty."""
-    camera = viz.Camera.fit(original, width, height)
-    grid, labels = [], []
+                   backend: str | None, view="front") -> np.ndarray:
+    """Rows = methods; columns = the original, then the ratios. One camera fitted to the
+    original for every picture, so they are drawn alike; each cell labelled with its faces
+    and Hausdorff error (the best per ratio in green, a run short of its target in red); a
+    failed run leaves its cell empty but for the reason."""
+    camera = _camera(original, width, height, view)
+    first = viz.render(original, width, height, camera=camera, backend=backend)
+    best = {id(r) for r in _best_runs(comparison, "hausdorff")}
+    grid, labels, colors = [], [], []
     for method in comparison.methods:
-        row, names = [], []
+        row, names, cols = [first], [f"{original.n_faces} faces\noriginal"], [None]
         for ratio in comparison.ratios:
             run = comparison.run(method, ratio)
             ok = run.mesh is not None and run.mesh.n_faces > 0
             row.append(viz.render(run.mesh, width, height, camera=camera, backend=backend) if ok else None)
-            names.append(f"{method} {100 * ratio:g}% {run.faces}f" if ok else f"{method} {100 * ratio:g}% failed")
+            if run.evaluation is None:
+                names.append("failed" if run.error else f"{run.faces} faces")
+                cols.append("#c00000" if run.error else None)
+                continue
+            h = f"Hausdorff {run.evaluation.distance.hausdorff:.3g}"
+            if run.stopped_short:
+                names.append(f"{run.faces} faces, target {run.target_faces}\n{h} (stopped short)")
+                cols.append("#c00000")
+            else:
+                names.append(f"{run.faces} faces\n{h}" + (" (best)" if id(run) in best else ""))
+                cols.append("#00703c" if id(run) in best else None)
         grid.append(row)
         labels.append(names)
-    return viz.contact_sheet(grid, labels=labels)
+        colors.append(cols)
+    col_titles = ["original"] + [f"{100 * r:g} %" for r in comparison.ratios]
+    return viz.annotated_sheet(grid, labels=labels, label_colors=colors, row_titles=comparison.methods,
+                               col_titles=col_titles)
 
 
-_CSV_COLUMNS = ("method", "kind", "ratio", "target_faces", "faces", "vertices", "seconds",
-                *_METRIC_COLUMNS, "error")
+def _best_runs(comparison: Comparison, key: str, higher: bool = False) -> list:
+    """Per ratio, the run(s) with the best ``key`` among those evaluated that reached their
+    target; nothing for a ratio with fewer than two such runs (no comparison to make)."""
+    best = []
+    for ratio in comparison.ratios:
+        cands = [(r.row()[key], r) for r in comparison.runs
+                 if r.ratio == ratio and r.evaluation is not None and not r.stopped_short]
+        cands = [(v, r) for v, r in cands if v is not None and not (isinstance(v, float) and math.isnan(v))]
+        if len(cands) < 2:
+            continue
+        top = max(v for v, _ in cands) if higher else min(v for v, _ in cands)
+        best += [r for v, r in cands if v == top]
+    return best
+
+
+_CSV_COLUMNS = ("method", "kind", "ratio", "target_faces", "faces", "vertices", "stop_reason", "stopped_short",
+                "seconds", *_METRIC_COLUMNS, "error")
 
 
 def _csv_text(comparison: Comparison) -> str:
@@ -418,30 +556,47 @@ def _csv_text(comparison: Comparison) -> str:
     return buf.getvalue()
 
 
-# (column, header, format) of the report table
+# (column, header, format, best: "low" / "high" / None) of the report table
 _REPORT_COLUMNS = (
-    ("method", "method", "{}"), ("ratio", "ratio", "{:g}"), ("faces", "faces", "{}"),
-    ("seconds", "time (s)", "{:.3f}"), ("hausdorff", "Hausdorff", "{:.4g}"), ("mean", "mean", "{:.4g}"),
-    ("rms", "RMS", "{:.4g}"), ("normal_mean", "normal dev. mean (°)", "{:.3g}"),
-    ("normal_p95", "normal dev. p95 (°)", "{:.3g}"), ("quality_min", "min Q", "{:.3f}"),
-    ("genus_change", "Δ genus", "{:+d}"), ("boundary_loops_change", "Δ boundary loops", "{:+d}"),
-    ("nonmanifold_edges", "non-manifold edges", "{}"), ("color_rms", "colour RMS (0-255)", "{:.3g}"),
+    ("method", "method", "{}", None), ("ratio", "ratio", "{:g}", None), ("target_faces", "target", "{}", None),
+    ("faces", "faces", "{}", None), ("vertices", "vertices", "{}", None),
+    ("stop_reason", "stop reason", "{}", None), ("seconds", "time (s)", "{:.3f}", "low"),
+    ("hausdorff", "Hausdorff", "{:.4g}", "low"), ("mean", "mean", "{:.4g}", "low"), ("rms", "RMS", "{:.4g}", "low"),
+    ("normal_mean", "normal dev. mean (°)", "{:.3g}", "low"), ("normal_p95", "normal dev. p95 (°)", "{:.3g}", "low"),
+    ("quality_min", "min Q", "{:.3f}", "high"), ("genus_change", "Δ genus", "{:+d}", None),
+    ("boundary_loops_change", "Δ boundary loops", "{:+d}", None),
+    ("nonmanifold_edges", "non-manifold edges", "{}", None), ("color_rms", "colour RMS (0-255)", "{:.3g}", "low"),
 )
 
+#: what marks a stopped-short result and a best value in the Markdown table
+SHORT_MARK = "⚠ short"
+BEST_MARK = "**"
 
-def _report_cells(comparison: Comparison) -> tuple[list[str], list[list[str]]]:
+
+def _report_cells(comparison: Comparison) -> tuple[list[str], list[list[tuple[str, str]]]]:
+    """The table header and, per run, (text, kind) cells: kind "best", "short" or ""."""
     columns = [c for c in _REPORT_COLUMNS
                if c[0] != "color_rms" or any(r.evaluation is not None and r.evaluation.color for r in comparison.runs)]
+    best = {key: set(map(id, _best_runs(comparison, key, higher=(way == "high"))))
+            for key, _, _, way in columns if way}
     rows = []
     for run in comparison.runs:
         row = run.row()
         cells = []
-        for key, _, fmt in columns:
+        for key, _, fmt, way in columns:
             value = row[key]
-            cells.append("–" if value is None or (isinstance(value, float) and math.isnan(value))
-                         else fmt.format(value))
+            text = ("–" if value is None or (isinstance(value, float) and math.isnan(value))
+                    else fmt.format(value))
+            if key == "stop_reason":
+                text = text.replace("_", " ")
+            mark = ""
+            if way and id(run) in best[key]:
+                mark = "best"
+            if key == "faces" and run.stopped_short:
+                text, mark = f"{text} {SHORT_MARK}", "short"
+            cells.append((text, mark))
         if run.error:
-            cells[-1] = f"failed: {run.error}"
+            cells[-1] = (f"failed: {run.error}", "")
         rows.append(cells)
     return [c[1] for c in columns], rows
 
@@ -461,17 +616,17 @@ def _intro(comparison: Comparison, peers: list) -> list[str]:
 
 
 def _write_report(comparison: Comparison, original: Mesh, out: Path, contact_sheet: bool, width: int,
-                  height: int, peers: list, backend: str | None) -> None:
+                  height: int, peers: list, backend: str | None, view="front") -> None:
     files = {}
     images = {}   # name -> PNG bytes, for the HTML
-    for key, title in (("hausdorff", "Hausdorff distance"), ("rms", "RMS distance")):
-        images[f"{key}.png"] = _curve_png(comparison, key, title)
+    for key, title, ylabel in _PLOTS:
+        images[_PLOT_FILES[key]] = _curve_png(comparison, key, title, ylabel)
     for name, data in images.items():
         _atomic_write(out / name, data)
         files[name] = out / name
     if contact_sheet:
         # viz.write_png writes under a temporary name and renames, as _atomic_write does
-        sheet = _contact_sheet(comparison, original, width, height, backend)
+        sheet = _contact_sheet(comparison, original, width, height, backend, view)
         written = viz.write_png(out / "contact_sheet.png", sheet)
         images["contact_sheet.png"] = Path(written).read_bytes()
         files["contact_sheet.png"] = out / "contact_sheet.png"
@@ -485,14 +640,24 @@ def _write_report(comparison: Comparison, original: Mesh, out: Path, contact_she
 
     header, rows = _report_cells(comparison)
     intro = _intro(comparison, peers)
-    sheet_caption = (f"Contact sheet: rows = {', '.join(comparison.methods)} (top to bottom); "
-                     f"columns = ratios {', '.join(f'{r:g}' for r in comparison.ratios)} (left to right).")
+    legend = (f"Bold: the best value in its column at that ratio, among the runs that reached their target. "
+              f"\"{SHORT_MARK}\": the run stopped short of its target (more faces than asked for; "
+              "see the stop reason), so its errors are not comparable with the others'.")
+    sheet_caption = (f"Contact sheet: rows = {', '.join(comparison.methods)} (top to bottom); columns = the "
+                     f"original, then ratios {', '.join(f'{r:g}' for r in comparison.ratios)} (left to right). "
+                     "Each picture: its faces and Hausdorff distance (fraction of the bounding-box diagonal); "
+                     "green: the best at that ratio, red: stopped short of its target.")
+
+    def md_cell(text, mark):
+        text = text.replace("|", "\\|")
+        return f"{BEST_MARK}{text}{BEST_MARK}" if mark == "best" else text
 
     md = [f"# Simplification comparison: {Path(comparison.source).name}", "", *intro, "",
           "| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|",
-          *("| " + " | ".join(c.replace("|", "\\|") for c in r) + " |" for r in rows), "",
+          *("| " + " | ".join(md_cell(*c) for c in r) + " |" for r in rows), "", legend, "",
           "![Hausdorff distance against face count](hausdorff.png)", "",
-          "![RMS distance against face count](rms.png)", ""]
+          "![RMS distance against face count](rms.png)", "",
+          "![Time against face count](time.png)", ""]
     if contact_sheet:
         md += [sheet_caption, "", "![contact sheet](contact_sheet.png)", ""]
     md += ["The table as CSV: [results.csv](results.csv); everything, with the full evaluations: "
@@ -506,18 +671,23 @@ def _write_report(comparison: Comparison, original: Mesh, out: Path, contact_she
         data = base64.b64encode(images[name]).decode("ascii")
         return f'<p><img src="data:image/png;base64,{data}" alt="{e(alt)}"></p>'
 
+    def td(text, mark):
+        return f'<td class="{mark}">{e(text)}</td>' if mark else f"<td>{e(text)}</td>"
+
     page = ["<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
             f"<title>Simplification comparison: {e(Path(comparison.source).name)}</title>",
             "<style>body{font-family:sans-serif;margin:2em;max-width:80em}table{border-collapse:collapse}"
             "td,th{border:1px solid #bbb;padding:.2em .5em;text-align:right}td:first-child{text-align:left}"
+            "td.best{font-weight:bold;background:#e3f4e8}td.short{color:#c00000;font-weight:bold}"
             "img{max-width:100%}</style></head><body>",
             f"<h1>Simplification comparison: {e(Path(comparison.source).name)}</h1>",
             *(f"<p>{e(line)}</p>" for line in intro),
             "<table><thead><tr>" + "".join(f"<th>{e(h)}</th>" for h in header) + "</tr></thead><tbody>",
-            *("<tr>" + "".join(f"<td>{e(c)}</td>" for c in r) + "</tr>" for r in rows),
-            "</tbody></table>",
+            *("<tr>" + "".join(td(*c) for c in r) + "</tr>" for r in rows),
+            "</tbody></table>", f"<p>{e(legend)}</p>",
             img("hausdorff.png", "Hausdorff distance against face count"),
-            img("rms.png", "RMS distance against face count")]
+            img("rms.png", "RMS distance against face count"),
+            img("time.png", "Time against face count")]
     if contact_sheet:
         page += [f"<p>{e(sheet_caption)}</p>", img("contact_sheet.png", "contact sheet")]
     page += ['<p>The table as CSV: <a href="results.csv">results.csv</a>; everything, with the full '

@@ -2,7 +2,7 @@
 
 >>> from lodkit.demo import demo_mesh, run_demo
 >>> mesh = demo_mesh(20_000)
->>> rows = run_demo("lodkit-demo")          # writes demo_lod0.ply ... demo_lod4.ply
+>>> rows = run_demo("lodkit-demo")          # demo_lod0.ply ... demo_lod4.ply and demo_lods.png
 """
 from __future__ import annotations
 
@@ -19,7 +19,10 @@ from .geometry import vertex_normals
 from .io import save
 from .mesh import Mesh
 
-__all__ = ["demo_mesh", "run_demo"]
+__all__ = ["demo_mesh", "run_demo", "SHEET_NAME", "demo_sheet"]
+
+#: the contact sheet :func:`run_demo` writes next to the PLY files
+SHEET_NAME = "demo_lods.png"
 
 # The surface lives over [-1, 1]^2; heights are in the same units.
 _PYRAMID_HEIGHT = 0.35      # square pyramid: four diagonal ridges, an apex and a square base crease
@@ -109,13 +112,19 @@ def _colors(vertices: np.ndarray) -> np.ndarray:
     return np.clip(rgb, 0.0, 1.0)
 
 
-def run_demo(out_dir="lodkit-demo", ratios=(0.5, 0.2, 0.05, 0.01), stream=None, n_faces: int = 100_000) -> list[dict]:
+def run_demo(out_dir="lodkit-demo", ratios=(0.5, 0.2, 0.05, 0.01), stream=None, n_faces: int = 100_000,
+             picture: bool = True, image_size: tuple = (320, 240)) -> list[dict]:
     """Build :func:`demo_mesh`, simplify it to each ratio and write one PLY per level.
 
     Writes ``demo_lod0.ply`` (the original) and ``demo_lod1.ply`` ... into ``out_dir``
     (created if needed), prints a table to ``stream`` (standard output by default) and
     returns its rows as dicts: level, ratio, faces, vertices, error (a fraction of the
     bounding-box diagonal; None for the original), seconds, stop_reason, file.
+
+    With ``picture`` it also writes :data:`SHEET_NAME`, a contact sheet of the levels
+    (:func:`demo_sheet`, each picture ``image_size`` pixels) and prints its path; when
+    nothing can be drawn here it prints one line saying why instead (the PLY files and
+    the table are written either way).
     """
     stream = sys.stdout if stream is None else stream
     ratios = tuple(float(r) for r in ratios)
@@ -144,8 +153,39 @@ def run_demo(out_dir="lodkit-demo", ratios=(0.5, 0.2, 0.05, 0.01), stream=None, 
                          error=float(result.error), seconds=seconds, stop_reason=str(result.stop_reason),
                          file=str(path)))
     stream.write(format_table(rows) + "\n")
+    if picture:
+        meshes = [mesh] + [None] * len(ratios)
+        try:
+            from .io import load
+
+            meshes[1:] = [load(r["file"]) for r in rows[1:]]
+            path = demo_sheet(meshes, rows, out / SHEET_NAME, image_size)
+        except Exception as exc:  # noqa: BLE001 - a picture is a bonus: say why there is none
+            reason = " ".join(str(exc).split()) or type(exc).__name__
+            stream.write(f"lodkit demo: no picture of the levels ({type(exc).__name__}: {reason})\n")
+        else:
+            stream.write(f"picture of the levels: {path}\n")
     stream.flush()
     return rows
+
+
+def demo_sheet(meshes: list, rows: list[dict], path, image_size: tuple = (320, 240)) -> Path:
+    """Render ``meshes`` (the levels of :func:`run_demo`, the original first) with one camera,
+    labelled with their level, faces and error, into one PNG at ``path``; returns the path.
+    Uses :mod:`lodkit.viz` (Open3D's offscreen renderer where it draws, else the numpy
+    rasteriser) and matplotlib's text when installed (else the built-in pixel font)."""
+    from . import viz
+
+    width, height = image_size
+    camera = viz.Camera.fit(meshes[0], width, height, up="z", azimuth=30.0, elevation=35.0)
+    images = [viz.render(m, width, height, camera=camera) for m in meshes]
+    labels, titles = [], []
+    for r in rows:
+        titles.append(f"LOD {r['level']}: " + ("original" if r["level"] == 0 else f"{100 * r['ratio']:g} %"))
+        error = "" if r["error"] is None else f", error {r['error']:.2g}"
+        labels.append(f"{r['faces']} faces{error}")
+    sheet = viz.annotated_sheet([images], labels=[labels], col_titles=titles)
+    return Path(viz.write_png(path, sheet))
 
 
 def format_table(rows: list[dict]) -> str:

@@ -16,6 +16,7 @@ from .viz import (
     RenderError,
     Style,
     View,
+    annotated_sheet,
     backend,
     backend_info,
     colorbar,
@@ -32,6 +33,6 @@ from .viz import (
 
 __all__ = [
     "AMBIENT", "BACKENDS", "DEFAULT_COLOR", "LIGHT", "NAN_COLOR", "WIRE_COLOR",
-    "Camera", "ImageIOError", "RenderError", "Style", "View", "backend", "backend_info", "colorbar",
+    "Camera", "ImageIOError", "RenderError", "Style", "View", "annotated_sheet", "backend", "backend_info", "colorbar",
     "colormap", "contact_sheet", "draw", "draw_text", "rasterize", "render", "rotation", "text_size", "write_png",
 ]

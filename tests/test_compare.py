@@ -65,7 +65,7 @@ def _read_png(path):
 
 def test_files_exist_and_nothing_else(report):
     result, out, lines = report
-    names = {"hausdorff.png", "rms.png", "contact_sheet.png", "results.csv", "results.json",
+    names = {"hausdorff.png", "rms.png", "time.png", "contact_sheet.png", "results.csv", "results.json",
              "report.md", "report.html"}
     assert {p.name for p in out.iterdir()} == names          # no temporary files left behind
     assert set(result.files) == names
@@ -75,15 +75,15 @@ def test_files_exist_and_nothing_else(report):
 
 def test_pngs_are_valid_and_not_blank(report):
     result, out, _ = report
-    for name in ("hausdorff.png", "rms.png", "contact_sheet.png"):
+    for name in ("hausdorff.png", "rms.png", "time.png", "contact_sheet.png"):
         img = _read_png(out / name)
         assert img.ndim == 3 and img.shape[0] > 100 and img.shape[1] > 100
         rgb = img[..., :3]
         assert rgb.std() > 0.05, name                              # not one flat colour
         assert len(np.unique(rgb.reshape(-1, 3), axis=0)) > 50, name
-    # the sheet: 3 methods x 2 ratios of 160 x 120 pictures (plus padding)
+    # the sheet: 3 methods x (the original + 2 ratios) of 160 x 120 pictures (plus padding)
     sheet = _read_png(out / "contact_sheet.png")
-    assert sheet.shape[0] >= 3 * 120 and sheet.shape[1] >= 2 * 160
+    assert sheet.shape[0] >= 3 * 120 and sheet.shape[1] >= 3 * 160
 
 
 def test_runs_and_order(report, mesh):
@@ -130,12 +130,12 @@ def test_table_equals_evaluate_of_the_same_meshes(report, mesh):
 def test_reports_embed_the_pictures_and_the_table(report):
     result, out, _ = report
     md = (out / "report.md").read_text()
-    for name in ("hausdorff.png", "rms.png", "contact_sheet.png", "results.csv"):
+    for name in ("hausdorff.png", "rms.png", "time.png", "contact_sheet.png", "results.csv"):
         assert f"({name})" in md
     assert md.count("\n| qem |") == 2 and md.count("\n| melod |") == 2 and md.count("\n| open3d |") == 2
     html = (out / "report.html").read_text()
     assert html.startswith("<!DOCTYPE html>") and html.rstrip().endswith("</html>")
-    assert html.count('src="data:image/png;base64,') == 3
+    assert html.count('src="data:image/png;base64,') == 4
     assert html.count("<tr>") == 1 + len(result.runs)
     run = result.run("melod", 0.1)
     assert f"{run.evaluation.distance.hausdorff:.4g}" in html
@@ -211,5 +211,133 @@ def test_cli(tmp_path, mesh):
     with redirect_stderr(err):
         assert main(["compare", str(path), "--metrics", "nope", "--out", str(out)]) == 2
         assert main(["compare", str(path), "--size", "big", "--out", str(out)]) == 2
+        assert main(["compare", str(path), "--view", "sideways", "--out", str(out)]) == 2
     assert "unknown metric 'nope'" in err.getvalue()
     assert "expected WIDTHxHEIGHT" in err.getvalue()
+    assert "view must be 'front'" in err.getvalue()
+
+
+# ---------------------------------------------------------------------- the report's marks
+def test_table_has_target_vertices_stop_reason_and_time(report):
+    result, out, _ = report
+    md = (out / "report.md").read_text()
+    header = next(line for line in md.splitlines() if line.startswith("| method |"))
+    cols = [c.strip() for c in header.strip("|").split("|")]
+    assert cols[:7] == ["method", "ratio", "target", "faces", "vertices", "stop reason", "time (s)"]
+    for run in result.runs:
+        assert run.stop_reason == "target_faces" and not run.stopped_short
+        assert run.vertices == len(np.unique(run.mesh.faces))
+    row = next(line for line in md.splitlines() if line.startswith("| melod | 0.1 |"))
+    cells = [c.strip().strip("*") for c in row.strip("|").split("|")]
+    run = result.run("melod", 0.1)
+    assert cells[2:6] == [str(run.target_faces), str(run.faces), str(run.vertices), "target faces"]
+    with open(out / "results.csv", newline="") as fh:
+        table = list(csv.DictReader(fh))
+    assert {"target_faces", "vertices", "stop_reason", "stopped_short", "seconds"} <= set(table[0])
+
+
+def test_best_value_per_ratio_is_marked(report):
+    result, out, _ = report
+    md = (out / "report.md").read_text()
+    html = (out / "report.html").read_text()
+    for ratio in RATIOS:
+        runs = [r for r in result.runs if r.ratio == ratio]
+        best = min(runs, key=lambda r: r.evaluation.distance.hausdorff)
+        text = f"{best.evaluation.distance.hausdorff:.4g}"
+        assert f"**{text}**" in md
+        assert f'<td class="best">{text}</td>' in html
+        for other in runs:
+            if other.evaluation.distance.hausdorff > best.evaluation.distance.hausdorff:
+                assert f"**{other.evaluation.distance.hausdorff:.4g}**" not in md
+
+
+def _stops_short(V, F, C, target):
+    """A peer that keeps every face (it 'stops short' of any target below the input)."""
+    return V, F, C, 0.001
+
+
+@pytest.fixture(scope="module")
+def short_report(mesh, tmp_path_factory):
+    out = tmp_path_factory.mktemp("short")
+    saved = PEERS["open3d"]
+    PEERS["open3d"] = (saved[0], saved[1], _stops_short, saved[3])
+    try:
+        result = compare(mesh, metrics="qem", peers="open3d", ratios=RATIOS, out=out, samples=500,
+                         image_size=(96, 72), render_backend="numpy")
+    finally:
+        PEERS["open3d"] = saved
+    return result, out
+
+
+def test_a_run_short_of_its_target_is_marked_and_never_best(short_report, mesh):
+    result, out = short_report
+    short = [r for r in result.runs if r.method == "open3d"]
+    assert all(r.stopped_short and r.stop_reason == "stopped_short" and r.faces == mesh.n_faces for r in short)
+    assert all(not r.stopped_short for r in result.runs if r.method == "qem")
+    md = (out / "report.md").read_text()
+    for r in short:
+        row = next(line for line in md.splitlines() if line.startswith(f"| open3d | {r.ratio:g} |"))
+        assert f"{r.faces} ⚠ short" in row and "stopped short" in row
+        assert "**" not in row                   # zero error, but not comparable: never "best"
+    assert '<td class="short">' in (out / "report.html").read_text()
+    rows = list(csv.DictReader(open(out / "results.csv", newline="")))
+    assert [row["stopped_short"] for row in rows] == ["False", "False", "True", "True"]
+
+
+def test_plots_have_plain_integer_face_ticks_and_ring_short_runs(short_report):
+    from lodkit.compare import _curve_figure
+
+    result, _ = short_report
+    for key in ("hausdorff", "seconds"):
+        fig = _curve_figure(result, key, "title", "y")
+        fig.canvas.draw()
+        ax = fig.axes[0]
+        labels = [t.get_text() for t in ax.get_xticklabels()]
+        assert labels == [str(t) for t in sorted({r.target_faces for r in result.runs})]
+        assert all(s.isdigit() for s in labels)                  # "750", never "7.5×10²"
+        assert not any(t.get_text() for t in ax.get_xticklabels(minor=True))
+        rings = [line for line in ax.get_lines() if line.get_label() == "stopped short of its target"]
+        assert len(rings) == 1 and sorted(rings[0].get_xdata()) == [r.faces for r in result.runs
+                                                                   if r.stopped_short]
+
+
+def test_contact_sheet_size_and_original_column(short_report):
+    from lodkit.viz import annotated_sheet
+
+    result, out = short_report
+    sheet = _read_png(out / "contact_sheet.png")
+    # 2 methods x (original + 2 ratios); the size depends on the pictures, not on the text
+    images = [[np.zeros((72, 96, 3), np.uint8)] * 3] * 2
+    like = annotated_sheet(images, labels=[["a\nb"] * 3] * 2, row_titles=["x", "y"], col_titles=["1", "2", "3"])
+    assert sheet.shape[:2] == like.shape[:2]
+    assert like.shape[0] > 2 * 72 and like.shape[1] > 3 * 96
+
+
+def test_annotated_sheet_draws_text_and_keeps_pictures():
+    from lodkit.viz import annotated_sheet
+
+    a = np.full((40, 60, 3), 200, np.uint8)
+    plain = annotated_sheet([[a, a]], labels=[["1", "2"]], pad=5)
+    text = annotated_sheet([[a, a]], labels=[["123 faces", "x"]], pad=5)
+    assert plain.shape == text.shape
+    assert (text != plain).any()                                # the labels are drawn
+    assert (text[5:45, 5:65] == 200).all()                      # the picture is untouched
+    pixel = annotated_sheet([[a, a]], labels=[["123 faces", "x"]], font="pixel")
+    assert pixel.dtype == np.uint8 and pixel.shape[1] >= 120
+    with pytest.raises(OptionError):
+        annotated_sheet([[a]], labels=[["x", "y"]])
+    with pytest.raises(OptionError):
+        annotated_sheet([[a]], font="comic")
+
+
+def test_view_option(mesh, tmp_path):
+    from lodkit.compare import _check_view
+    from lodkit.viz import Camera
+
+    assert _check_view("front") == "front"
+    assert _check_view("180,10") == (180.0, 10.0)
+    cam = Camera.front(mesh, 100, 80)
+    assert _check_view(cam) is cam
+    for bad in ("sideways", "1,2,3", "0,90"):
+        with pytest.raises(OptionError, match="view"):
+            compare(mesh, ratios=[0.5], view=bad, out=tmp_path / "v")

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import io
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -108,7 +109,7 @@ def test_run_demo_writes_one_file_per_level(tmp_path):
     import lodkit
 
     stream = io.StringIO()
-    rows = run_demo(tmp_path / "out", ratios=(0.5, 0.1), stream=stream, n_faces=4000)
+    rows = run_demo(tmp_path / "out", ratios=(0.5, 0.1), stream=stream, n_faces=4000, picture=False)
     assert [r["level"] for r in rows] == [0, 1, 2]
     assert rows[0]["faces"] == demo_mesh(4000).n_faces
     for row, ratio in zip(rows[1:], (0.5, 0.1)):
@@ -123,3 +124,55 @@ def test_run_demo_writes_one_file_per_level(tmp_path):
 def test_run_demo_rejects_bad_ratios(tmp_path):
     with pytest.raises(OptionError):
         run_demo(tmp_path, ratios=(0.5, 1.5), stream=io.StringIO(), n_faces=200)
+
+
+@pytest.mark.skipif(not _simplify_available(), reason="lodkit.simplify or its Cython core is not built yet")
+def test_run_demo_writes_a_picture_of_the_levels(tmp_path, monkeypatch):
+    pytest.importorskip("matplotlib")
+    import matplotlib.image
+
+    from lodkit.demo import SHEET_NAME
+    from lodkit.viz import annotated_sheet
+
+    monkeypatch.setenv("LODKIT_RENDER_BACKEND", "numpy")
+    stream = io.StringIO()
+    run_demo(tmp_path, ratios=(0.5, 0.1), stream=stream, n_faces=2000, image_size=(120, 90))
+    path = tmp_path / SHEET_NAME
+    assert f"picture of the levels: {path}" in stream.getvalue()
+    img = matplotlib.image.imread(path)
+    # three pictures of 120 x 90 in a row, a title over each and one label line under it
+    blank = [np.zeros((90, 120, 3), np.uint8)] * 3
+    like = annotated_sheet([blank], labels=[["x"] * 3], col_titles=["t"] * 3)
+    assert img.shape[:2] == like.shape[:2]
+    assert img.shape[1] > 3 * 120 and 90 < img.shape[0] < 90 + 120
+    rgb = img[..., :3]
+    assert len(np.unique(rgb.reshape(-1, 3), axis=0)) > 50           # shaded meshes, not blank
+
+
+@pytest.mark.skipif(not _simplify_available(), reason="lodkit.simplify or its Cython core is not built yet")
+def test_run_demo_says_why_when_it_cannot_draw(tmp_path, monkeypatch):
+    import lodkit.viz
+    from lodkit.demo import SHEET_NAME
+    from lodkit.errors import RenderError
+
+    def cannot(*args, **kwargs):
+        raise RenderError("no renderer here")
+
+    monkeypatch.setattr(lodkit.viz, "render", cannot)
+    stream = io.StringIO()
+    rows = run_demo(tmp_path, ratios=(0.5,), stream=stream, n_faces=500)
+    assert "lodkit demo: no picture of the levels (RenderError: no renderer here)" in stream.getvalue()
+    assert not (tmp_path / SHEET_NAME).exists()
+    assert [r["level"] for r in rows] == [0, 1] and all(Path(r["file"]).is_file() for r in rows)
+
+
+def test_annotated_sheet_without_matplotlib_uses_the_pixel_font(monkeypatch):
+    import sys
+
+    from lodkit.viz import annotated_sheet, contact_sheet
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    a = np.full((20, 30, 3), 128, np.uint8)
+    sheet = annotated_sheet([[a, a]], labels=[["10 faces", "5 faces"]], col_titles=["A", "B"])
+    expected = contact_sheet([[a, a]], 10, labels=[["A 10 faces", "B 5 faces"]], label_scale=1)
+    np.testing.assert_array_equal(sheet, expected)

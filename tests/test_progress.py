@@ -1,9 +1,12 @@
-"""lodkit._progress.Progress: the text progress bar simplify() draws on stderr."""
+"""lodkit._progress: the tqdm bar simplify() draws on stderr, the callable hook, make()."""
 from __future__ import annotations
 
 import io
+import re
 
-from lodkit._progress import Progress
+import pytest
+
+from lodkit._progress import Callback, Progress, make
 
 
 def test_disabled_bar_writes_nothing():
@@ -14,36 +17,28 @@ def test_disabled_bar_writes_nothing():
     assert stream.getvalue() == ""
 
 
-def test_line_format():
-    bar = Progress(27000, enabled=True, stream=io.StringIO())
-    bar.done = 12345
-    line = bar.line()
-    assert line.endswith(" 46% 12345/27000")
-    inner = line[1:line.index("]")]
-    assert len(inner) == Progress.width and set(inner) <= {"#", "."}
-    assert inner.count("#") == round(12345 / 27000 * Progress.width)
-
-
-def test_redraws_are_rate_limited_and_close_ends_the_line():
+def test_bar_shows_percent_count_and_rate_and_ends_the_line():
     stream = io.StringIO()
-    bar = Progress(1000, enabled=True, stream=stream)
-    for done in range(1001):
+    bar = Progress(27000, enabled=True, stream=stream)
+    for done in range(0, 27001, 1000):
         bar.update(done)
     bar.close()
     bar.close()                                     # a second close does nothing
     text = stream.getvalue()
-    assert text.endswith("\r[" + "#" * Progress.width + "] 100% 1000/1000\n")
-    assert text.count("\r") <= 3                    # the first update, maybe one more, and close
+    last = text.rstrip("\n").split("\r")[-1]
+    assert re.search(r"100%\|.*\| 27000/27000 \[", last), last
+    assert "faces/s" in last
+    assert text.endswith("\n") and text.count("\n") == 1
 
 
-def test_values_are_clamped_and_zero_total_is_complete():
+def test_values_are_clamped_and_a_running_total_is_taken():
     bar = Progress(10, stream=io.StringIO())
-    bar.done = 25
-    assert bar.line().endswith("100% 10/10")
-    bar.done = -3
-    assert bar.line().endswith("  0% 0/10")
-    empty = Progress(0, stream=io.StringIO())
-    assert empty.line().endswith("100% 0/0")
+    bar.update(4)
+    bar.update(25)
+    assert bar.done == 10
+    bar.update(-3)
+    assert bar.done == 0
+    bar.close()
 
 
 def test_broken_stream_disables_the_bar():
@@ -53,12 +48,55 @@ def test_broken_stream_disables_the_bar():
 
     bar = Progress(10, enabled=True, stream=Closed())
     bar.update(5)                                   # must not raise
-    assert bar.enabled is False
     bar.close()
+    assert bar.enabled is False
 
 
 def test_context_manager_closes():
     stream = io.StringIO()
     with Progress(4, stream=stream) as bar:
         bar.update(4)
-    assert stream.getvalue().endswith("100% 4/4\n")
+    assert stream.getvalue().endswith("\n") and "4/4" in stream.getvalue()
+
+
+def test_callback_gets_done_and_total_and_a_final_call():
+    calls = []
+    with Callback(lambda done, total: calls.append((done, total)), 100) as cb:
+        cb.update(30)
+        cb.update(250)
+    assert calls == [(30, 100), (100, 100), (100, 100)]
+
+
+@pytest.mark.parametrize("value", [False, None, 0])
+def test_make_off(value):
+    assert make(value, 10) is None
+
+
+def test_make_bar_and_callable():
+    stream = io.StringIO()
+    bar = make(True, 10, stream=stream)
+    assert isinstance(bar, Progress)
+    bar.close()
+    seen = []
+    cb = make(lambda d, t: seen.append(d), 10)
+    assert isinstance(cb, Callback)
+    cb.update(3)
+    assert seen == [3]
+
+
+def test_simplify_reports_to_a_callable_and_gives_the_same_mesh():
+    pytest.importorskip("lodkit._core.decimate")
+    import numpy as np
+
+    import lodkit
+    from lodkit.demo import demo_mesh
+
+    mesh = demo_mesh(20_000)
+    calls = []
+    with_hook = lodkit.simplify(mesh, target_ratio=0.05, progress=lambda d, t: calls.append((d, t)))
+    plain = lodkit.simplify(mesh, target_ratio=0.05)
+    assert len(calls) >= 2
+    assert [d for d, _ in calls] == sorted(d for d, _ in calls)          # a running total
+    assert calls[-1][0] == calls[-1][1] == calls[0][1]
+    np.testing.assert_array_equal(with_hook.mesh.faces, plain.mesh.faces)
+    np.testing.assert_array_equal(with_hook.mesh.vertices, plain.mesh.vertices)

@@ -289,3 +289,28 @@ def test_open3d_backend_agrees_with_numpy_and_exits_cleanly(tmp_path):
     diff = np.abs(a.astype(int) - b.astype(int))[both]
     assert np.median(diff) <= 2 and np.mean(diff) < 4
     assert foreground(d["w"]).sum() > 0.3 * d["w"].shape[0] * d["w"].shape[1] * 0.5
+
+
+def test_front_camera_looks_along_the_thinnest_axis_from_the_front():
+    from lodkit.viz.camera import principal_frame
+
+    rng = np.random.default_rng(1)
+    box = rng.uniform(-1, 1, (2000, 3)) * [0.2, 1.0, 3.0]      # thin in x, tall in z
+    R = principal_frame(box)
+    assert abs(R[2] @ [1.0, 0, 0]) > 0.99 and R[2][0] > 0       # looks along x, from +x
+    assert R[1] @ [0, 1.0, 0] > 0.99                            # world +y is up in the picture
+    assert np.allclose(R @ R.T, np.eye(3), atol=1e-9) and np.linalg.det(R) > 0
+    straight = lr.Camera.front(box, 100, 80, azimuth=0, elevation=0)
+    assert np.allclose(straight.rotation(), R, atol=1e-9)
+    turned = lr.Camera.front(box, 100, 80)                      # 30° towards +z, 20° up
+    d = np.subtract(turned.eye, turned.center)
+    d /= np.linalg.norm(d)
+    assert d[2] > 0.4 and d[1] > 0.3 and d[0] > 0.7
+    behind = lr.Camera.front(box, 100, 80, azimuth=180, elevation=0)
+    assert np.allclose(np.subtract(behind.eye, behind.center) / np.linalg.norm(np.subtract(behind.eye, behind.center)),
+                       -R[2], atol=1e-9)
+    # fitted: the whole box is in the picture, and fills it in one direction
+    pts = box @ turned.rotation().T
+    half_w, half_h = 50 / turned.view(box, 100, 80).scale, 40 / turned.view(box, 100, 80).scale
+    c = turned.rotation() @ np.asarray(turned.center)
+    assert (np.abs(pts[:, 0] - c[0]) <= half_w).all() and (np.abs(pts[:, 1] - c[1]) <= half_h).all()

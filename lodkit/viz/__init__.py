@@ -45,7 +45,8 @@ the software device, so the wireframe is drawn as thin camera-facing strips.
 
 The modules: ``camera`` (rotation, View, Camera), ``colors`` (colormap), ``raster`` (the
 numpy rasteriser), ``open3d_backend`` (probe, the one renderer), ``picture`` (render),
-``text`` (the pixel font), ``sheet`` (contact sheets, colour bars), ``png`` (write_png).
+``text`` (the pixel font), ``sheet`` (contact sheets, colour bars; :func:`annotated_sheet`
+writes titles and labels in matplotlib's text), ``png`` (write_png).
 """
 from ..errors import ImageIOError, RenderError
 from .camera import Camera, View, rotation
@@ -54,11 +55,11 @@ from .open3d_backend import BACKENDS, backend, backend_info
 from .picture import render
 from .png import write_png
 from .raster import AMBIENT, LIGHT, Style, draw, rasterize
-from .sheet import colorbar, contact_sheet
+from .sheet import annotated_sheet, colorbar, contact_sheet
 from .text import draw_text, text_size
 
 __all__ = [
     "AMBIENT", "BACKENDS", "DEFAULT_COLOR", "LIGHT", "NAN_COLOR", "WIRE_COLOR",
-    "Camera", "ImageIOError", "RenderError", "Style", "View", "backend", "backend_info", "colorbar",
+    "Camera", "ImageIOError", "RenderError", "Style", "View", "annotated_sheet", "backend", "backend_info", "colorbar",
     "colormap", "contact_sheet", "draw", "draw_text", "rasterize", "render", "rotation", "text_size", "write_png",
 ]

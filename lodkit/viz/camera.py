@@ -63,6 +63,16 @@ class View:
         s = zoom * min(width * (1 - 2 * margin) / ext[0], height * (1 - 2 * margin) / ext[1])
         return cls(R, c, float(s), int(width), int(height))
 
+    @classmethod
+    def fit_camera(cls, camera: Camera, points: np.ndarray, width: int, height: int, margin: float = 0.06) -> Camera:
+        """``camera``'s direction and up, centred on ``points`` and scaled to frame them."""
+        R = camera.rotation()
+        P = np.asarray(points, dtype=np.float64) @ R.T
+        lo, hi = P.min(axis=0), P.max(axis=0)
+        ext = np.maximum(hi - lo, 1e-12)
+        s = min(width * (1 - 2 * margin) / ext[0], height * (1 - 2 * margin) / ext[1])
+        return cls(R, 0.5 * (lo + hi), float(s), int(width), int(height)).camera()
+
     def aspect_of(self, points: np.ndarray) -> float:
         P = points @ self.R.T
         ext = np.maximum(P.max(axis=0) - P.min(axis=0), 1e-12)
@@ -136,6 +146,31 @@ class Camera:
             pts = used_points(as_drawable(mesh))
         return View.fit(pts, width, height, azimuth, elevation, up, margin).camera()
 
+    @classmethod
+    def front(cls, mesh, width: int = 640, height: int = 480, *, azimuth: float = 30.0, elevation: float = 20.0,
+              margin: float = 0.06) -> Camera:
+        """A camera that frames ``mesh`` from the front of its principal axes: it looks along
+        the axis in which the mesh is thinnest (so the picture shows its largest outline),
+        with the world's +y (else +z) up in the picture, from the side facing +z (else +x:
+        the glTF convention is that a model faces +z), then turned ``azimuth`` degrees
+        about the picture's up axis and raised ``elevation`` degrees, so the relief shows.
+        The scale is fixed from ``mesh``: pass the camera to several :func:`render` calls
+        (a mesh and its LODs) and they are drawn alike."""
+        width, height = check_size(width, height)
+        pts = points_array(mesh) if isinstance(mesh, np.ndarray) else used_points(as_drawable(mesh))
+        R0 = principal_frame(pts)
+        a, e = np.radians(azimuth), np.radians(elevation)
+        d = np.sin(a) * np.cos(e) * R0[0] + np.sin(e) * R0[1] + np.cos(a) * np.cos(e) * R0[2]
+        # the turn goes towards the model's front (+z, else +x) when the picture's x axis has a
+        # component along it
+        ref = np.array([0.0, 0.0, 1.0]) if abs(R0[0, 2]) > 1e-6 else np.array([1.0, 0.0, 0.0])
+        if np.dot(R0[0], ref) * np.sin(a) < 0:
+            d = -np.sin(a) * np.cos(e) * R0[0] + np.sin(e) * R0[1] + np.cos(a) * np.cos(e) * R0[2]
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        up = R0[1] - np.dot(R0[1], d) * d
+        probe = cls(tuple(0.5 * (lo + hi) + d), tuple(0.5 * (lo + hi)), tuple(up))
+        return View.fit_camera(probe, pts, width, height, margin)
+
     def rotation(self) -> np.ndarray:
         """World -> camera rotation (rows x right, y up, z towards the eye)."""
         eye, center, up = (np.asarray(v) for v in (self.eye, self.center, self.up))
@@ -155,6 +190,28 @@ class Camera:
         half = np.maximum(np.abs(P[:, :2]).max(axis=0), 1e-12) if len(P) else np.ones(2)
         scale = min(width * (1 - 2 * margin) / (2 * half[0]), height * (1 - 2 * margin) / (2 * half[1]))
         return View(R, c, float(scale), int(width), int(height))
+
+
+def principal_frame(points: np.ndarray) -> np.ndarray:
+    """Rows: picture right, picture up, towards the viewer, for a front view of ``points``.
+
+    The viewing axis is the principal axis of least extent (the eigenvector of the points'
+    covariance with the smallest eigenvalue), pointing to the side of +z (else +x, else +y,
+    whichever world axis it is closest to); up is the world's +y projected on the picture
+    plane, or +z when +y is nearly the viewing axis."""
+    P = np.asarray(points, dtype=np.float64)
+    C = np.cov((P - P.mean(axis=0)).T) if len(P) > 1 else np.eye(3)
+    _, U = np.linalg.eigh(np.atleast_2d(C))
+    z = U[:, 0]
+    k = int(np.argmax(np.abs(z) * np.array([1.0, 0.999, 1.001])))   # ties: z, then x, then y
+    if z[k] < 0:
+        z = -z
+    up = np.array([0.0, 1.0, 0.0])
+    if abs(np.dot(up, z)) > 0.9:
+        up = np.array([0.0, 0.0, 1.0])
+    y = up - np.dot(up, z) * z
+    y /= np.linalg.norm(y)
+    return np.stack([np.cross(y, z), y, z])
 
 
 def points_array(points) -> np.ndarray:
