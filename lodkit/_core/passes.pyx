@@ -1,8 +1,8 @@
 # cython: language_level=3
 """Edge collapse in passes (``use_heap=False``): :class:`PassCollapser` and two drivers.
 
-**The pass driver** (:class:`PassDriver`, ``simplify(driver="pass")``).  Each
-pass
+**The pass driver** (:class:`PassDriver`, ``simplify(driver="pass")``, the default).
+Each pass
 
 1. *ranks* every candidate whose cost may have changed since it was last ranked (an edge of
    a vertex a collapse kept, or a refused edge of one of its neighbours) -- on several
@@ -10,17 +10,19 @@ pass
 2. *limits* the pass: of the V ranked candidates within ``max_error``, the K = ceil(V /
    fraction) cheapest may go (a histogram of the costs finds the K-th, then only those are
    sorted, by (cost, edge id));
-3. *performs*, in that order, each of them whose ends no earlier collapse of the pass
-   touched, with every check of the greedy driver (link condition, flips, folds, quality,
-   volume, boundary policy, locks, seams); a collapse marks its kept vertex and 1-ring (the
-   2-ring for wide kernels) touched, so every collapse of a pass sees the costs it was
-   ranked with.
+3. *stage 1*: groups them by block of vertex slots (the slots are in Morton order, so a
+   block is a patch of the surface) and, in each block, in cost order, collapses each one
+   that passes every check on the current mesh, unless a collapse of the pass kept one of
+   its ends (its cost is stale: next pass) or it reaches out of its block.  Blocks never
+   meet, so they run on several threads, and plain cost order gives the same result -- which
+   is how a pass that may reach the face target runs, to stop exactly there;
+4. *stage 2*: the candidates that reached out of their block (and seam pairs), in cost
+   order, with the same rules.
 
 The schedule depends on the mesh and the settings, never on the face target: a run to a
 smaller target does the same collapses in the same order, then more, so a progressive mesh
-cut at N faces is ``simplify(target_faces=N)``.  Ranking writes one slot per edge and all
-else runs in a fixed order on one thread: the output is the same for any thread count.
-docs/algorithms.md ("The pass driver") says why the limit is chosen so.
+cut at N faces is ``simplify(target_faces=N)``; the output is the same for any thread count.
+docs/algorithms.md ("The pass driver") says why.
 
 **The batch pass driver** (:func:`collapse_pass_c`): Python ranks every candidate at once
 (``PassCollapser.plan_all`` and a vectorised cost), then one ``collapse_pass`` tries the
