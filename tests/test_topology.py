@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import time
 from collections import defaultdict
 
 import numpy as np
@@ -362,15 +361,13 @@ def test_invariant_under_reordering():
     check(base, n_components=2, n_boundary_loops=1, n_degenerate_faces=1, is_manifold=False)
 
 
-def test_a_million_faces_in_seconds():
+def test_a_million_faces():
+    """Counts on a 1M-face grid (speed is measured in bench/, never by a timed test: the
+    machines are shared)."""
     faces = grid(707)                                       # 999,698 faces
     mesh = Mesh(np.zeros((708 * 708, 3)), faces)
-    t0 = time.perf_counter()
     r = topology(mesh)
-    elapsed = time.perf_counter() - t0
     check(r, n_faces=999_698, genus=0, n_boundary_loops=1, is_manifold=True)
-    # about 0.5-1 s on a shared 2-core machine; the bound only catches super-linear blow-ups
-    assert elapsed < 6.0, f"topology() took {elapsed:.1f} s on 1M faces"
 
 
 # ---------------------------------------------------------------------- shared meshes

@@ -661,7 +661,7 @@ cdef class PassDriver:
         v = he_dest(self.m, h)
         if self.c.touched[u] == stamp or self.c.touched[v] == stamp:
             return 0                          # ranked on a state a collapse changed
-        if not self.single and not self.inside(u, v, b):
+        if self.n_blocks > 1 and not self.inside(u, v, b):
             self.cflag[i] = CF_DEFER
             return 0
         self.check(i)
