@@ -588,9 +588,14 @@ cdef class PassDriver:
         cdef int i, b, e, acc = 0, size
         cdef long long nv = self.c.hm.n_vertices
         cdef long long alive = self.c.hm.n_alive_vertices
+        cdef long long per = self.block
         if not self.single:
-            # about `block` live vertices a block, whatever share of the slots is dead
-            self.bsize = <int>min(nv, (self.block * nv + alive - 1) // max(alive, 1))
+            # about `block` live vertices a block, whatever share of the slots is dead, but
+            # at least 16 blocks while each keeps an eighth of that (so that threads have
+            # blocks to share out as the mesh shrinks)
+            if alive // 16 < per:
+                per = max(alive // 16, self.block // 8, 1)
+            self.bsize = <int>min(nv, (per * nv + alive - 1) // max(alive, 1))
             if self.bsize < 1:
                 self.bsize = 1
             self.n_blocks = <int>((nv + self.bsize - 1) // self.bsize)
