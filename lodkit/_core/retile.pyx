@@ -1,0 +1,265 @@
+# cython: language_level=3
+"""Native parts of re-tiling (lodkit.retile, Turk 1992) and mesh optimisation
+(lodkit.optimize, Hoppe et al. 1993); docs/retile.md and docs/optimize.md.
+
+* :class:`RetileKernel` -- the vertex-removal kernel re-tiling removes the old vertices
+  with: the hole of a removed vertex gets the triangulation that maximises its smallest
+  triangle quality (dynamic programming over the polygon's diagonals, O(k^3)), among the
+  triangulations whose triangles all face the star's area-weighted normal.
+* :func:`flip_edges` -- edge flips that raise the smaller quality of the two triangles of
+  an edge (the max-min quality criterion, Delaunay-like), between nearly coplanar faces
+  only (so the shape does not change), on a face list with twin half-edges.
+"""
+import numpy as np
+
+from libc.math cimport sqrt
+
+from lodkit.kernel cimport KERNEL_OK, KERNEL_VETO
+from lodkit.removal cimport RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION
+from .vec3 cimport sub3, cross3, dot3, norm3
+
+cdef double SQRT3_4 = 4.0 * 1.7320508075688772
+
+
+cdef inline double tri_quality(const double* a, const double* b, const double* c,
+                               const double* nref) noexcept nogil:
+    """4 sqrt(3) A / (l0^2 + l1^2 + l2^2) in [0, 1]; -1 when the triangle does not face
+    ``nref`` (its normal . nref <= 0) or has zero area."""
+    cdef double e0[3]
+    cdef double e1[3]
+    cdef double e2[3]
+    cdef double n[3]
+    sub3(b, a, e0)
+    sub3(c, b, e1)
+    sub3(a, c, e2)
+    cross3(e0, e1, n)
+    cdef double twice_area = norm3(n)
+    cdef double sq = dot3(e0, e0) + dot3(e1, e1) + dot3(e2, e2)
+    if twice_area <= 0.0 or sq <= 0.0 or dot3(n, nref) <= 0.0:
+        return -1.0
+    return SQRT3_4 * 0.5 * twice_area / sq
+
+
+cdef class RetileKernel(RemovalKernel):
+    """Removal kernel of re-tiling: the max-min-quality triangulation of the hole; cost
+    1 - that quality (the vertices that leave the best holes go first), error 0."""
+
+    api_version = REMOVAL_API_VERSION
+    star_local = True
+    cdef double best[MAX_VALENCE * MAX_VALENCE]
+    cdef int choice[MAX_VALENCE * MAX_VALENCE]
+
+    cdef int evaluate(self, const Star* s, Removal* r) noexcept nogil:
+        cdef int k = s.k
+        cdef const double* P = s.mesh.positions
+        cdef int st = s.mesh.stride
+        cdef const double* pv = P + st * s.v
+        cdef double N[3]
+        cdef double a[3]
+        cdef double b[3]
+        cdef double c[3]
+        cdef int i, j, m, gap, nf, n_out
+        cdef double q, v, bestv
+        if k < 3:
+            return KERNEL_VETO
+        N[0] = 0.0
+        N[1] = 0.0
+        N[2] = 0.0
+        nf = k if s.closed else k - 1
+        for i in range(nf):
+            sub3(P + st * s.link[i], pv, a)
+            sub3(P + st * s.link[(i + 1) % k], pv, b)
+            cross3(a, b, c)
+            N[0] += c[0]
+            N[1] += c[1]
+            N[2] += c[2]
+        if norm3(N) <= 0.0:
+            return KERNEL_VETO
+        for i in range(k - 1):
+            self.best[i * MAX_VALENCE + i + 1] = 2.0       # an edge of the polygon: no triangle
+        for gap in range(2, k):
+            for i in range(k - gap):
+                j = i + gap
+                bestv = -2.0
+                self.choice[i * MAX_VALENCE + j] = -1
+                for m in range(i + 1, j):
+                    q = tri_quality(P + st * s.link[i], P + st * s.link[m], P + st * s.link[j], N)
+                    v = q
+                    if self.best[i * MAX_VALENCE + m] < v:
+                        v = self.best[i * MAX_VALENCE + m]
+                    if self.best[m * MAX_VALENCE + j] < v:
+                        v = self.best[m * MAX_VALENCE + j]
+                    if v > bestv:
+                        bestv = v
+                        self.choice[i * MAX_VALENCE + j] = m
+                self.best[i * MAX_VALENCE + j] = bestv
+        bestv = self.best[k - 1]
+        if not bestv > 0.0:
+            return KERNEL_VETO
+        # unfold the choices (an explicit stack of (i, j) pairs in r.tri as scratch ends)
+        cdef int stack_i[MAX_VALENCE]
+        cdef int stack_j[MAX_VALENCE]
+        cdef int top = 0
+        n_out = 0
+        stack_i[0] = 0
+        stack_j[0] = k - 1
+        top = 1
+        while top > 0:
+            top -= 1
+            i = stack_i[top]
+            j = stack_j[top]
+            if j - i < 2:
+                continue
+            m = self.choice[i * MAX_VALENCE + j]
+            r.tri[3 * n_out] = i
+            r.tri[3 * n_out + 1] = m
+            r.tri[3 * n_out + 2] = j
+            n_out += 1
+            stack_i[top] = i
+            stack_j[top] = m
+            top += 1
+            stack_i[top] = m
+            stack_j[top] = j
+            top += 1
+        r.n_tris = n_out
+        r.cost = 1.0 - bestv
+        r.error = 0.0
+        return KERNEL_OK
+
+
+cdef inline int has_edge(const int* F, const int* twin, int h_out, int d) noexcept nogil:
+    """Is d a neighbour of the vertex half-edge ``h_out`` leaves?  Walks the fan both ways
+    (to the boundary or around)."""
+    cdef int h = h_out, f, nh
+    while True:
+        f = h // 3
+        if F[3 * f + (h % 3 + 1) % 3] == d:
+            return 1
+        if F[3 * f + (h % 3 + 2) % 3] == d:
+            return 1
+        nh = twin[3 * f + (h % 3 + 2) % 3]           # the previous half-edge's twin leaves v
+        if nh < 0:
+            break
+        if nh == h_out:
+            return 0
+        h = nh
+    h = h_out
+    while True:
+        nh = twin[h]
+        if nh < 0:
+            return 0
+        h = 3 * (nh // 3) + (nh % 3 + 1) % 3           # the twin's next leaves v
+        if h == h_out:
+            return 0
+        f = h // 3
+        if F[3 * f + (h % 3 + 1) % 3] == d:
+            return 1
+        if F[3 * f + (h % 3 + 2) % 3] == d:
+            return 1
+
+
+cdef inline void set_twin(int* twin, int h, int t) noexcept nogil:
+    twin[h] = t
+    if t >= 0:
+        twin[t] = h
+
+
+def flip_edges(double[:, ::1] V, int[:, ::1] F, int[::1] twin, double min_dot, int max_sweeps,
+               const unsigned char[::1] locked=None):
+    """Flip interior edges while a flip raises min(quality) of its two triangles by more
+    than 1e-9, and the two faces before and after are within ``min_dot`` (cosine) of each
+    other.  ``F`` (m, 3) and ``twin`` (3 m,) (half-edge h = 3 f + i runs F[f, i] -> F[f, i+1];
+    -1 on the boundary) are updated in place.  An edge between two ``locked`` vertices is
+    not flipped (nor one that would join two).  Returns the number of flips."""
+    cdef Py_ssize_t m = F.shape[0]
+    if twin.shape[0] != 3 * m:
+        raise ValueError("twin must have 3 m entries")
+    cdef int* Fp = &F[0, 0] if m else NULL
+    cdef int* T = &twin[0] if m else NULL
+    cdef const double* P = &V[0, 0] if V.shape[0] else NULL
+    cdef bint use_lock = locked is not None
+    cdef int flips = 0, sweep, h, t, f, g, i, j, a, b, c, d, ha1, ha2, hb1, hb2, changed
+    cdef double n1[3]
+    cdef double n2[3]
+    cdef double m1[3]
+    cdef double m2[3]
+    cdef double e0[3]
+    cdef double e1[3]
+    cdef double navg[3]
+    cdef double qo, qn, q
+    with nogil:
+        for sweep in range(max_sweeps):
+            changed = 0
+            for h in range(3 * m):
+                t = T[h]
+                if t < h:                 # each interior edge once (t = -1: boundary)
+                    continue
+                f = h // 3
+                i = h % 3
+                g = t // 3
+                j = t % 3
+                a = Fp[3 * f + i]
+                b = Fp[3 * f + (i + 1) % 3]
+                c = Fp[3 * f + (i + 2) % 3]
+                d = Fp[3 * g + (j + 2) % 3]
+                if c == d:
+                    continue
+                if use_lock and ((locked[a] and locked[b]) or (locked[c] and locked[d])):
+                    continue
+                # old faces (a, b, c), (b, a, d); new faces (c, a, d), (d, b, c)
+                sub3(P + 3 * b, P + 3 * a, e0)
+                sub3(P + 3 * c, P + 3 * a, e1)
+                cross3(e0, e1, n1)
+                sub3(P + 3 * a, P + 3 * b, e0)
+                sub3(P + 3 * d, P + 3 * b, e1)
+                cross3(e0, e1, n2)
+                if norm3(n1) <= 0.0 or norm3(n2) <= 0.0:
+                    continue
+                if dot3(n1, n2) < min_dot * norm3(n1) * norm3(n2):
+                    continue
+                navg[0] = n1[0] / norm3(n1) + n2[0] / norm3(n2)
+                navg[1] = n1[1] / norm3(n1) + n2[1] / norm3(n2)
+                navg[2] = n1[2] / norm3(n1) + n2[2] / norm3(n2)
+                qo = tri_quality(P + 3 * a, P + 3 * b, P + 3 * c, navg)
+                q = tri_quality(P + 3 * b, P + 3 * a, P + 3 * d, navg)
+                if q < qo:
+                    qo = q
+                qn = tri_quality(P + 3 * c, P + 3 * a, P + 3 * d, navg)
+                q = tri_quality(P + 3 * d, P + 3 * b, P + 3 * c, navg)
+                if q < qn:
+                    qn = q
+                if not qn > qo + 1e-9:
+                    continue
+                sub3(P + 3 * a, P + 3 * c, e0)
+                sub3(P + 3 * d, P + 3 * c, e1)
+                cross3(e0, e1, m1)
+                sub3(P + 3 * b, P + 3 * d, e0)
+                sub3(P + 3 * c, P + 3 * d, e1)
+                cross3(e0, e1, m2)
+                if dot3(m1, m2) < min_dot * norm3(m1) * norm3(m2):
+                    continue
+                if has_edge(Fp, T, 3 * f + (i + 2) % 3, d):
+                    continue
+                # outer half-edges: b->c (hb1), c->a (ha1) in f; a->d (ha2), d->b (hb2) in g
+                hb1 = T[3 * f + (i + 1) % 3]
+                ha1 = T[3 * f + (i + 2) % 3]
+                ha2 = T[3 * g + (j + 1) % 3]
+                hb2 = T[3 * g + (j + 2) % 3]
+                # f becomes (c, a, d): c->a, a->d, d->c; g becomes (d, b, c): d->b, b->c, c->d
+                Fp[3 * f] = c
+                Fp[3 * f + 1] = a
+                Fp[3 * f + 2] = d
+                Fp[3 * g] = d
+                Fp[3 * g + 1] = b
+                Fp[3 * g + 2] = c
+                set_twin(T, 3 * f, ha1)
+                set_twin(T, 3 * f + 1, ha2)
+                set_twin(T, 3 * f + 2, 3 * g + 2)
+                set_twin(T, 3 * g, hb2)
+                set_twin(T, 3 * g + 1, hb1)
+                flips += 1
+                changed += 1
+            if changed == 0:
+                break
+    return flips
+
