@@ -36,9 +36,10 @@ from typing import Any
 
 import numpy as np
 
+from ._core.retile import project_local
 from ._progress import Progress
 from .errors import MeshError, OptionError
-from .evaluate import _closest_on_triangles, _Surface, sample_surface
+from .evaluate import _Surface, sample_surface
 from .mesh import Mesh, as_mesh, is_open3d
 
 __all__ = ["OptimizeResult", "optimize"]
@@ -204,7 +205,7 @@ class _Optimizer:
         for fi, f in enumerate(self.F):
             for v in f:
                 self.vf[v].add(fi)
-        self.X = X
+        self.X = np.ascontiguousarray(X, dtype=np.float64)
         self.kappa = spring
         self.rng = rng
         self.moves = {"collapse": 0, "split": 0, "swap": 0}
@@ -299,7 +300,7 @@ class _Optimizer:
             ci.append(np.arange(nV))
             rhs = rhs + reg * self.V
             K = coo_matrix((np.concatenate(data), (np.concatenate(ri), np.concatenate(ci))), shape=(nV, nV)).tocsc()
-            Vnew = np.asarray(spsolve(K, rhs)).reshape(nV, 3)
+            Vnew = np.ascontiguousarray(spsolve(K, rhs), dtype=np.float64).reshape(nV, 3)
             if not np.isfinite(Vnew).all():
                 return
             old_V, old_e = self.V, self.e_dist + self.spring_energy()
@@ -348,16 +349,9 @@ class _Optimizer:
 
     def _project_local(self, S, tris):
         """Closest of the triangles ``tris`` (k, 3 vertex ids) for each sample in S:
-        (tri index (n,), weights (n, 3), d2 (n,))."""
-        T = np.asarray(tris, dtype=np.int64)
-        n, k = S.size, T.shape[0]
-        P = np.repeat(self.X[S], k, axis=0)
-        TT = np.tile(T, (n, 1))
-        w = _closest_on_triangles(P, self.V[TT[:, 0]], self.V[TT[:, 1]], self.V[TT[:, 2]])
-        Q = np.einsum("nk,nkj->nj", w, self.V[TT])
-        d2 = np.einsum("ij,ij->i", P - Q, P - Q).reshape(n, k)
-        best = np.argmin(d2, axis=1)
-        return best, w.reshape(n, k, 3)[np.arange(n), best], d2[np.arange(n), best]
+        (tri index (n,), weights (n, 3), d2 (n,)) (native: lodkit._core.retile.project_local)."""
+        T = np.ascontiguousarray(tris, dtype=np.int64)
+        return project_local(self.X, np.ascontiguousarray(S, dtype=np.int64), self.V, T)
 
     def _spring_of(self, pairs) -> float:
         s = 0.0
@@ -440,6 +434,12 @@ class _Optimizer:
         self.vf.append(set())
         return w
 
+    def _drop_vertex(self, w) -> None:
+        """Undo _new_vertex for a move not taken (w is the last vertex)."""
+        self.V = self.V[:w]
+        self.valive = self.valive[:w]
+        del self.vf[w:]
+
     def try_collapse(self, u, v, shared, c_rep) -> bool:
         nu, nv = self._neighbours(u), self._neighbours(v)
         opp = {x for f in shared for x in self.F[f]} - {u, v}
@@ -467,7 +467,7 @@ class _Optimizer:
         dE = (float(d2.sum()) - old_d2) + (new_spring - old_spring) - c_rep
         ok = (np.einsum("ij,ij->i", n_old, n_new) > 0).all() and (np.linalg.norm(n_new, axis=1) > 0).all()
         if not ok or not dE < -_GAIN:
-            self.valive[w] = False
+            self._drop_vertex(w)
             self.rejected["illegal" if not ok else "energy"] += 1
             return False
         self.valive[u] = self.valive[v] = False
@@ -485,7 +485,7 @@ class _Optimizer:
         for f in old_faces:
             t = self.F[f]
             i = t.index(u)
-            a, b, c = t[i], t[(i + 1) % 3], t[(i + 2) % 3]
+            b, c = t[(i + 1) % 3], t[(i + 2) % 3]
             if b == v:                     # (u, v, c) -> (u, w, c), (w, v, c)
                 new_tris += [[u, w, c], [w, v, c]]
                 opp.append(c)
@@ -501,7 +501,7 @@ class _Optimizer:
         dE = (float(d2.sum()) - old_d2) + (new_spring - old_spring) + c_rep
         ok = (np.einsum("ij,ij->i", np.repeat(n_old, 2, axis=0), n_new) > 0).all()
         if not ok or not dE < -_GAIN:
-            self.valive[w] = False
+            self._drop_vertex(w)
             self.rejected["illegal" if not ok else "energy"] += 1
             return False
         self._commit(old_faces, new_tris, S, ti, bw, d2)

@@ -12,7 +12,7 @@
 """
 import numpy as np
 
-from libc.math cimport sqrt
+from libc.stdint cimport int64_t
 
 from lodkit.kernel cimport KERNEL_OK, KERNEL_VETO
 from lodkit.removal cimport RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION
@@ -263,3 +263,100 @@ def flip_edges(double[:, ::1] V, int[:, ::1] F, int[::1] twin, double min_dot, i
                 break
     return flips
 
+
+
+cdef inline double closest_on_triangle(const double* p, const double* a, const double* b, const double* c,
+                                       double* w) noexcept nogil:
+    """Barycentric weights ``w`` of the point of triangle abc closest to p (Ericson, Real-Time
+    Collision Detection 5.1.5); returns the squared distance.  A zero-area triangle gets
+    its closest edge point."""
+    cdef double ab[3]
+    cdef double ac[3]
+    cdef double ap[3]
+    cdef double bp[3]
+    cdef double cp[3]
+    cdef double q[3]
+    cdef double d1, d2, d3, d4, d5, d6, va, vb, vc, t, denom, v, u
+    cdef int t3
+    sub3(b, a, ab)
+    sub3(c, a, ac)
+    sub3(p, a, ap)
+    d1 = dot3(ab, ap)
+    d2 = dot3(ac, ap)
+    if d1 <= 0.0 and d2 <= 0.0:
+        w[0] = 1.0
+        w[1] = 0.0
+        w[2] = 0.0
+    else:
+        sub3(p, b, bp)
+        d3 = dot3(ab, bp)
+        d4 = dot3(ac, bp)
+        sub3(p, c, cp)
+        d5 = dot3(ab, cp)
+        d6 = dot3(ac, cp)
+        vc = d1 * d4 - d3 * d2
+        vb = d5 * d2 - d1 * d6
+        va = d3 * d6 - d5 * d4
+        if d3 >= 0.0 and d4 <= d3:
+            w[0] = 0.0
+            w[1] = 1.0
+            w[2] = 0.0
+        elif vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0 and d1 - d3 != 0.0:
+            t = d1 / (d1 - d3)
+            w[0] = 1.0 - t
+            w[1] = t
+            w[2] = 0.0
+        elif d6 >= 0.0 and d5 <= d6:
+            w[0] = 0.0
+            w[1] = 0.0
+            w[2] = 1.0
+        elif vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0 and d2 - d6 != 0.0:
+            t = d2 / (d2 - d6)
+            w[0] = 1.0 - t
+            w[1] = 0.0
+            w[2] = t
+        elif va <= 0.0 and d4 - d3 >= 0.0 and d5 - d6 >= 0.0 and (d4 - d3) + (d5 - d6) != 0.0:
+            t = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+            w[0] = 0.0
+            w[1] = 1.0 - t
+            w[2] = t
+        else:
+            denom = va + vb + vc
+            if denom != 0.0:
+                v = vb / denom
+                u = vc / denom
+                w[0] = 1.0 - v - u
+                w[1] = v
+                w[2] = u
+            else:                          # degenerate: the nearest corner
+                w[0] = 1.0
+                w[1] = 0.0
+                w[2] = 0.0
+    for t3 in range(3):
+        q[t3] = w[0] * a[t3] + w[1] * b[t3] + w[2] * c[t3] - p[t3]
+    return dot3(q, q)
+
+
+def project_local(const double[:, ::1] X, const int64_t[::1] S, const double[:, ::1] V, const int64_t[:, ::1] T):
+    """For each sample X[S[i]], the closest of the triangles T (k, 3 vertex ids into V):
+    (triangle index (n,) int64, barycentric weights (n, 3), squared distance (n,))."""
+    cdef Py_ssize_t n = S.shape[0], k = T.shape[0], i, t
+    best_arr = np.zeros(n, dtype=np.int64)
+    w_arr = np.zeros((n, 3))
+    d_arr = np.full(n, np.inf)
+    cdef int64_t[::1] best = best_arr
+    cdef double[:, ::1] W = w_arr
+    cdef double[::1] D = d_arr
+    cdef double wt[3]
+    cdef double d
+    with nogil:
+        for i in range(n):
+            for t in range(k):
+                d = closest_on_triangle(&X[S[i], 0], &V[T[t, 0], 0], &V[T[t, 1], 0], &V[T[t, 2], 0], wt)
+                if d < D[i]:
+                    D[i] = d
+                    best[i] = t
+                    W[i, 0] = wt[0]
+                    W[i, 1] = wt[1]
+                    W[i, 2] = wt[2]
+    return best_arr, w_arr, d_arr
