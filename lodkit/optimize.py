@@ -40,6 +40,7 @@ from ._core.retile import project_local
 from ._progress import Progress
 from .errors import MeshError, OptionError
 from .evaluate import _Surface, sample_surface
+from .geometry import triangle_quality
 from .mesh import Mesh, as_mesh, is_open3d
 
 __all__ = ["OptimizeResult", "optimize"]
@@ -50,6 +51,8 @@ DEFAULT_C_REP = 1e-5
 DEFAULT_SPRING = 1e-8
 # local fits: projection / placement rounds for the new vertex of a collapse or split
 _LOCAL_ROUNDS = 3
+# a move may not make a face worse than this quality (or than the worst face it replaces)
+_MIN_QUALITY = 0.1
 # a move is taken when it lowers E by more than this (relative to the energy's scale)
 _GAIN = 1e-12
 
@@ -398,6 +401,15 @@ class _Optimizer:
         ti, bw, d2 = self._project_local(S, tris) if S.size else best
         return ti, bw, d2
 
+    def _quality_ok(self, old_tris, new_tris) -> bool:
+        """No new face worse than min(_MIN_QUALITY, the worst old face): the energy does not
+        see slivers, the mesh's users do."""
+        qn = triangle_quality(self.V, np.asarray(new_tris, dtype=np.int64))
+        if not qn.size:
+            return True
+        qo = triangle_quality(self.V, np.asarray(old_tris, dtype=np.int64)) if len(old_tris) else np.ones(1)
+        return bool(qn.min() > 0.0 and qn.min() >= min(_MIN_QUALITY, float(qo.min())))
+
     def _normals(self, tris):
         T = np.asarray(tris, dtype=np.int64)
         return np.cross(self.V[T[:, 1]] - self.V[T[:, 0]], self.V[T[:, 2]] - self.V[T[:, 0]])
@@ -465,7 +477,8 @@ class _Optimizer:
         n_new = self._normals(new_tris)
         new_spring = self._spring_of([(w, x) for x in nbrs])
         dE = (float(d2.sum()) - old_d2) + (new_spring - old_spring) - c_rep
-        ok = (np.einsum("ij,ij->i", n_old, n_new) > 0).all() and (np.linalg.norm(n_new, axis=1) > 0).all()
+        ok = (np.einsum("ij,ij->i", n_old, n_new) > 0).all() and \
+            self._quality_ok([self.F[f] for f in old_faces], new_tris)
         if not ok or not dE < -_GAIN:
             self._drop_vertex(w)
             self.rejected["illegal" if not ok else "energy"] += 1
@@ -499,7 +512,8 @@ class _Optimizer:
         n_new = self._normals(new_tris)
         new_spring = self._spring_of([(w, x) for x in nbrs])
         dE = (float(d2.sum()) - old_d2) + (new_spring - old_spring) + c_rep
-        ok = (np.einsum("ij,ij->i", np.repeat(n_old, 2, axis=0), n_new) > 0).all()
+        ok = (np.einsum("ij,ij->i", np.repeat(n_old, 2, axis=0), n_new) > 0).all() and \
+            self._quality_ok([self.F[f] for f in old_faces], new_tris)
         if not ok or not dE < -_GAIN:
             self._drop_vertex(w)
             self.rejected["illegal" if not ok else "energy"] += 1
@@ -527,7 +541,7 @@ class _Optimizer:
         n_new = self._normals(new_tris)
         # the new faces must face the way the old ones did (no fold)
         avg = n_old.sum(axis=0)
-        if not ((n_new @ avg) > 0).all() or not (np.linalg.norm(n_new, axis=1) > 0).all():
+        if not ((n_new @ avg) > 0).all() or not self._quality_ok([self.F[f1], self.F[f2]], new_tris):
             self.rejected["illegal"] += 1
             return False
         S = self._local(old_faces)
