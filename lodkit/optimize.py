@@ -39,9 +39,10 @@ import numpy as np
 from ._core.retile import project_local
 from ._progress import Progress
 from .errors import MeshError, OptionError
-from .evaluate import _Surface, sample_surface
+from .evaluate import sample_surface
 from .geometry import triangle_quality
 from .mesh import Mesh, as_mesh, is_open3d
+from .retile import SurfaceProjector
 
 __all__ = ["OptimizeResult", "optimize"]
 
@@ -261,7 +262,7 @@ class _Optimizer:
     def project_all(self) -> None:
         """Every sample onto the closest point of the current mesh."""
         ids, F = self.faces_array()
-        surf = _Surface(self.V, F, None, np.zeros(3))
+        surf = SurfaceProjector(self.V, F)
         face, w, dist = surf.closest(self.X)
         # the distance again in double precision from the weights
         Q = np.einsum("nk,nkj->nj", w, self.V[F[face]])

@@ -35,11 +35,10 @@ from ._core.halfedge import build
 from ._pipeline import RUN_CHUNK, prepare
 from ._progress import Progress
 from .errors import MeshError, OptionError
-from .evaluate import _Surface
 from .geometry import face_normals, triangle_quality
 from .mesh import Mesh, as_mesh, is_open3d
 
-__all__ = ["RetileResult", "retile", "face_twins"]
+__all__ = ["RetileResult", "SurfaceProjector", "retile", "face_twins"]
 
 BOUNDARY_FREE = 2                # lodkit/_core/common.pxd: boundary vertices may be removed
 # interior points are kept this far (barycentric) from the edges of the face they are on, so
@@ -56,6 +55,30 @@ _BOUNDARY_GAP = 0.3
 # the faces left are at least this good
 _FALLBACK_QUALITY = 0.2
 _REMOVAL_ANGLES = (90.0, 135.0, 170.0)
+
+
+class SurfaceProjector:
+    """Closest points on a fixed triangle surface: the face from Embree (Open3D's
+    RaycastingScene, single precision), the point on it in double precision (native)."""
+
+    def __init__(self, V: np.ndarray, F: np.ndarray):
+        import open3d as o3d
+
+        self.V = np.ascontiguousarray(V, dtype=np.float64)
+        self.F = np.ascontiguousarray(F, dtype=np.int64)
+        self.scene = o3d.t.geometry.RaycastingScene()
+        self.scene.add_triangles(o3d.core.Tensor(self.V.astype(np.float32)),
+                                 o3d.core.Tensor(self.F.astype(np.uint32)))
+
+    def closest(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(face (n,), barycentric weights (n, 3), distance (n,)) of the closest points."""
+        import open3d as o3d
+
+        P = np.ascontiguousarray(P, dtype=np.float64)
+        res = self.scene.compute_closest_points(o3d.core.Tensor(P.astype(np.float32)))
+        face = np.ascontiguousarray(res["primitive_ids"].numpy(), dtype=np.int64)
+        w, d2 = kern.closest_on_faces(P, self.V, self.F, face)
+        return face, w, np.sqrt(d2)
 
 
 @dataclass
@@ -156,7 +179,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, f
 
     # -- 2. repulsion
     t = time.perf_counter()
-    surf = _Surface(P0, F0, None, np.zeros(3))
+    surf = SurfaceProjector(P0, F0)
     from scipy.spatial import cKDTree
 
     r_face = _RADIUS * 2.0 * np.sqrt(wsum / (math.pi * n_vertices * weight))

@@ -178,7 +178,7 @@ def flip_edges(double[:, ::1] V, int[:, ::1] F, int[::1] twin, double min_dot, i
     cdef int* T = &twin[0] if m else NULL
     cdef const double* P = &V[0, 0] if V.shape[0] else NULL
     cdef bint use_lock = locked is not None
-    cdef int flips = 0, sweep, h, t, f, g, i, j, a, b, c, d, ha1, ha2, hb1, hb2, changed
+    cdef int flips = 0, _sweep, h, t, f, g, i, j, a, b, c, d, ha1, ha2, hb1, hb2, changed
     cdef double n1[3]
     cdef double n2[3]
     cdef double m1[3]
@@ -188,7 +188,7 @@ def flip_edges(double[:, ::1] V, int[:, ::1] F, int[::1] twin, double min_dot, i
     cdef double navg[3]
     cdef double qo, qn, q
     with nogil:
-        for sweep in range(max_sweeps):
+        for _sweep in range(max_sweeps):
             changed = 0
             for h in range(3 * m):
                 t = T[h]
@@ -262,7 +262,6 @@ def flip_edges(double[:, ::1] V, int[:, ::1] F, int[::1] twin, double min_dot, i
             if changed == 0:
                 break
     return flips
-
 
 
 cdef inline double closest_on_triangle(const double* p, const double* a, const double* b, const double* c,
@@ -360,3 +359,22 @@ def project_local(const double[:, ::1] X, const int64_t[::1] S, const double[:, 
                     W[i, 1] = wt[1]
                     W[i, 2] = wt[2]
     return best_arr, w_arr, d_arr
+
+
+def closest_on_faces(const double[:, ::1] X, const double[:, ::1] V, const int64_t[:, ::1] F,
+                     const int64_t[::1] face):
+    """For each point X[i], the closest point of face ``face[i]`` of (V, F): (barycentric
+    weights (n, 3), squared distance (n,))."""
+    cdef Py_ssize_t n = X.shape[0], i
+    if face.shape[0] != n:
+        raise ValueError("face must have one entry per point")
+    w_arr = np.zeros((n, 3))
+    d_arr = np.zeros(n)
+    cdef double[:, ::1] W = w_arr
+    cdef double[::1] D = d_arr
+    cdef int64_t f
+    with nogil:
+        for i in range(n):
+            f = face[i]
+            D[i] = closest_on_triangle(&X[i, 0], &V[F[f, 0], 0], &V[F[f, 1], 0], &V[F[f, 2], 0], &W[i, 0])
+    return w_arr, d_arr
