@@ -63,10 +63,14 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--mesh", action="append", choices=sorted(MESHES))
     ap.add_argument("--fractions", default="0.02,0.1")
+    ap.add_argument("--methods", default="retile,optimize",
+                    help="which of retile, optimize to run (QEM always runs; rows of the others already "
+                         "in --out are kept)")
     ap.add_argument("--out", default=str(HERE / "results" / "global_methods.json"))
     args = ap.parse_args(argv)
     names = args.mesh or list(MESHES)
     fractions = [float(x) for x in args.fractions.split(",")]
+    methods = {m.strip() for m in args.methods.split(",") if m.strip()}
     out_path = Path(args.out)
     out_path.parent.mkdir(parents=True, exist_ok=True)
     results = json.loads(out_path.read_text()) if out_path.exists() else {}
@@ -79,22 +83,24 @@ def main(argv=None) -> int:
         t_in = lodkit.topology(lodkit.Mesh(*weld_positions(src.vertices, src.faces)))
         for f in fractions:
             key = f"{name}@{f:g}"
-            row = {"input_vertices": src.n_vertices, "input_faces": src.n_faces,
-                   "input_genus": t_in.genus, "input_boundary_loops": t_in.n_boundary_loops}
+            row = results.get(key, {})
+            row.update({"input_vertices": src.n_vertices, "input_faces": src.n_faces,
+                        "input_genus": t_in.genus, "input_boundary_loops": t_in.n_boundary_loops})
             t0 = time.perf_counter()
             qem = lodkit.simplify(src, target_faces=max(4, int(round(2 * f * src.n_vertices))))
             row["qem"] = measure(src, qem.mesh, time.perf_counter() - t0, t_in)
             n = row["qem"]["vertices"]
-            for label, adapt in (("retile", 0.0), ("retile_adapt2", 2.0)):
+            for label, adapt in (("retile", 0.0), ("retile_adapt2", 2.0)) if "retile" in methods else ():
                 t0 = time.perf_counter()
                 r = retile(src, n, adapt=adapt)
                 row[label] = measure(src, r.mesh, time.perf_counter() - t0, t_in)
                 row[label]["old_vertices_kept"] = r.n_old_kept
-            t0 = time.perf_counter()
-            o = optimize(src, start=qem.mesh, n_vertices=n)
-            row["optimize"] = measure(src, o.mesh, time.perf_counter() - t0, t_in)
-            row["optimize"]["energy"] = [e["E"] for e in o.energy]
-            row["optimize"]["moves"] = o.moves
+            if "optimize" in methods:
+                t0 = time.perf_counter()
+                o = optimize(src, start=qem.mesh, n_vertices=n)
+                row["optimize"] = measure(src, o.mesh, time.perf_counter() - t0, t_in)
+                row["optimize"]["energy"] = [e["E"] for e in o.energy]
+                row["optimize"]["moves"] = o.moves
             results[key] = row
             out_path.write_text(json.dumps(results, indent=1))
             print(key, json.dumps({k: v for k, v in row.items() if isinstance(v, dict)}), flush=True)

@@ -44,11 +44,18 @@ BOUNDARY_FREE = 2                # lodkit/_core/common.pxd: boundary vertices ma
 # interior points are kept this far (barycentric) from the edges of the face they are on, so
 # that the 1-to-3 split never makes a zero-area triangle
 _EDGE_MARGIN = 1e-3
-# points whose faces' normals differ by more than ~70 degrees do not repel each other (the
-# other side of a thin sheet, a point across a sharp fold): the geodesic approximation
-_NEIGHBOUR_DOT = 0.35
+# points whose faces' normals differ by more than 120 degrees do not repel each other (the
+# other side of a thin sheet): the geodesic approximation; points across a crease of up to
+# 120 degrees still do (else they crowd on both sides of it and make slivers)
+_NEIGHBOUR_DOT = -0.5
+# after the repulsion, of two points closer than this (times the target edge length) one goes
+_MIN_GAP = 0.25
 # max_normal_angle of the removal rounds (vremove's checks; the last still refuses flips)
 _RADIUS = 1.0
+# the second flip pass: edges whose worse triangle is below this quality, between faces
+# within this many degrees
+_SLIVER_QUALITY = 0.2
+_SLIVER_FLIP_ANGLE = 60.0
 # interior points closer than this (times the target edge length) to a boundary are dropped
 _BOUNDARY_GAP = 0.3
 # the fallback collapse of a held-back old vertex prefers a new vertex as the target when
@@ -227,6 +234,19 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, f
         if n_dropped:
             X, face, w = X[~near], face[~near], w[~near]
             n_inner = X.shape[0]
+    # two points left almost on top of each other (across a fold the repulsion did not see)
+    if n_inner > 1:
+        Q = np.concatenate([X, B])
+        pairs = cKDTree(Q).query_pairs(_MIN_GAP * edge_len, output_type="ndarray")
+        drop = np.zeros(Q.shape[0], dtype=bool)
+        for i, j in pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))] if pairs.size else ():
+            if not drop[i] and not drop[j]:
+                drop[max(i, j) if max(i, j) < n_inner else min(i, j)] = True   # boundary points stay
+        drop = drop[:n_inner]
+        if drop.any() and np.count_nonzero(~drop) >= 1:
+            n_dropped += int(np.count_nonzero(drop))
+            X, face, w = X[~drop], face[~drop], w[~drop]
+            n_inner = X.shape[0]
     times["repulsion"] = time.perf_counter() - t
 
     # -- 3. mutual tessellation
@@ -275,6 +295,10 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, f
     if flip_angle > 0 and F.shape[0]:
         twin = face_twins(F)
         flips = int(kern.flip_edges(P2, F, twin, math.cos(math.radians(flip_angle)), 50))
+        # slivers (often across a crease the new points straddle): flips between faces
+        # further apart, only where the worse triangle is a sliver
+        flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE))),
+                                     20, None, _SLIVER_QUALITY))
     used = np.zeros(n0 + n_new, dtype=bool)
     used[F.reshape(-1)] = True
     # old vertices: one output vertex per input vertex (split copies weld back)
@@ -313,7 +337,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, f
             "boundary_points": int(B.shape[0]),
             "boundary_loops": len(loops),
             "boundary_corners": int(kept.size),
-            "dropped_near_boundary": n_dropped,
+            "dropped": n_dropped,
             "edge_length": float(edge_len * prep.scale),
             "removals": removals,
             "held_back": held,

@@ -165,12 +165,13 @@ cdef inline void set_twin(int* twin, int h, int t) noexcept nogil:
 
 
 def flip_edges(double[:, ::1] V, int[:, ::1] F, int[::1] twin, double min_dot, int max_sweeps,
-               const unsigned char[::1] locked=None):
+               const unsigned char[::1] locked=None, double below=2.0):
     """Flip interior edges while a flip raises min(quality) of its two triangles by more
     than 1e-9, and the two faces before and after are within ``min_dot`` (cosine) of each
     other.  ``F`` (m, 3) and ``twin`` (3 m,) (half-edge h = 3 f + i runs F[f, i] -> F[f, i+1];
     -1 on the boundary) are updated in place.  An edge between two ``locked`` vertices is
-    not flipped (nor one that would join two).  Returns the number of flips."""
+    not flipped (nor one that would join two).  Only edges whose worse triangle has a
+    quality below ``below`` are flipped (2: all).  Returns the number of flips."""
     cdef Py_ssize_t m = F.shape[0]
     if twin.shape[0] != 3 * m:
         raise ValueError("twin must have 3 m entries")
@@ -224,6 +225,8 @@ def flip_edges(double[:, ::1] V, int[:, ::1] F, int[::1] twin, double min_dot, i
                 q = tri_quality(P + 3 * b, P + 3 * a, P + 3 * d, navg)
                 if q < qo:
                     qo = q
+                if qo >= below:
+                    continue
                 qn = tri_quality(P + 3 * c, P + 3 * a, P + 3 * d, navg)
                 q = tri_quality(P + 3 * d, P + 3 * b, P + 3 * c, navg)
                 if q < qn:
