@@ -1,4 +1,6 @@
-"""Type stubs for lodkit._core.retile (Cython): the native parts of re-tiling."""
+"""Type stubs for lodkit._core.retile (Cython): the native parts of re-tiling and mesh optimisation."""
+from typing import ClassVar
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -6,6 +8,9 @@ from ..removal import RemovalKernel
 
 class RetileKernel(RemovalKernel):
     """Vertex-removal kernel of re-tiling: the max-min-quality triangulation of the hole."""
+
+    api_version: ClassVar[int]
+    star_local: ClassVar[bool]
 
 def flip_edges(V: NDArray[np.float64], F: NDArray[np.intc], twin: NDArray[np.intc], min_dot: float,
                max_sweeps: int, locked: NDArray[np.uint8] | None = None, below: float = 2.0) -> int:
