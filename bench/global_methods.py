@@ -6,7 +6,8 @@ the input's vertices (issue 16's "Done means").
 For each mesh and fraction f: QEM (``lodkit.simplify``, target 2 f n faces) sets the vertex
 count n_q; then
 
-* retile to n_q vertices (adapt 0, and adapt 2 for the curvature-adaptive density);
+* retile to n_q vertices (adapt 0; adapt 2 for the curvature-adaptive density; features=40
+  for crease lines kept);
 * optimize with the QEM result as its start and ``n_vertices=n_q`` (the same count, kept
   within 1% by annealing c_rep): both "lower error than QEM at the same count" and "as a
   post-process it lowers QEM's error" are read off this one run.
@@ -90,9 +91,10 @@ def main(argv=None) -> int:
             qem = lodkit.simplify(src, target_faces=max(4, int(round(2 * f * src.n_vertices))))
             row["qem"] = measure(src, qem.mesh, time.perf_counter() - t0, t_in)
             n = row["qem"]["vertices"]
-            for label, adapt in (("retile", 0.0), ("retile_adapt2", 2.0)) if "retile" in methods else ():
+            variants = (("retile", 0.0, None), ("retile_adapt2", 2.0, None), ("retile_features40", 0.0, 40.0))
+            for label, adapt, features in variants if "retile" in methods else ():
                 t0 = time.perf_counter()
-                r = retile(src, n, adapt=adapt)
+                r = retile(src, n, adapt=adapt, features=features)
                 row[label] = measure(src, r.mesh, time.perf_counter() - t0, t_in)
                 row[label]["old_vertices_kept"] = r.n_old_kept
             if "optimize" in methods:
@@ -114,7 +116,7 @@ def table(results) -> str:
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for key, row in results.items():
         q = row["qem"]
-        for label in ("qem", "retile", "retile_adapt2", "optimize"):
+        for label in ("qem", "retile", "retile_adapt2", "retile_features40", "optimize"):
             r = row.get(label)
             if r is None:
                 continue

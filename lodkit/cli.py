@@ -201,6 +201,8 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("--vertices", type=_count, required=True, metavar="N", help="number of new vertices (>= 4)")
     p.add_argument("--adapt", type=_non_negative, default=0.0, metavar="A",
                    help="density follows curvature: 1 + A * curvature / mean (default: 0, uniform)")
+    p.add_argument("--features", type=_positive, metavar="DEG",
+                   help="keep creases: edges whose faces turn by more than DEG degrees (default: off)")
     p.add_argument("--iterations", type=_seed, default=30, metavar="K", help="repulsion steps (default: 30)")
     p.add_argument("--seed", type=_seed, default=0, metavar="S", help="random seed (default: 0)")
     p.add_argument("--quiet", "-q", action="store_true", help="no summary line")
@@ -402,6 +404,7 @@ def _run_retile(args) -> int:
     _check_output(args.output)
     mesh = load(args.input)
     result = retile(mesh, args.vertices, adapt=args.adapt, iterations=args.iterations, seed=args.seed,
+                    features=args.features,
                     progress=not args.quiet and _is_tty(sys.stderr))
     save(result.mesh, args.output)
     if not args.quiet:

@@ -114,7 +114,8 @@ class RetileResult:
 
 
 def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, flip_angle: float = 25.0,
-           corner_angle: float = 30.0, seed: int = 0, progress: bool = False) -> RetileResult:
+           corner_angle: float = 30.0, features: float | None = None, seed: int = 0,
+           progress: bool = False) -> RetileResult:
     """Re-tile ``mesh`` with about ``n_vertices`` new, evenly spread vertices (Turk 1992).
 
     n_vertices : number of new vertices (>= 4); boundary loops take a share proportional
@@ -126,6 +127,9 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, f
                  (0 turns them off)
     corner_angle : boundary vertices where the boundary turns by more than this (degrees)
                  are kept as they are (they count towards ``n_vertices``)
+    features   : None (default), or an angle in degrees: edges whose faces' normals differ
+                 by more than it are creases; crease lines get their own points (like
+                 boundaries), their ends and sharp turns stay, and the removal keeps them
     seed       : the random points come from ``numpy.random.default_rng(seed)``
 
     The output keeps the input's topology: the old vertices go by vertex removal with the
@@ -143,6 +147,10 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, f
     flip_angle = _number("flip_angle", flip_angle)
     if not 0.0 <= flip_angle < 90.0:
         raise OptionError(f"flip_angle must be in [0, 90) degrees, got {flip_angle!r}")
+    if features is not None:
+        features = _number("features", features)
+        if not 0.0 < features < 180.0:
+            raise OptionError(f"features must be an angle in (0, 180) degrees, got {features!r}")
     corner_angle = _number("corner_angle", corner_angle)
     if not 0.0 < corner_angle <= 180.0:
         raise OptionError(f"corner_angle must be in (0, 180] degrees, got {corner_angle!r}")
@@ -171,8 +179,11 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, f
             weight = 1.0 + adapt * kf / mean
     wsum = float((area0 * weight).sum())
     edge_len = math.sqrt(2.0 * wsum / (math.sqrt(3.0) * n_vertices))   # equilateral, 2 faces per vertex
-    loops = _boundary_loops(F0, np.asarray(hm.twins))
-    B, bface, bw, kept = _boundary_points(P0, F0, loops, edge_len, rng, corner_angle)
+    twins0 = np.asarray(hm.twins)
+    loops = _boundary_loops(F0, twins0)
+    lines, creases = ([], []) if features is None else _crease_lines(P0, F0, twins0,
+                                                                      math.cos(math.radians(features)))
+    B, bface, bw, kept, bh, bt = _boundary_points(P0, F0, loops + creases, edge_len, rng, corner_angle, lines)
     n_inner = n_vertices - B.shape[0] - kept.size
     if n_inner < 1:
         raise OptionError(f"n_vertices={n_vertices} is too few: the boundary loops alone take {B.shape[0] + kept.size} "
@@ -227,8 +238,8 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, f
     # an interior point the repulsion pushed over a boundary was projected back onto it:
     # it would make slivers with the boundary points, so it goes
     n_dropped = 0
-    if loops and n_inner:
-        dense = _boundary_samples(P0, F0, loops, edge_len / 8.0)
+    if (loops or creases or lines) and n_inner:
+        dense = _boundary_samples(P0, F0, loops + creases + lines, edge_len / 8.0)
         near = cKDTree(dense).query(X)[0] < _BOUNDARY_GAP * edge_len
         n_dropped = int(np.count_nonzero(near))
         if n_dropped:
@@ -251,9 +262,17 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, f
 
     # -- 3. mutual tessellation
     t = time.perf_counter()
-    all_face = np.concatenate([face, bface]).astype(np.int64)
-    all_w = np.concatenate([w, bw])
-    faces2 = _tessellate(F0, n0, all_face, all_w)
+    # a crease point lies on an edge with a face on each side: it splits both
+    on = twins0[bh] >= 0 if bh.size else np.zeros(0, dtype=bool)
+    tw = twins0[bh[on]]
+    w2 = np.zeros((tw.size, 3))
+    w2[np.arange(tw.size), tw % 3] = bt[on]
+    w2[np.arange(tw.size), (tw % 3 + 1) % 3] = 1.0 - bt[on]
+    nX = X.shape[0]
+    all_face = np.concatenate([face, bface, tw // 3]).astype(np.int64)
+    all_w = np.concatenate([w, bw, w2])
+    all_pid = np.concatenate([np.arange(nX + B.shape[0]), nX + np.flatnonzero(on)]).astype(np.int64)
+    faces2 = _tessellate(F0, n0, all_face, all_w, all_pid)
     new_pos = np.concatenate([X, B])
     P2 = np.ascontiguousarray(np.concatenate([P0, new_pos]))
     times["tessellate"] = time.perf_counter() - t
@@ -266,7 +285,13 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, f
     fixed[n0:] = 1
     fixed[kept] = 1                                                    # boundary corners stay
     fixed[:n0][np.asarray(hm.locked_vertices, dtype=bool)[:n0]] = 1     # non-manifold copies stay
-    kernel = kern.RetileKernel()
+    kernel = kern.RetileKernel(-2.0 if features is None else math.cos(math.radians(features)))
+    crease_vertex = None
+    if features is not None:
+        crease_vertex = np.zeros(n0 + n_new, dtype=np.uint8)
+        crease_vertex[n0 + nX + np.flatnonzero(on)] = 1
+        crease_vertex[np.unique(F0.reshape(-1)[np.concatenate(lines + creases)])
+                      if lines or creases else np.zeros(0, dtype=np.int64)] = 1
     removals = 0
     held = {}
     # later rounds (fresh removal state) for the vertices the first one held back: new faces
@@ -294,11 +319,11 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, f
     flips = 0
     if flip_angle > 0 and F.shape[0]:
         twin = face_twins(F)
-        flips = int(kern.flip_edges(P2, F, twin, math.cos(math.radians(flip_angle)), 50))
+        flips = int(kern.flip_edges(P2, F, twin, math.cos(math.radians(flip_angle)), 50, crease_vertex))
         # slivers (often across a crease the new points straddle): flips between faces
         # further apart, only where the worse triangle is a sliver
         flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE))),
-                                     20, None, _SLIVER_QUALITY))
+                                     20, crease_vertex, _SLIVER_QUALITY))
     used = np.zeros(n0 + n_new, dtype=bool)
     used[F.reshape(-1)] = True
     # old vertices: one output vertex per input vertex (split copies weld back)
@@ -337,6 +362,8 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, f
             "boundary_points": int(B.shape[0]),
             "boundary_loops": len(loops),
             "boundary_corners": int(kept.size),
+            "crease_lines": len(lines) + len(creases),
+            "crease_points": int(np.count_nonzero(on)),
             "dropped": n_dropped,
             "edge_length": float(edge_len * prep.scale),
             "removals": removals,
@@ -437,15 +464,16 @@ def _boundary_loops(F: np.ndarray, twins: np.ndarray) -> list[np.ndarray]:
     return loops
 
 
-def _boundary_points(P, F, loops, spacing, rng, corner_angle):
-    """Points along each boundary loop: its corners (vertices where the boundary turns by
-    more than ``corner_angle`` degrees) stay as they are, the stretches between them get
-    points spread evenly by arc length (a loop without corners: random phase).  Returns
-    (points (b, 3), face (b,), barycentric weights (b, 3), corner vertex slots (c,))."""
-    pts, faces, ws, corners = [], [], [], []
+def _boundary_points(P, F, loops, spacing, rng, corner_angle, open_lines=()):
+    """Points along each boundary loop (and crease line): its corners (vertices where the
+    line turns by more than ``corner_angle`` degrees; an open line's two ends) stay as they
+    are, the stretches between them get points spread evenly by arc length (a loop without
+    corners: random phase).  Returns (points (b, 3), face (b,), barycentric weights (b, 3),
+    corner vertex slots (c,), half-edge (b,), parameter along it (b,))."""
+    pts, faces, ws, corners, hs, ts = [], [], [], [], [], []
     Ff = F.reshape(-1)
     cos_corner = math.cos(math.radians(corner_angle))
-    for loop in loops:
+    for loop, closed in [(x, True) for x in loops] + [(x, False) for x in open_lines]:
         a = Ff[loop]
         b = Ff[3 * (loop // 3) + (loop % 3 + 1) % 3]
         d = P[b] - P[a]
@@ -454,17 +482,26 @@ def _boundary_points(P, F, loops, spacing, rng, corner_angle):
         if not length > 0:
             continue
         cum = np.concatenate([[0.0], np.cumsum(seg)])
-        cidx = _corners(P[a], cum, length, spacing, cos_corner)
-        s = []
-        for c0, c1 in zip(cidx, np.r_[cidx[1:], cidx[:1] + loop.size]):
+        if not closed:
+            corners.append(np.array([a[0], b[-1]]))
+            k = int(round(length / spacing))
+            if k < 2:
+                continue
+            s = np.arange(1, k) * (length / k)
+            s = [s]
+            cidx = np.zeros(0, dtype=np.int64)
+        else:
+            cidx = _corners(P[a], cum, length, spacing, cos_corner)
+            s = []
+        for c0, c1 in zip(cidx, np.r_[cidx[1:], cidx[:1] + loop.size]) if closed else ():
             s0, s1 = cum[c0], cum[c1] if c1 <= loop.size else cum[c1 - loop.size] + length
             k = int(round((s1 - s0) / spacing))             # stretches, k - 1 inner points
             if k >= 2:
                 s.append(np.mod(s0 + np.arange(1, k) * ((s1 - s0) / k), length))
-        if cidx.size + sum(x.size for x in s) < 3:          # no corners, or too few points
+        if closed and cidx.size + sum(x.size for x in s) < 3:     # no corners, or too few points
             k = max(3, int(round(length / spacing)))
             s = [(np.arange(k) + rng.random()) * (length / k)]
-        else:
+        elif closed:
             corners.append(a[cidx])
             if not s:
                 continue
@@ -480,11 +517,15 @@ def _boundary_points(P, F, loops, spacing, rng, corner_angle):
         w[np.arange(n), (i + 1) % 3] = tpar
         faces.append(f)
         ws.append(w)
+        hs.append(h)
+        ts.append(tpar)
         pts.append(np.einsum("nk,nkj->nj", w, P[F[f]]))
-    cs = np.concatenate(corners).astype(np.int64) if corners else np.zeros(0, dtype=np.int64)
+    cs = np.unique(np.concatenate(corners)).astype(np.int64) if corners else np.zeros(0, dtype=np.int64)
     if not pts:
-        return np.zeros((0, 3)), np.zeros(0, dtype=np.int64), np.zeros((0, 3)), cs
-    return np.concatenate(pts), np.concatenate(faces), np.concatenate(ws), cs
+        z = np.zeros(0, dtype=np.int64)
+        return np.zeros((0, 3)), z, np.zeros((0, 3)), cs, z, np.zeros(0)
+    return (np.concatenate(pts), np.concatenate(faces), np.concatenate(ws), cs, np.concatenate(hs),
+            np.concatenate(ts))
 
 
 def _corners(pts, cum, length, spacing, cos_corner):
@@ -517,6 +558,53 @@ def _corners(pts, cum, length, spacing, cos_corner):
         if all(min(abs(s[i] - s[j]), length - abs(s[i] - s[j])) >= spacing for j in chosen):
             chosen.append(int(i))
     return np.asarray(sorted(chosen), dtype=np.int64)
+
+
+def _crease_lines(P, F, twins, cos_feature):
+    """Crease lines: chains of interior edges whose two faces' normals differ by more than
+    acos(cos_feature), split at vertices where other than two crease edges meet.  Returns
+    (open lines, closed loops), each an array of half-edges in walking order."""
+    n, _ = face_normals(P, F)
+    h = np.arange(twins.size)
+    t = np.asarray(twins)
+    sel = (t > h) & (np.einsum("ij,ij->i", n[h // 3], n[np.maximum(t, 0) // 3]) < cos_feature)
+    hc = h[sel]
+    if hc.size == 0:
+        return [], []
+    Ff = F.reshape(-1)
+    a = Ff[hc]
+    b = Ff[3 * (hc // 3) + (hc % 3 + 1) % 3]
+    adj = {}
+    for e, (x, y) in enumerate(zip(a.tolist(), b.tolist())):
+        adj.setdefault(x, []).append(e)
+        adj.setdefault(y, []).append(e)
+    used = np.zeros(hc.size, dtype=bool)
+
+    def walk(x, e):
+        out = []
+        while True:
+            used[e] = True
+            if a[e] == x:
+                out.append(int(hc[e]))
+                y = int(b[e])
+            else:
+                out.append(int(t[hc[e]]))           # the twin runs x -> y
+                y = int(a[e])
+            nxt = [g for g in adj[y] if not used[g]]
+            if len(adj[y]) != 2 or not nxt:
+                return out
+            x, e = y, nxt[0]
+
+    lines, loops = [], []
+    for x, es in adj.items():
+        if len(es) != 2:
+            for e in es:
+                if not used[e]:
+                    lines.append(np.asarray(walk(x, e), dtype=np.int64))
+    for e in range(hc.size):
+        if not used[e]:
+            loops.append(np.asarray(walk(int(a[e]), e), dtype=np.int64))
+    return lines, loops
 
 
 def _boundary_samples(P, F, loops, step):
@@ -571,9 +659,10 @@ def _collapse_leftovers(hm, P, n0: int, fixed: np.ndarray) -> int:
     return done
 
 
-def _tessellate(F0: np.ndarray, n0: int, face: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """The faces of ``F0`` with new point p (vertex n0 + p, on face ``face[p]`` at
-    barycentric ``w[p]``) inserted: a point inside a local triangle splits it in three, a
+def _tessellate(F0: np.ndarray, n0: int, face: np.ndarray, w: np.ndarray, pid: np.ndarray) -> np.ndarray:
+    """The faces of ``F0`` with each new point entry p (vertex n0 + pid[p], on face
+    ``face[p]`` at barycentric ``w[p]``; a point on an edge has an entry for each face)
+    inserted: a point inside a local triangle splits it in three, a
     point on a local edge splits the triangle(s) on that edge in two each."""
     order = np.argsort(face, kind="stable")
     fs = face[order]
@@ -591,7 +680,7 @@ def _tessellate(F0: np.ndarray, n0: int, face: np.ndarray, w: np.ndarray) -> np.
         tris = [[0, 1, 2]]
         for p in ids:
             uv.append((float(w[p, 1]), float(w[p, 2])))
-            gid.append(n0 + int(p))
+            gid.append(n0 + int(pid[p]))
             _insert(uv, tris, len(uv) - 1)
         extra.extend([[gid[a], gid[b], gid[c]] for a, b, c in tris])
     out = np.concatenate([F0[keep], np.asarray(extra, dtype=np.int32).reshape(-1, 3)])

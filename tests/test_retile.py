@@ -209,3 +209,28 @@ def test_bunny_small():
     assert t.is_manifold
     assert (t.genus, t.n_boundary_loops) == (t0.genus, t0.n_boundary_loops)
     assert r.report["quality_mean"] >= 0.85
+
+
+def test_features_keep_the_creases_of_a_cube():
+    import open3d as o3d
+
+    b = o3d.geometry.TriangleMesh.create_box(1, 1, 1).subdivide_midpoint(3)
+    src = lodkit.Mesh(*weld_positions(np.asarray(b.vertices), np.asarray(b.triangles)))
+    corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
+
+    def corner_gap(m):
+        return np.linalg.norm(m.vertices[None] - corners[:, None], axis=2).min(axis=1).max()
+
+    plain = retile(src, 150)
+    sharp = retile(src, 150, features=40.0)
+    assert corner_gap(plain.mesh) > 0.05                 # uniform points round the corners off
+    assert corner_gap(sharp.mesh) == 0.0                 # crease ends stay where they are
+    assert sharp.report["crease_lines"] == 12
+    # every vertex on the cube's surface and every edge of the cube kept: no face leaves it
+    d = lodkit.evaluate(src, sharp.mesh, samples=5000).distance
+    assert d.hausdorff < 1e-9
+    t = lodkit.topology(sharp.mesh)
+    assert t.is_manifold and t.genus == 0
+    assert sharp.report["quality_mean"] >= MEAN_QUALITY and sharp.report["quality_min"] >= MIN_QUALITY
+    with pytest.raises(OptionError, match="features"):
+        retile(src, 50, features=0)

@@ -48,6 +48,13 @@ cdef class RetileKernel(RemovalKernel):
     star_local = True
     cdef double best[MAX_VALENCE * MAX_VALENCE]
     cdef int choice[MAX_VALENCE * MAX_VALENCE]
+    cdef double fn[3 * MAX_VALENCE]
+    # feature edges: an edge (v, link[i]) of a closed star whose two faces' unit normals have
+    # a dot product below this is a crease; -2: none (the default)
+    cdef double cos_feature
+
+    def __init__(self, double cos_feature=-2.0):
+        self.cos_feature = cos_feature
 
     cdef int evaluate(self, const Star* s, Removal* r) noexcept nogil:
         cdef int k = s.k
@@ -59,6 +66,7 @@ cdef class RetileKernel(RemovalKernel):
         cdef double b[3]
         cdef double c[3]
         cdef int i, j, m, gap, nf, n_out
+        cdef int fa = -1, fb = -1, n_feat = 0
         cdef double q, v, bestv
         if k < 3:
             return KERNEL_VETO
@@ -73,6 +81,22 @@ cdef class RetileKernel(RemovalKernel):
             N[0] += c[0]
             N[1] += c[1]
             N[2] += c[2]
+            q = norm3(c)
+            self.fn[3 * i] = c[0] / q if q > 0.0 else 0.0
+            self.fn[3 * i + 1] = c[1] / q if q > 0.0 else 0.0
+            self.fn[3 * i + 2] = c[2] / q if q > 0.0 else 0.0
+        # a vertex on a crease (exactly two feature edges, to link[fa] and link[fb]): the hole
+        # must keep the crease as the diagonal fa-fb (chords crossing it are not allowed)
+        if s.closed and self.cos_feature > -2.0:
+            for i in range(k):
+                if dot3(&self.fn[3 * ((i + k - 1) % k)], &self.fn[3 * i]) < self.cos_feature:
+                    n_feat += 1
+                    if fa < 0:
+                        fa = i
+                    else:
+                        fb = i
+            if n_feat != 0 and n_feat != 2:
+                return KERNEL_VETO
         if norm3(N) <= 0.0:
             return KERNEL_VETO
         for i in range(k - 1):
@@ -82,6 +106,9 @@ cdef class RetileKernel(RemovalKernel):
                 j = i + gap
                 bestv = -2.0
                 self.choice[i * MAX_VALENCE + j] = -1
+                if n_feat == 2 and ((i < fa < j < fb) or (fa < i < fb < j)):
+                    self.best[i * MAX_VALENCE + j] = -2.0      # the chord i-j crosses the crease
+                    continue
                 for m in range(i + 1, j):
                     q = tri_quality(P + st * s.link[i], P + st * s.link[m], P + st * s.link[j], N)
                     v = q
