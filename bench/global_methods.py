@@ -94,7 +94,11 @@ def main(argv=None) -> int:
             variants = (("retile", 0.0, None), ("retile_adapt2", 2.0, None), ("retile_features40", 0.0, 40.0))
             for label, adapt, features in variants if "retile" in methods else ():
                 t0 = time.perf_counter()
-                r = retile(src, n, adapt=adapt, features=features)
+                try:
+                    r = retile(src, n, adapt=adapt, features=features)
+                except lodkit.LodkitError as exc:       # e.g. more crease points than the budget
+                    row[label] = {"error": str(exc)}
+                    continue
                 row[label] = measure(src, r.mesh, time.perf_counter() - t0, t_in)
                 row[label]["old_vertices_kept"] = r.n_old_kept
             if "optimize" in methods:
@@ -119,6 +123,9 @@ def table(results) -> str:
         for label in ("qem", "retile", "retile_adapt2", "retile_features40", "optimize"):
             r = row.get(label)
             if r is None:
+                continue
+            if "error" in r:
+                lines.append(f"| {key} | {label} | - | - | - | - | - | - | - | - | - | {r['error'][:60]} |")
                 continue
             topo = ("kept" if r["topology_kept"] else "changed") + ("" if r["manifold"] else ", non-manifold")
             lines.append(

@@ -186,8 +186,9 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, f
     B, bface, bw, kept, bh, bt = _boundary_points(P0, F0, loops + creases, edge_len, rng, corner_angle, lines)
     n_inner = n_vertices - B.shape[0] - kept.size
     if n_inner < 1:
-        raise OptionError(f"n_vertices={n_vertices} is too few: the boundary loops alone take {B.shape[0] + kept.size} "
-                          f"points; ask for more vertices")
+        raise OptionError(f"n_vertices={n_vertices} is too few: the boundary loops"
+                          f"{' and crease lines' if features is not None else ''} alone take "
+                          f"{B.shape[0] + kept.size} points; ask for more vertices")
     face, w = _sample(area0 * weight, n_inner, rng)
     w = _off_edges(w)
     X = np.einsum("nk,nkj->nj", w, P0[F0[face]])
