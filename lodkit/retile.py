@@ -1,22 +1,26 @@
 """``retile()``: re-tiling polygonal surfaces (Turk 1992), the lecture's four steps.
 
 1. sample:     ``n_vertices`` random points on the surface, area-weighted (``adapt > 0``:
-               weighted by 1 + adapt * normalised curvature too); boundary loops get their
-               share of points spread evenly along them by arc length
+               weighted by 1 + adapt * normalised curvature too); boundary loops (and,
+               with ``features=``, crease lines) get their share of points spread evenly
+               along them by arc length, their corners kept
 2. repulsion:  each interior point is pushed away from its neighbours within a radius
                derived from the local point density, the step taken in the tangent plane of
                the face it lies on and the result projected back onto the closest point of
                the surface (Embree, through Open3D); neighbourhoods from a KD-tree
-               (scipy's cKDTree) restricted to points whose faces face the same way, an
-               approximation of the geodesic neighbourhood (docs/retile.md)
-3. tessellate: the new points are inserted into the faces that hold them (1-to-3 splits,
-               1-to-2 on boundary edges): the mutual tessellation
+               (scipy's cKDTree) restricted to points whose faces' normals are within
+               120 degrees, an approximation of the geodesic neighbourhood (docs/retile.md)
+3. tessellate: the new points are inserted into the faces that hold them (1-to-3 splits;
+               1-to-2 on boundary edges, on both faces of a crease edge): the mutual
+               tessellation
 4. remove:     the old vertices are removed one by one by lodkit's vertex-removal driver
                (lodkit._core.vremove) with lodkit._core.retile.RetileKernel, which fills
                each hole with its max-min-quality triangulation; the driver's checks keep
                the topology (link condition, no flipped faces).  New points are fixed.
+               Old vertices still left go by a legal collapse into a neighbour.
 
-Then edge flips between nearly coplanar faces raise the smaller quality of each pair
+Then edge flips between nearly coplanar faces (and, for slivers, faces within 60 degrees)
+raise the smaller quality of each pair
 (lodkit._core.retile.flip_edges).  Attributes (normals, colours, uvs) are interpolated
 barycentrically on the input face a new point lies on.
 """
