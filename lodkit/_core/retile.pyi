@@ -11,6 +11,9 @@ class RetileKernel(RemovalKernel):
 
     api_version: ClassVar[int]
     star_local: ClassVar[bool]
+    def __init__(self, cos_feature: float = -2.0) -> None:
+        """cos_feature: edges whose faces' unit normals have a smaller dot product are
+        creases the hole must keep (-2: none)."""
 
 def flip_edges(V: NDArray[np.float64], F: NDArray[np.intc], twin: NDArray[np.intc], min_dot: float,
                max_sweeps: int, locked: NDArray[np.uint8] | None = None, below: float = 2.0) -> int:
