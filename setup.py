@@ -8,7 +8,7 @@ from setuptools import Extension, setup
 
 MODULES = ["heap", "halfedge", "chain", "quadric", "fields", "edge", "triangle", "passes", "decimate",
            "qem_kernel", "melod_kernel", "curvature_kernel", "retriangulate", "vremove", "schroeder_kernel",
-           "volume_kernel", "cluster"]
+           "volume_kernel", "cluster", "retile"]
 # the public C interface plugins cimport: lodkit/kernel.pxd, lodkit/removal.pxd (lodkit.kernel, ...)
 PUBLIC_MODULES = ["kernel", "removal"]
 # LODKIT_BUILD_ONLY=a,b builds only those modules (development: others may be mid-edit)

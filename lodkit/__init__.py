@@ -13,7 +13,9 @@ from .errors import LodkitError, MeshError, MeshIOError, MetricError, OptionErro
 from .evaluate import Evaluation, Evaluator, evaluate
 from .io import load, save
 from .mesh import Mesh
+from .optimize import OptimizeResult, optimize
 from .progressive import ProgressiveMesh, progressive
+from .retile import RetileResult, retile
 from .topology import TopologyReport, topology
 from .version import __version__ as __version__
 
@@ -27,8 +29,10 @@ __all__ = [
     "MeshError",
     "MeshIOError",
     "MetricError",
+    "OptimizeResult",
     "OptionError",
     "ProgressiveMesh",
+    "RetileResult",
     "SimplifyResult",
     "TopologyReport",
     "UnknownMetricError",
@@ -37,8 +41,10 @@ __all__ = [
     "evaluate",
     "load",
     "metrics",
+    "optimize",
     "point_curvature",
     "progressive",
+    "retile",
     "save",
     "simplify",
     "topology",

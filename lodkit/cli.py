@@ -1,5 +1,5 @@
-"""The ``lodkit`` command: ``simplify``, ``info``, ``metrics``, ``demo``, ``evaluate``, ``compare``, ``lods``
-and ``cluster``.
+"""The ``lodkit`` command: ``simplify``, ``info``, ``metrics``, ``demo``, ``evaluate``, ``compare``, ``lods``,
+``cluster``, ``retile`` and ``optimize``.
 
 Every failure the user can cause (a missing or unreadable file, a bad option, a mesh
 lodkit cannot use) prints one line ``lodkit: error: ...`` on standard error and exits
@@ -161,7 +161,8 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("--metrics", default="qem", metavar="NAMES",
                    help="comma-separated lodkit metrics (default: qem); 'lodkit metrics' lists them")
     p.add_argument("--peers", default="", metavar="NAMES",
-                   help="comma-separated peer libraries: open3d, fast_simplification, pyfqmr, pymeshlab")
+                   help="comma-separated peer libraries: open3d, fast_simplification, pyfqmr, pymeshlab; "
+                        "or lodkit's global methods retile, optimize")
     p.add_argument("--ratios", default="0.5,0.1,0.02", type=_ratio_list, metavar="R,R,...",
                    help="fractions of the faces to keep (default: 0.5,0.1,0.02)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (created if missing)")
@@ -194,6 +195,40 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("--absolute", action="store_true", help="--cell-size and the reported error are in model units")
     p.add_argument("--quiet", "-q", action="store_true", help="no summary line")
     p.set_defaults(run=_run_cluster)
+
+    p = sub.add_parser("retile", help="re-tile a mesh file with evenly spread new vertices (Turk 1992)",
+                       description="Spread N new vertices evenly over the surface of IN by repulsion, "
+                                   "insert them and remove the old vertices (docs/retile.md); the result "
+                                   "has well-shaped triangles and the input's topology.")
+    p.add_argument("input", metavar="IN", help="input mesh file")
+    p.add_argument("output", metavar="OUT", help="output mesh file")
+    p.add_argument("--vertices", type=_count, required=True, metavar="N", help="number of new vertices (>= 4)")
+    p.add_argument("--adapt", type=_non_negative, default=0.0, metavar="A",
+                   help="density follows curvature: 1 + A * curvature / mean (default: 0, uniform)")
+    p.add_argument("--features", type=_positive, metavar="DEG",
+                   help="keep creases: edges whose faces turn by more than DEG degrees (default: off)")
+    p.add_argument("--iterations", type=_seed, default=30, metavar="K", help="repulsion steps (default: 30)")
+    p.add_argument("--seed", type=_seed, default=0, metavar="S", help="random seed (default: 0)")
+    p.add_argument("--quiet", "-q", action="store_true", help="no summary line")
+    p.set_defaults(run=_run_retile)
+
+    p = sub.add_parser("optimize", help="mesh optimisation: minimise distance + vertex count + springs "
+                                        "(Hoppe et al. 1993)",
+                       description="Fit a mesh to points sampled on IN by alternating least-squares vertex "
+                                   "positions with edge collapses, splits and swaps (docs/optimize.md). "
+                                   "Starts from --start, or from lodkit's QEM result at --vertices.")
+    p.add_argument("input", metavar="IN", help="input mesh file (the original surface)")
+    p.add_argument("output", metavar="OUT", help="output mesh file")
+    p.add_argument("--vertices", type=_count, metavar="N", help="aim for N vertices (c_rep is annealed)")
+    p.add_argument("--start", metavar="FILE", help="the mesh to start from (e.g. a simplify result)")
+    p.add_argument("--c-rep", type=_non_negative, metavar="C", help="cost of a vertex (default: 1e-5, or "
+                   "estimated with --vertices)")
+    p.add_argument("--spring", type=_non_negative, default=None, metavar="K", help="spring constant (default: 1e-8)")
+    p.add_argument("--iterations", type=_seed, default=6, metavar="K", help="outer iterations (default: 6)")
+    p.add_argument("--samples", type=_count, metavar="N", help="points sampled on IN (default: see docs)")
+    p.add_argument("--seed", type=_seed, default=0, metavar="S", help="random seed (default: 0)")
+    p.add_argument("--quiet", "-q", action="store_true", help="no summary line nor progress bar")
+    p.set_defaults(run=_run_optimize)
     return parser
 
 
@@ -363,6 +398,43 @@ def _run_cluster(args) -> int:
         print(f"{args.input}: {_reduction(mesh, out)}, cell {result.cell_size:.3g} {unit}, "
               f"grid {'x'.join(map(str, result.report['grid']))}, error {result.error:.3g} {unit}, "
               f"{result.elapsed:.2f} s -> {args.output}")
+    return EXIT_OK
+
+
+def _run_retile(args) -> int:
+    from . import load, save
+    from .retile import retile
+
+    _check_output(args.output)
+    mesh = load(args.input)
+    result = retile(mesh, args.vertices, adapt=args.adapt, iterations=args.iterations, seed=args.seed,
+                    features=args.features,
+                    progress=not args.quiet and _is_tty(sys.stderr))
+    save(result.mesh, args.output)
+    if not args.quiet:
+        rep = result.report
+        print(f"{args.input}: {_reduction(mesh, result.mesh)}, triangle quality mean {rep['quality_mean']:.3f} "
+              f"min {rep['quality_min']:.3f}, {result.elapsed:.2f} s -> {args.output}")
+    return EXIT_OK
+
+
+def _run_optimize(args) -> int:
+    from . import load, save
+    from .optimize import DEFAULT_SPRING, optimize
+
+    _check_output(args.output)
+    mesh = load(args.input)
+    start = load(args.start) if args.start else None
+    result = optimize(mesh, n_vertices=args.vertices, c_rep=args.c_rep, start=start,
+                      spring=DEFAULT_SPRING if args.spring is None else args.spring,
+                      samples=args.samples, iterations=args.iterations, seed=args.seed,
+                      progress=not args.quiet and _is_tty(sys.stderr))
+    save(result.mesh, args.output)
+    if not args.quiet:
+        e0, e1 = result.energy[0]["E"], result.energy[-1]["E"]
+        moves = ", ".join(f"{n} {k}s" for k, n in result.moves.items())
+        print(f"{args.input}: {_reduction(mesh, result.mesh)}, energy {e0:.4g} -> {e1:.4g} "
+              f"({len(result.energy) - 1} iterations; {moves}), {result.elapsed:.2f} s -> {args.output}")
     return EXIT_OK
 
 

@@ -111,6 +111,22 @@ def _peer_pymeshlab(V, F, C, target):
     return np.asarray(m.vertex_matrix(), dtype=np.float64), np.asarray(m.face_matrix(), dtype=np.int64), None, seconds
 
 
+def _lodkit_retile(V, F, C, target):
+    from .retile import retile
+
+    t0 = time.perf_counter()
+    out = retile(Mesh(V, F, colors=C), max(4, int(target) // 2)).mesh
+    return out.vertices, out.faces.astype(np.int64), out.colors, time.perf_counter() - t0
+
+
+def _lodkit_optimize(V, F, C, target):
+    from .optimize import optimize
+
+    t0 = time.perf_counter()
+    out = optimize(Mesh(V, F), n_vertices=max(4, int(target) // 2)).mesh
+    return out.vertices, out.faces.astype(np.int64), None, time.perf_counter() - t0
+
+
 #: peer name -> (module to import, pip package, adapter, what is called). The adapters are
 #: minimal on purpose (bench/methods.py has the benchmark's fuller ones; the package cannot import bench/).
 PEERS = {
@@ -122,6 +138,10 @@ PEERS = {
                "Simplify.simplify_mesh(target_count=N, aggressiveness=7, preserve_border=True)"),
     "pymeshlab": ("pymeshlab", "pymeshlab", _peer_pymeshlab,
                   "MeshSet.meshing_decimation_quadric_edge_collapse(targetfacenum=N)"),
+    # lodkit's global strategies (no face target: asked for N/2 vertices, about N faces)
+    "retile": ("lodkit", "lodkit", _lodkit_retile, "lodkit.retile(mesh, n_vertices=N/2) (Turk 1992)"),
+    "optimize": ("lodkit", "lodkit", _lodkit_optimize,
+                 "lodkit.optimize(mesh, n_vertices=N/2) (Hoppe et al. 1993, from a QEM start)"),
 }
 
 

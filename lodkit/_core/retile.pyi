@@ -1,0 +1,28 @@
+"""Type stubs for lodkit._core.retile (Cython): the native parts of re-tiling and mesh optimisation."""
+from typing import ClassVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..removal import RemovalKernel
+
+class RetileKernel(RemovalKernel):
+    """Vertex-removal kernel of re-tiling: the max-min-quality triangulation of the hole."""
+
+    api_version: ClassVar[int]
+    star_local: ClassVar[bool]
+    def __init__(self, cos_feature: float = -2.0) -> None:
+        """cos_feature: edges whose faces' unit normals have a smaller dot product are
+        creases the hole must keep (-2: none)."""
+
+def flip_edges(V: NDArray[np.float64], F: NDArray[np.intc], twin: NDArray[np.intc], min_dot: float,
+               max_sweeps: int, locked: NDArray[np.uint8] | None = None, below: float = 2.0) -> int:
+    """Quality-raising flips between nearly coplanar faces; F and twin updated in place."""
+
+def project_local(X: NDArray[np.float64], S: NDArray[np.int64], V: NDArray[np.float64],
+                  T: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+    """For each sample X[S[i]], the closest of the triangles T: (index, weights, squared distance)."""
+
+def closest_on_faces(X: NDArray[np.float64], V: NDArray[np.float64], F: NDArray[np.int64],
+                     face: NDArray[np.int64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """For each point X[i], the closest point of face face[i]: (weights, squared distance)."""

@@ -1,0 +1,726 @@
+"""``retile()``: re-tiling polygonal surfaces (Turk 1992), the lecture's four steps.
+
+1. sample:     ``n_vertices`` random points on the surface, area-weighted (``adapt > 0``:
+               weighted by 1 + adapt * normalised curvature too); boundary loops (and,
+               with ``features=``, crease lines) get their share of points spread evenly
+               along them by arc length, their corners kept
+2. repulsion:  each interior point is pushed away from its neighbours within a radius
+               derived from the local point density, the step taken in the tangent plane of
+               the face it lies on and the result projected back onto the closest point of
+               the surface (Embree, through Open3D); neighbourhoods from a KD-tree
+               (scipy's cKDTree) restricted to points whose faces' normals are within
+               120 degrees, an approximation of the geodesic neighbourhood (docs/retile.md)
+3. tessellate: the new points are inserted into the faces that hold them (1-to-3 splits;
+               1-to-2 on boundary edges, on both faces of a crease edge): the mutual
+               tessellation
+4. remove:     the old vertices are removed one by one by lodkit's vertex-removal driver
+               (lodkit._core.vremove) with lodkit._core.retile.RetileKernel, which fills
+               each hole with its max-min-quality triangulation; the driver's checks keep
+               the topology (link condition, no flipped faces).  New points are fixed.
+               Old vertices still left go by a legal collapse into a neighbour.
+
+Then edge flips between nearly coplanar faces (and, for slivers, faces within 60 degrees)
+raise the smaller quality of each pair
+(lodkit._core.retile.flip_edges).  Attributes (normals, colours, uvs) are interpolated
+barycentrically on the input face a new point lies on.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ._core import retile as kern
+from ._core import vremove
+from ._core.halfedge import build
+from ._pipeline import RUN_CHUNK, prepare
+from ._progress import Progress
+from .errors import MeshError, OptionError
+from .geometry import face_normals, triangle_quality
+from .mesh import Mesh, as_mesh, is_open3d
+
+__all__ = ["RetileResult", "SurfaceProjector", "retile", "face_twins"]
+
+BOUNDARY_FREE = 2                # lodkit/_core/common.pxd: boundary vertices may be removed
+# interior points are kept this far (barycentric) from the edges of the face they are on, so
+# that the 1-to-3 split never makes a zero-area triangle
+_EDGE_MARGIN = 1e-3
+# points whose faces' normals differ by more than 120 degrees do not repel each other (the
+# other side of a thin sheet): the geodesic approximation; points across a crease of up to
+# 120 degrees still do (else they crowd on both sides of it and make slivers)
+_NEIGHBOUR_DOT = -0.5
+# after the repulsion, of two points closer than this (times the target edge length) one goes
+_MIN_GAP = 0.25
+# max_normal_angle of the removal rounds (vremove's checks; the last still refuses flips)
+_RADIUS = 1.0
+# the second flip pass: edges whose worse triangle is below this quality, between faces
+# within this many degrees
+_SLIVER_QUALITY = 0.2
+_SLIVER_FLIP_ANGLE = 60.0
+# interior points closer than this (times the target edge length) to a boundary are dropped
+_BOUNDARY_GAP = 0.3
+# the fallback collapse of a held-back old vertex prefers a new vertex as the target when
+# the faces left are at least this good
+_FALLBACK_QUALITY = 0.2
+_REMOVAL_ANGLES = (90.0, 135.0, 170.0)
+
+
+class SurfaceProjector:
+    """Closest points on a fixed triangle surface: the face from Embree (Open3D's
+    RaycastingScene, single precision), the point on it in double precision (native)."""
+
+    def __init__(self, V: np.ndarray, F: np.ndarray):
+        import open3d as o3d
+
+        self.V = np.ascontiguousarray(V, dtype=np.float64)
+        self.F = np.ascontiguousarray(F, dtype=np.int64)
+        self.scene = o3d.t.geometry.RaycastingScene()
+        self.scene.add_triangles(o3d.core.Tensor(self.V.astype(np.float32)),
+                                 o3d.core.Tensor(self.F.astype(np.uint32)))
+
+    def closest(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(face (n,), barycentric weights (n, 3), distance (n,)) of the closest points."""
+        import open3d as o3d
+
+        P = np.ascontiguousarray(P, dtype=np.float64)
+        res = self.scene.compute_closest_points(o3d.core.Tensor(P.astype(np.float32)))
+        face = np.ascontiguousarray(res["primitive_ids"].numpy(), dtype=np.int64)
+        w, d2 = kern.closest_on_faces(P, self.V, self.F, face)
+        return face, w, np.sqrt(d2)
+
+
+@dataclass
+class RetileResult:
+    """What :func:`retile` returns.
+
+    mesh         : the re-tiled mesh (a lodkit.Mesh, or an open3d TriangleMesh if one was given)
+    n_new        : new vertices placed (interior and boundary)
+    n_old_kept   : input vertices the removal could not take out (locked non-manifold copies,
+                   or holes with no valid triangulation); 0 in the usual case
+    flips        : edge flips of the final clean-up
+    elapsed      : seconds
+    report       : details (radius, per-step times, counts)
+    """
+
+    mesh: Any
+    n_new: int
+    n_old_kept: int
+    flips: int
+    elapsed: float = 0.0
+    report: dict = field(default_factory=dict)
+
+    def __repr__(self) -> str:
+        return (f"RetileResult({self.mesh!r}, n_new={self.n_new}, n_old_kept={self.n_old_kept}, "
+                f"flips={self.flips})")
+
+
+def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, flip_angle: float = 25.0,
+           corner_angle: float = 30.0, features: float | None = None, seed: int = 0,
+           progress: bool = False) -> RetileResult:
+    """Re-tile ``mesh`` with about ``n_vertices`` new, evenly spread vertices (Turk 1992).
+
+    n_vertices : number of new vertices (>= 4); boundary loops take a share proportional
+                 to their length (at least 3 each)
+    adapt      : >= 0; 0 spreads the points uniformly by area, larger values put them
+                 denser where the surface curves (density ~ 1 + adapt * curvature / mean)
+    iterations : repulsion steps
+    flip_angle : the final edge flips only act between faces within this many degrees
+                 (0 turns them off)
+    corner_angle : boundary vertices where the boundary turns by more than this (degrees)
+                 are kept as they are (they count towards ``n_vertices``)
+    features   : None (default), or an angle in degrees: edges whose faces' normals differ
+                 by more than it are creases; crease lines get their own points (like
+                 boundaries), their ends and sharp turns stay, and the removal keeps them
+    seed       : the random points come from ``numpy.random.default_rng(seed)``
+
+    The output keeps the input's topology: the old vertices go by vertex removal with the
+    driver's link-condition and orientation checks.  Sharp creases are resampled, hence
+    blurred (docs/retile.md).  Raises MeshError for an unusable mesh, OptionError for bad
+    options.
+    """
+    t0 = time.perf_counter()
+    src, was_o3d = as_mesh(mesh), is_open3d(mesh)
+    n_vertices = _count("n_vertices", n_vertices, 4)
+    iterations = _count("iterations", iterations, 0)
+    adapt = _number("adapt", adapt)
+    if adapt < 0:
+        raise OptionError(f"adapt must be >= 0, got {adapt!r}")
+    flip_angle = _number("flip_angle", flip_angle)
+    if not 0.0 <= flip_angle < 90.0:
+        raise OptionError(f"flip_angle must be in [0, 90) degrees, got {flip_angle!r}")
+    if features is not None:
+        features = _number("features", features)
+        if not 0.0 < features < 180.0:
+            raise OptionError(f"features must be an angle in (0, 180) degrees, got {features!r}")
+    corner_angle = _number("corner_angle", corner_angle)
+    if not 0.0 < corner_angle <= 180.0:
+        raise OptionError(f"corner_angle must be in (0, 180] degrees, got {corner_angle!r}")
+    prep = prepare(src)
+    hm = prep.hm
+    P0 = prep.positions                       # (n_slots, 3) normalised
+    F0 = np.ascontiguousarray(hm.corners, dtype=np.int32)
+    n0 = P0.shape[0]
+    normals0, area0 = face_normals(P0, F0)
+    total_area = float(area0.sum())
+    if not total_area > 0.0:
+        raise MeshError("the mesh has zero surface area; nothing to re-tile")
+    rng = np.random.default_rng(seed)
+    times = {}
+
+    # -- 1. density and sampling
+    t = time.perf_counter()
+    weight = np.ones(F0.shape[0])
+    if adapt > 0:
+        from .curvature import point_curvature
+
+        kv = point_curvature(P0)
+        kf = kv[F0].mean(axis=1)
+        mean = float(np.average(kf, weights=area0)) if area0.sum() > 0 else 0.0
+        if mean > 0:
+            weight = 1.0 + adapt * kf / mean
+    wsum = float((area0 * weight).sum())
+    edge_len = math.sqrt(2.0 * wsum / (math.sqrt(3.0) * n_vertices))   # equilateral, 2 faces per vertex
+    twins0 = np.asarray(hm.twins)
+    loops = _boundary_loops(F0, twins0)
+    lines, creases = ([], []) if features is None else _crease_lines(P0, F0, twins0,
+                                                                      math.cos(math.radians(features)))
+    B, bface, bw, kept, bh, bt = _boundary_points(P0, F0, loops + creases, edge_len, rng, corner_angle, lines)
+    n_inner = n_vertices - B.shape[0] - kept.size
+    if n_inner < 1:
+        raise OptionError(f"n_vertices={n_vertices} is too few: the boundary loops"
+                          f"{' and crease lines' if features is not None else ''} alone take "
+                          f"{B.shape[0] + kept.size} points; ask for more vertices")
+    face, w = _sample(area0 * weight, n_inner, rng)
+    w = _off_edges(w)
+    X = np.einsum("nk,nkj->nj", w, P0[F0[face]])
+    # local radius: density rho = n * weight / wsum points per unit area; a point's disc
+    # pi (r/2)^2 = 1 / rho (Turk's radius from the area per point)
+    times["sample"] = time.perf_counter() - t
+
+    # -- 2. repulsion
+    t = time.perf_counter()
+    surf = SurfaceProjector(P0, F0)
+    from scipy.spatial import cKDTree
+
+    r_face = _RADIUS * 2.0 * np.sqrt(wsum / (math.pi * n_vertices * weight))
+    rb = np.full(B.shape[0], edge_len)
+    nb = normals0[bface] if B.shape[0] else np.zeros((0, 3))
+    bar = Progress(iterations, enabled=progress)
+    for it in range(iterations):
+        r = r_face[face]
+        Q = np.concatenate([X, B])
+        R = np.concatenate([r, rb])
+        N = np.concatenate([normals0[face], nb])
+        pairs = cKDTree(Q).query_pairs(float(R.max()), output_type="ndarray")
+        force = np.zeros_like(Q)
+        if pairs.size:
+            i, j = pairs[:, 0], pairs[:, 1]
+            d = Q[i] - Q[j]
+            dist = np.linalg.norm(d, axis=1)
+            rij = 0.5 * (R[i] + R[j])
+            keep = (dist < rij) & (dist > 0) & (np.einsum("ij,ij->i", N[i], N[j]) > _NEIGHBOUR_DOT)
+            i, j, d, dist, rij = i[keep], j[keep], d[keep], dist[keep], rij[keep]
+            f = ((1.0 - dist / rij) / dist)[:, None] * d
+            for k in range(3):
+                force[:, k] += np.bincount(i, weights=f[:, k], minlength=Q.shape[0])
+                force[:, k] -= np.bincount(j, weights=f[:, k], minlength=Q.shape[0])
+        fx = force[:n_inner]
+        nx = normals0[face]
+        fx -= np.einsum("ij,ij->i", fx, nx)[:, None] * nx          # tangent plane
+        step = 0.2 * r[:, None] * fx
+        ln = np.linalg.norm(step, axis=1)
+        cap = 0.25 * r
+        big = ln > cap
+        step[big] *= (cap[big] / ln[big])[:, None]
+        face, w, _ = surf.closest(X + step)
+        w = _off_edges(w)
+        X = np.einsum("nk,nkj->nj", w, P0[F0[face]])
+        bar.update(it + 1)
+    bar.close()
+    # an interior point the repulsion pushed over a boundary was projected back onto it:
+    # it would make slivers with the boundary points, so it goes
+    n_dropped = 0
+    if (loops or creases or lines) and n_inner:
+        dense = _boundary_samples(P0, F0, loops + creases + lines, edge_len / 8.0)
+        near = cKDTree(dense).query(X)[0] < _BOUNDARY_GAP * edge_len
+        n_dropped = int(np.count_nonzero(near))
+        if n_dropped:
+            X, face, w = X[~near], face[~near], w[~near]
+            n_inner = X.shape[0]
+    # two points left almost on top of each other (across a fold the repulsion did not see)
+    if n_inner > 1:
+        Q = np.concatenate([X, B])
+        pairs = cKDTree(Q).query_pairs(_MIN_GAP * edge_len, output_type="ndarray")
+        drop = np.zeros(Q.shape[0], dtype=bool)
+        for i, j in pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))] if pairs.size else ():
+            if not drop[i] and not drop[j]:
+                drop[max(i, j) if max(i, j) < n_inner else min(i, j)] = True   # boundary points stay
+        drop = drop[:n_inner]
+        if drop.any() and np.count_nonzero(~drop) >= 1:
+            n_dropped += int(np.count_nonzero(drop))
+            X, face, w = X[~drop], face[~drop], w[~drop]
+            n_inner = X.shape[0]
+    times["repulsion"] = time.perf_counter() - t
+
+    # -- 3. mutual tessellation
+    t = time.perf_counter()
+    # a crease point lies on an edge with a face on each side: it splits both
+    on = twins0[bh] >= 0 if bh.size else np.zeros(0, dtype=bool)
+    tw = twins0[bh[on]]
+    w2 = np.zeros((tw.size, 3))
+    w2[np.arange(tw.size), tw % 3] = bt[on]
+    w2[np.arange(tw.size), (tw % 3 + 1) % 3] = 1.0 - bt[on]
+    nX = X.shape[0]
+    all_face = np.concatenate([face, bface, tw // 3]).astype(np.int64)
+    all_w = np.concatenate([w, bw, w2])
+    all_pid = np.concatenate([np.arange(nX + B.shape[0]), nX + np.flatnonzero(on)]).astype(np.int64)
+    faces2 = _tessellate(F0, n0, all_face, all_w, all_pid)
+    new_pos = np.concatenate([X, B])
+    P2 = np.ascontiguousarray(np.concatenate([P0, new_pos]))
+    times["tessellate"] = time.perf_counter() - t
+
+    # -- 4. remove the old vertices
+    t = time.perf_counter()
+    n_new = new_pos.shape[0]
+    hm2 = build(faces2, n0 + n_new)
+    fixed = np.zeros(n0 + n_new, dtype=np.uint8)
+    fixed[n0:] = 1
+    fixed[kept] = 1                                                    # boundary corners stay
+    fixed[:n0][np.asarray(hm.locked_vertices, dtype=bool)[:n0]] = 1     # non-manifold copies stay
+    kernel = kern.RetileKernel(-2.0 if features is None else math.cos(math.radians(features)))
+    crease_vertex = None
+    if features is not None:
+        crease_vertex = np.zeros(n0 + n_new, dtype=np.uint8)
+        crease_vertex[n0 + nX + np.flatnonzero(on)] = 1
+        crease_vertex[np.unique(F0.reshape(-1)[np.concatenate(lines + creases)])
+                      if lines or creases else np.zeros(0, dtype=np.int64)] = 1
+    removals = 0
+    held = {}
+    # later rounds (fresh removal state) for the vertices the first one held back: new faces
+    # may then turn further from the old ones (a held-back vertex sits in a fold of old
+    # faces that the new points do not resolve)
+    for angle in _REMOVAL_ANGLES:
+        remover = vremove.VertexRemover(hm2, P2, kernel, fixed, boundary=BOUNDARY_FREE,
+                                        max_normal_angle=angle, min_quality=0.0)
+        while remover.run(0, 1 << 30) == RUN_CHUNK:
+            pass
+        if remover.failed:
+            raise MeshError(f"re-tiling failed while removing the old vertices: {remover.error_message}")
+        removals += int(remover.n_collapses)
+        held = remover.held_back
+        if not np.asarray(hm2.alive_vertices, dtype=bool)[:n0][fixed[:n0] == 0].any():
+            break
+    n_collapsed = _collapse_leftovers(hm2, P2, n0, fixed)
+    alive_v = np.asarray(hm2.alive_vertices, dtype=bool)
+    n_old_kept = int(np.count_nonzero(alive_v[:n0])) - int(kept.size)
+    times["remove"] = time.perf_counter() - t
+
+    # -- clean-up flips, compaction, attributes
+    t = time.perf_counter()
+    F = np.ascontiguousarray(hm2.faces(), dtype=np.int32)
+    flips = 0
+    if flip_angle > 0 and F.shape[0]:
+        twin = face_twins(F)
+        flips = int(kern.flip_edges(P2, F, twin, math.cos(math.radians(flip_angle)), 50, crease_vertex))
+        # slivers (often across a crease the new points straddle): flips between faces
+        # further apart, only where the worse triangle is a sliver
+        flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE))),
+                                     20, crease_vertex, _SLIVER_QUALITY))
+    used = np.zeros(n0 + n_new, dtype=bool)
+    used[F.reshape(-1)] = True
+    # old vertices: one output vertex per input vertex (split copies weld back)
+    old_slots = np.flatnonzero(used[:n0])
+    old_inputs = prep.input_vertex[old_slots]
+    uniq_in, first, inv = np.unique(old_inputs, return_index=True, return_inverse=True)
+    new_slots = n0 + np.flatnonzero(used[n0:])
+    remap = np.full(n0 + n_new, -1, dtype=np.int64)
+    remap[old_slots] = inv.reshape(-1)
+    remap[new_slots] = uniq_in.size + np.arange(new_slots.size)
+    out_faces = remap[F]
+    verts = np.concatenate([src.vertices[uniq_in], P2[new_slots] * prep.scale + prep.center])
+    attrs = {}
+    corner_inputs = prep.input_vertex[F0]                      # (m0, 3) input vertex per corner
+    sel = new_slots - n0
+    for name, arr in src.attributes().items():
+        interp = np.einsum("nk,nkj->nj", all_w[sel], arr[corner_inputs[all_face[sel]]])
+        if name == "normals":
+            ln = np.linalg.norm(interp, axis=1, keepdims=True)
+            interp = np.divide(interp, ln, out=np.zeros_like(interp), where=ln > 0)
+        elif name == "colors":
+            np.clip(interp, 0.0, 1.0, out=interp)
+        attrs[name] = np.concatenate([arr[uniq_in], interp])
+    out = Mesh(verts, out_faces, **attrs)
+    times["finish"] = time.perf_counter() - t
+    q = triangle_quality(out.vertices, out.faces) if out.n_faces else np.zeros(1)
+    return RetileResult(
+        mesh=out.to_open3d() if was_o3d else out,
+        n_new=int(n_new),
+        n_old_kept=n_old_kept,
+        flips=flips,
+        elapsed=time.perf_counter() - t0,
+        report={
+            "input_vertices": src.n_vertices,
+            "input_faces": src.n_faces,
+            "boundary_points": int(B.shape[0]),
+            "boundary_loops": len(loops),
+            "boundary_corners": int(kept.size),
+            "crease_lines": len(lines) + len(creases),
+            "crease_points": int(np.count_nonzero(on)),
+            "dropped": n_dropped,
+            "edge_length": float(edge_len * prep.scale),
+            "removals": removals,
+            "held_back": held,
+            "fallback_collapses": n_collapsed,
+            "quality_mean": float(q.mean()),
+            "quality_min": float(q.min()),
+            "times": times,
+        },
+    )
+
+
+# ----------------------------------------------------------------------------- steps
+def _count(name: str, value, lo: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lo:
+        raise OptionError(f"{name} must be an integer >= {lo}, got {value!r}")
+    return int(value)
+
+
+def _number(name: str, value) -> float:
+    if isinstance(value, bool):
+        raise OptionError(f"{name} must be a number, got {value!r}")
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise OptionError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(x):
+        raise OptionError(f"{name} must be finite, got {value!r}")
+    return x
+
+
+def _sample(weights: np.ndarray, n: int, rng) -> tuple[np.ndarray, np.ndarray]:
+    """(face (n,), barycentric weights (n, 3)): faces drawn with probability ~ weights,
+    uniform points in them."""
+    cdf = np.cumsum(weights)
+    idx = np.searchsorted(cdf, rng.random(n) * cdf[-1], side="right")
+    idx = np.minimum(idx, weights.size - 1)
+    r1 = np.sqrt(rng.random(n))
+    r2 = rng.random(n)
+    return idx, np.stack([1.0 - r1, r1 * (1.0 - r2), r1 * r2], axis=1)
+
+
+def _off_edges(w: np.ndarray) -> np.ndarray:
+    w = np.maximum(w, _EDGE_MARGIN)
+    return w / w.sum(axis=1, keepdims=True)
+
+
+def face_twins(F: np.ndarray) -> np.ndarray:
+    """(3 m,) int32 twin of each half-edge h = 3 f + i (running F[f, i] -> F[f, i+1]); -1 on
+    the boundary and on edges that are not shared by exactly one opposite pair."""
+    F = np.asarray(F, dtype=np.int64)
+    m = F.shape[0]
+    if m == 0:
+        return np.zeros(0, dtype=np.intc)
+    src = F.reshape(-1)
+    dst = F[:, [1, 2, 0]].reshape(-1)
+    n = int(F.max()) + 1
+    key = src * n + dst
+    order = np.argsort(key, kind="stable")
+    sk = key[order]
+    dup_sorted = np.zeros(sk.size, dtype=bool)
+    same = sk[1:] == sk[:-1]
+    dup_sorted[1:] |= same
+    dup_sorted[:-1] |= same
+    dup = np.empty_like(dup_sorted)
+    dup[order] = dup_sorted
+    rkey = dst * n + src
+    pos = np.minimum(np.searchsorted(sk, rkey), sk.size - 1)
+    cand = order[pos]
+    ok = (sk[pos] == rkey) & ~dup & ~dup[cand]
+    return np.ascontiguousarray(np.where(ok, cand, -1), dtype=np.intc)
+
+
+def _boundary_loops(F: np.ndarray, twins: np.ndarray) -> list[np.ndarray]:
+    """Boundary loops as arrays of half-edge ids, in order (the half-edge arrays of a
+    prepared mesh are manifold: each boundary vertex starts one boundary half-edge)."""
+    bh = np.flatnonzero(twins < 0)
+    if bh.size == 0:
+        return []
+    Ff = F.reshape(-1)
+    start = Ff[bh]
+    end = Ff[3 * (bh // 3) + (bh % 3 + 1) % 3]
+    by_start = {int(s): int(h) for s, h in zip(start, bh)}
+    seen = set()
+    loops = []
+    for h0, e in zip(bh, end):
+        h0 = int(h0)
+        if h0 in seen:
+            continue
+        loop = [h0]
+        seen.add(h0)
+        h = by_start.get(int(e))
+        while h is not None and h not in seen:
+            seen.add(h)
+            loop.append(h)
+            h = by_start.get(int(Ff[3 * (h // 3) + (h % 3 + 1) % 3]))
+        loops.append(np.asarray(loop, dtype=np.int64))
+    return loops
+
+
+def _boundary_points(P, F, loops, spacing, rng, corner_angle, open_lines=()):
+    """Points along each boundary loop (and crease line): its corners (vertices where the
+    line turns by more than ``corner_angle`` degrees; an open line's two ends) stay as they
+    are, the stretches between them get points spread evenly by arc length (a loop without
+    corners: random phase).  Returns (points (b, 3), face (b,), barycentric weights (b, 3),
+    corner vertex slots (c,), half-edge (b,), parameter along it (b,))."""
+    pts, faces, ws, corners, hs, ts = [], [], [], [], [], []
+    Ff = F.reshape(-1)
+    cos_corner = math.cos(math.radians(corner_angle))
+    for loop, closed in [(x, True) for x in loops] + [(x, False) for x in open_lines]:
+        a = Ff[loop]
+        b = Ff[3 * (loop // 3) + (loop % 3 + 1) % 3]
+        d = P[b] - P[a]
+        seg = np.linalg.norm(d, axis=1)
+        length = float(seg.sum())
+        if not length > 0:
+            continue
+        cum = np.concatenate([[0.0], np.cumsum(seg)])
+        if not closed:
+            corners.append(np.array([a[0], b[-1]]))
+            k = int(round(length / spacing))
+            if k < 2:
+                continue
+            s = np.arange(1, k) * (length / k)
+            s = [s]
+            cidx = np.zeros(0, dtype=np.int64)
+        else:
+            cidx = _corners(P[a], cum, length, spacing, cos_corner)
+            s = []
+        for c0, c1 in zip(cidx, np.r_[cidx[1:], cidx[:1] + loop.size]) if closed else ():
+            s0, s1 = cum[c0], cum[c1] if c1 <= loop.size else cum[c1 - loop.size] + length
+            k = int(round((s1 - s0) / spacing))             # stretches, k - 1 inner points
+            if k >= 2:
+                s.append(np.mod(s0 + np.arange(1, k) * ((s1 - s0) / k), length))
+        if closed and cidx.size + sum(x.size for x in s) < 3:     # no corners, or too few points
+            k = max(3, int(round(length / spacing)))
+            s = [(np.arange(k) + rng.random()) * (length / k)]
+        elif closed:
+            corners.append(a[cidx])
+            if not s:
+                continue
+        s = np.concatenate(s)
+        n = s.size
+        e = np.clip(np.searchsorted(cum, s, side="right") - 1, 0, loop.size - 1)
+        tpar = np.clip((s - cum[e]) / np.where(seg[e] > 0, seg[e], 1.0), 0.02, 0.98)
+        h = loop[e]
+        f = h // 3
+        i = h % 3
+        w = np.zeros((n, 3))
+        w[np.arange(n), i] = 1.0 - tpar
+        w[np.arange(n), (i + 1) % 3] = tpar
+        faces.append(f)
+        ws.append(w)
+        hs.append(h)
+        ts.append(tpar)
+        pts.append(np.einsum("nk,nkj->nj", w, P[F[f]]))
+    cs = np.unique(np.concatenate(corners)).astype(np.int64) if corners else np.zeros(0, dtype=np.int64)
+    if not pts:
+        z = np.zeros(0, dtype=np.int64)
+        return np.zeros((0, 3)), z, np.zeros((0, 3)), cs, z, np.zeros(0)
+    return (np.concatenate(pts), np.concatenate(faces), np.concatenate(ws), cs, np.concatenate(hs),
+            np.concatenate(ts))
+
+
+def _corners(pts, cum, length, spacing, cos_corner):
+    """Loop indices of the corners of a boundary loop (vertices ``pts`` at arc lengths
+    ``cum[:-1]``): the turn is measured between the chords to the points half a
+    ``spacing`` back and ahead along the loop (so the zig-zag of a scanned boundary is not
+    a corner), corners are turns sharper than acos(cos_corner), strongest first, at least
+    ``spacing`` apart along the loop."""
+    k = pts.shape[0]
+    if k < 3:
+        return np.zeros(0, dtype=np.int64)
+    h = min(0.5 * spacing, length / 4.0)
+    s = cum[:-1]
+    ext_s = np.concatenate([s - length, s, s + length, [2.0 * length]])
+    ext_p = np.concatenate([pts, pts, pts, pts[:1]])
+
+    def at(x):
+        return np.stack([np.interp(x, ext_s, ext_p[:, j]) for j in range(3)], axis=1)
+
+    back = pts - at(s - h)
+    ahead = at(s + h) - pts
+    lb = np.linalg.norm(back, axis=1)
+    la = np.linalg.norm(ahead, axis=1)
+    ok = (lb > 0) & (la > 0)
+    cos_turn = np.ones(k)
+    cos_turn[ok] = np.einsum("ij,ij->i", back[ok], ahead[ok]) / (lb[ok] * la[ok])
+    cand = np.flatnonzero(cos_turn < cos_corner)
+    chosen = []
+    for i in cand[np.argsort(cos_turn[cand], kind="stable")]:
+        if all(min(abs(s[i] - s[j]), length - abs(s[i] - s[j])) >= spacing for j in chosen):
+            chosen.append(int(i))
+    return np.asarray(sorted(chosen), dtype=np.int64)
+
+
+def _crease_lines(P, F, twins, cos_feature):
+    """Crease lines: chains of interior edges whose two faces' normals differ by more than
+    acos(cos_feature), split at vertices where other than two crease edges meet.  Returns
+    (open lines, closed loops), each an array of half-edges in walking order."""
+    n, _ = face_normals(P, F)
+    h = np.arange(twins.size)
+    t = np.asarray(twins)
+    sel = (t > h) & (np.einsum("ij,ij->i", n[h // 3], n[np.maximum(t, 0) // 3]) < cos_feature)
+    hc = h[sel]
+    if hc.size == 0:
+        return [], []
+    Ff = F.reshape(-1)
+    a = Ff[hc]
+    b = Ff[3 * (hc // 3) + (hc % 3 + 1) % 3]
+    adj = {}
+    for e, (x, y) in enumerate(zip(a.tolist(), b.tolist())):
+        adj.setdefault(x, []).append(e)
+        adj.setdefault(y, []).append(e)
+    used = np.zeros(hc.size, dtype=bool)
+
+    def walk(x, e):
+        out = []
+        while True:
+            used[e] = True
+            if a[e] == x:
+                out.append(int(hc[e]))
+                y = int(b[e])
+            else:
+                out.append(int(t[hc[e]]))           # the twin runs x -> y
+                y = int(a[e])
+            nxt = [g for g in adj[y] if not used[g]]
+            if len(adj[y]) != 2 or not nxt:
+                return out
+            x, e = y, nxt[0]
+
+    lines, loops = [], []
+    for x, es in adj.items():
+        if len(es) != 2:
+            for e in es:
+                if not used[e]:
+                    lines.append(np.asarray(walk(x, e), dtype=np.int64))
+    for e in range(hc.size):
+        if not used[e]:
+            loops.append(np.asarray(walk(int(a[e]), e), dtype=np.int64))
+    return lines, loops
+
+
+def _boundary_samples(P, F, loops, step):
+    """(k, 3) points along the boundary loops, at most ``step`` apart."""
+    Ff = F.reshape(-1)
+    out = []
+    for loop in loops:
+        a = P[Ff[loop]]
+        b = P[Ff[3 * (loop // 3) + (loop % 3 + 1) % 3]]
+        n = np.maximum(1, np.ceil(np.linalg.norm(b - a, axis=1) / step).astype(np.int64))
+        seg = np.repeat(np.arange(loop.size), n)
+        t = (np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)) / np.repeat(n, n)
+        out.append(a[seg] + t[:, None] * (b[seg] - a[seg]))
+    return np.concatenate(out)
+
+
+def _collapse_leftovers(hm, P, n0: int, fixed: np.ndarray) -> int:
+    """Old vertices the removal rounds held back (typically at a sharp tip the new points
+    do not resolve): collapse each into a neighbour -- a new vertex first, the nearest
+    first -- when the link condition holds and no remaining face flips or degenerates.
+    Returns the number of collapses."""
+    done = 0
+    changed = True
+    while changed:
+        changed = False
+        alive = np.asarray(hm.alive_vertices, dtype=bool)
+        for u in np.flatnonzero(alive[:n0] & (fixed[:n0] == 0)):
+            u = int(u)
+            link, slots, _closed = hm.star(u)
+            corners = np.asarray(hm.corners)[np.asarray(slots, dtype=np.int64)]
+            best, best_key = -1, None
+            for v in set(int(x) for x in link):
+                if not hm.can_collapse(u, v):
+                    continue
+                stay = ~(corners == v).any(axis=1)
+                old = corners[stay]
+                new = np.where(old == u, v, old)
+                n_old = np.cross(P[old[:, 1]] - P[old[:, 0]], P[old[:, 2]] - P[old[:, 0]])
+                n_new = np.cross(P[new[:, 1]] - P[new[:, 0]], P[new[:, 2]] - P[new[:, 0]])
+                if (np.einsum("ij,ij->i", n_old, n_new) <= 0).any():
+                    continue
+                q = float(triangle_quality(P, new).min()) if new.size else 1.0
+                if not q > 0.0:
+                    continue
+                key = (q >= _FALLBACK_QUALITY and v >= n0, q)        # a new vertex first, then quality
+                if best_key is None or key > best_key:
+                    best, best_key = v, key
+            if best >= 0:
+                hm.collapse_edge(u, best)
+                done += 1
+                changed = True
+    return done
+
+
+def _tessellate(F0: np.ndarray, n0: int, face: np.ndarray, w: np.ndarray, pid: np.ndarray) -> np.ndarray:
+    """The faces of ``F0`` with each new point entry p (vertex n0 + pid[p], on face
+    ``face[p]`` at barycentric ``w[p]``; a point on an edge has an entry for each face)
+    inserted: a point inside a local triangle splits it in three, a
+    point on a local edge splits the triangle(s) on that edge in two each."""
+    order = np.argsort(face, kind="stable")
+    fs = face[order]
+    starts = np.flatnonzero(np.r_[True, fs[1:] != fs[:-1]]) if fs.size else np.zeros(0, dtype=np.int64)
+    ends = np.r_[starts[1:], fs.size]
+    keep = np.ones(F0.shape[0], dtype=bool)
+    extra = []
+    for s, e in zip(starts, ends):
+        f = int(fs[s])
+        keep[f] = False
+        ids = order[s:e]
+        # local vertices: the 3 corners (2D coordinates = the last two barycentric weights)
+        uv = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)]
+        gid = [int(F0[f, 0]), int(F0[f, 1]), int(F0[f, 2])]
+        tris = [[0, 1, 2]]
+        for p in ids:
+            uv.append((float(w[p, 1]), float(w[p, 2])))
+            gid.append(n0 + int(pid[p]))
+            _insert(uv, tris, len(uv) - 1)
+        extra.extend([[gid[a], gid[b], gid[c]] for a, b, c in tris])
+    out = np.concatenate([F0[keep], np.asarray(extra, dtype=np.int32).reshape(-1, 3)])
+    return np.ascontiguousarray(out, dtype=np.int32)
+
+
+def _insert(uv, tris, p) -> None:
+    x, y = uv[p]
+    best, best_t, best_l = -np.inf, -1, None
+    for t, (a, b, c) in enumerate(tris):
+        (ax, ay), (bx, by), (cx, cy) = uv[a], uv[b], uv[c]
+        det = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay)
+        if det <= 0:
+            continue
+        l1 = ((x - ax) * (cy - ay) - (cx - ax) * (y - ay)) / det
+        l2 = ((bx - ax) * (y - ay) - (x - ax) * (by - ay)) / det
+        lam = (1.0 - l1 - l2, l1, l2)
+        m = min(lam)
+        if m > best:
+            best, best_t, best_l = m, t, lam
+    a, b, c = tris[best_t]
+    if best > 1e-9:
+        tris[best_t] = [a, b, p]
+        tris.append([b, c, p])
+        tris.append([c, a, p])
+        return
+    k = int(np.argmin(best_l))                  # p is on the edge opposite corner k
+    tri = tris[best_t]
+    x0, y0, z0 = tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]     # edge y0 -> z0
+    tris[best_t] = [x0, y0, p]
+    tris.append([x0, p, z0])
+    for t, other in enumerate(tris):            # the local triangle across the edge, if any
+        for i in range(3):
+            if other[i] == z0 and other[(i + 1) % 3] == y0:
+                w0 = other[(i + 2) % 3]
+                tris[t] = [z0, p, w0]
+                tris.append([p, y0, w0])
+                return

@@ -1,0 +1,236 @@
+"""lodkit.retile (Turk 1992): near-equilateral triangles on a plane and a sphere with every
+vertex on the input surface; topology kept on a torus and on meshes with boundaries;
+attributes interpolated; the native kernel's hole triangulation and the edge flips; options
+and errors."""
+from __future__ import annotations
+
+import numpy as np
+import open3d as o3d
+import pytest
+
+import lodkit
+from conftest import shared_mesh
+from lodkit import MeshError, OptionError
+from lodkit._core import retile as kern
+from lodkit.evaluate import closest_points
+from lodkit.geometry import triangle_quality, weld_positions
+from lodkit.retile import face_twins, retile
+
+# Bounds stated in docs/retile.md for smooth surfaces: mean quality (4 sqrt(3) A / sum l^2)
+# >= 0.88 and no triangle below 0.3
+MEAN_QUALITY = 0.88
+MIN_QUALITY = 0.3
+
+
+def o3d_mesh(o) -> lodkit.Mesh:
+    return lodkit.Mesh(*weld_positions(np.asarray(o.vertices), np.asarray(o.triangles)))
+
+
+def plane(n: int = 25) -> lodkit.Mesh:
+    x, y = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n))
+    v = np.c_[x.ravel(), y.ravel(), np.zeros(n * n)]
+    idx = np.arange(n * n).reshape(n, n)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
+    return lodkit.Mesh(v, np.r_[np.c_[a, b, c], np.c_[a, c, d]])
+
+
+def sphere() -> lodkit.Mesh:
+    return o3d_mesh(o3d.geometry.TriangleMesh.create_sphere(1.0, 16))
+
+
+def torus() -> lodkit.Mesh:
+    return o3d_mesh(o3d.geometry.TriangleMesh.create_torus(1.0, 0.4, 40, 20))
+
+
+def open_cylinder() -> lodkit.Mesh:
+    c = o3d_mesh(o3d.geometry.TriangleMesh.create_cylinder(0.5, 2.0, 32, 12))
+    n = np.cross(c.vertices[c.faces[:, 1]] - c.vertices[c.faces[:, 0]],
+                 c.vertices[c.faces[:, 2]] - c.vertices[c.faces[:, 0]])
+    side = np.abs(n[:, 2]) < 0.5 * np.linalg.norm(n, axis=1)
+    f = c.faces[side]
+    used = np.unique(f)
+    remap = np.full(c.n_vertices, -1)
+    remap[used] = np.arange(used.size)
+    return lodkit.Mesh(c.vertices[used], remap[f])
+
+
+def off_surface(src: lodkit.Mesh, out: lodkit.Mesh) -> float:
+    cp, _, _ = closest_points(src.vertices, src.faces, out.vertices)
+    return float(np.linalg.norm(cp - out.vertices, axis=1).max())
+
+
+@pytest.mark.parametrize("make,n", [(plane, 120), (sphere, 150)])
+def test_near_equilateral_and_on_the_surface(make, n):
+    src = make()
+    r = retile(src, n)
+    q = triangle_quality(r.mesh.vertices, r.mesh.faces)
+    assert q.mean() >= MEAN_QUALITY
+    assert q.min() >= MIN_QUALITY
+    assert off_surface(src, r.mesh) < 1e-9
+    assert r.n_old_kept == 0
+    # about the vertex count asked (a few interior points that hugged a boundary may go)
+    assert 0.95 * n <= r.mesh.n_vertices <= n
+
+
+def test_sphere_vertices_are_new_points():
+    src = sphere()
+    r = retile(src, 80)
+    # no input vertex survives: every output vertex is a new point
+    d = np.linalg.norm(r.mesh.vertices[:, None, :] - src.vertices[None, :, :], axis=2).min(axis=1)
+    assert (d > 0).all()
+    assert r.report["removals"] == src.n_vertices
+
+
+@pytest.mark.parametrize("make", [torus, open_cylinder, plane])
+def test_topology_kept(make):
+    src = make()
+    t0 = lodkit.topology(src)
+    for n in (40, 150):
+        r = retile(src, n)
+        t = lodkit.topology(r.mesh)
+        assert t.is_manifold and t.is_oriented
+        assert t.genus == t0.genus
+        assert t.n_boundary_loops == t0.n_boundary_loops
+        assert t.n_components == t0.n_components
+
+
+def test_plane_corners_kept():
+    src = plane()
+    r = retile(src, 60)
+    assert r.report["boundary_corners"] == 4
+    for corner in ([0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]):
+        assert np.linalg.norm(r.mesh.vertices - corner, axis=1).min() == 0.0
+
+
+def test_adaptive_density_puts_more_points_where_it_curves():
+    # a plane with a round bump in the middle: curved there, flat elsewhere
+    src = plane(40)
+    v = src.vertices.copy()
+    r2 = (v[:, 0] - 0.5) ** 2 + (v[:, 1] - 0.5) ** 2
+    v[:, 2] = 0.15 * np.exp(-r2 / 0.01)
+    src = lodkit.Mesh(v, src.faces)
+    flat = retile(src, 200, adapt=0.0)
+    curved = retile(src, 200, adapt=4.0)
+
+    def on_bump(m):
+        return int(np.count_nonzero(m.vertices[:, 2] > 0.02))
+
+    assert on_bump(curved.mesh) > 1.3 * on_bump(flat.mesh)
+
+
+def test_attributes_interpolated():
+    src = plane(12)
+    colors = np.c_[src.vertices[:, 0], src.vertices[:, 1], np.zeros(src.n_vertices)]   # linear in x, y
+    uvs = src.vertices[:, :2] * 2.0
+    normals = np.tile([0.0, 0.0, 1.0], (src.n_vertices, 1))
+    m = lodkit.Mesh(src.vertices, src.faces, normals=normals, colors=colors, uvs=uvs)
+    r = retile(m, 50)
+    out = r.mesh
+    np.testing.assert_allclose(out.colors[:, :2], out.vertices[:, :2], atol=1e-12)
+    np.testing.assert_allclose(out.uvs, out.vertices[:, :2] * 2.0, atol=1e-12)
+    np.testing.assert_allclose(out.normals, normals[: out.n_vertices], atol=1e-12)
+
+
+def test_seeded_and_open3d_in_out():
+    src = sphere()
+    a = retile(src, 60, seed=3)
+    b = retile(src, 60, seed=3)
+    np.testing.assert_array_equal(a.mesh.vertices, b.mesh.vertices)
+    np.testing.assert_array_equal(a.mesh.faces, b.mesh.faces)
+    o = retile(src.to_open3d(), 60, seed=3)
+    assert isinstance(o.mesh, o3d.geometry.TriangleMesh)
+
+
+def test_options_and_errors():
+    src = sphere()
+    with pytest.raises(OptionError, match="n_vertices"):
+        retile(src, 2)
+    with pytest.raises(OptionError, match="n_vertices"):
+        retile(src, 10.5)
+    with pytest.raises(OptionError, match="adapt"):
+        retile(src, 50, adapt=-1)
+    with pytest.raises(OptionError, match="flip_angle"):
+        retile(src, 50, flip_angle=95)
+    with pytest.raises(OptionError, match="too few"):
+        retile(open_cylinder(), 5)
+    with pytest.raises(MeshError):
+        retile(lodkit.Mesh(np.zeros((3, 3)), [[0, 1, 2]]), 10)
+
+
+def test_kernel_hole_triangulation_is_max_min():
+    # a regular hexagon around a centre vertex: the best triangulation of the hole
+    # has min quality of the "Z" or fan; the kernel must find a valid oriented one
+    from lodkit._core.halfedge import build
+    from lodkit._core.vremove import VertexRemover
+
+    ang = np.arange(6) * np.pi / 3
+    v = np.r_[[[0.0, 0.0, 0.0]], np.c_[np.cos(ang), np.sin(ang), np.zeros(6)]]
+    f = np.array([[0, 1 + i, 1 + (i + 1) % 6] for i in range(6)], dtype=np.int32)
+    hm = build(f, 7)
+    fixed = np.r_[0, np.ones(6)].astype(np.uint8)
+    rem = VertexRemover(hm, v, kern.RetileKernel(), fixed, boundary=2)
+    rem.run(0)
+    faces = hm.faces()
+    assert faces.shape == (4, 3)
+    q = triangle_quality(v, faces)
+    # the best triangulation of a regular hexagon: the central equilateral triangle and three
+    # 120-degree ears (quality 4 sqrt(3) (sqrt(3)/4) / (1 + 1 + 3) = 0.6)
+    assert q.min() == pytest.approx(0.6, abs=1e-9)
+    n = np.cross(v[faces[:, 1]] - v[faces[:, 0]], v[faces[:, 2]] - v[faces[:, 0]])
+    assert (n[:, 2] > 0).all()
+
+
+def test_flip_edges_fixes_a_bad_diagonal_and_keeps_bent_ones():
+    # a rhombus split along its long diagonal: one flip makes two better triangles
+    v = np.array([[0.0, 0, 0], [2, 0, 0], [1, 0.4, 0], [1, -0.4, 0]])
+    f = np.array([[0, 1, 2], [1, 0, 3]], dtype=np.intc)
+    t = face_twins(f)
+    assert kern.flip_edges(v, f, t, 0.9, 10) == 1
+    assert sorted(map(sorted, f.tolist())) == [[0, 2, 3], [1, 2, 3]]
+    assert (face_twins(f) == t).all()
+    # the same rhombus folded by 90 degrees along the diagonal: not flipped
+    v2 = v.copy()
+    v2[3] = [1, 0, 0.4]
+    f2 = np.array([[0, 1, 2], [1, 0, 3]], dtype=np.intc)
+    assert kern.flip_edges(v2, f2, face_twins(f2), 0.9, 10) == 0
+
+
+def test_face_twins_marks_boundary():
+    f = np.array([[0, 1, 2], [2, 1, 3]], dtype=np.intc)
+    t = face_twins(f)
+    assert t[1] == 3 and t[3] == 1
+    assert (np.delete(t, [1, 3]) == -1).all()
+
+
+def test_bunny_small():
+    src = lodkit.load(shared_mesh("bunny.ply"))
+    r = retile(src, 400)
+    t0, t = lodkit.topology(src), lodkit.topology(r.mesh)
+    assert t.is_manifold
+    assert (t.genus, t.n_boundary_loops) == (t0.genus, t0.n_boundary_loops)
+    assert r.report["quality_mean"] >= 0.85
+
+
+def test_features_keep_the_creases_of_a_cube():
+    import open3d as o3d
+
+    b = o3d.geometry.TriangleMesh.create_box(1, 1, 1).subdivide_midpoint(3)
+    src = lodkit.Mesh(*weld_positions(np.asarray(b.vertices), np.asarray(b.triangles)))
+    corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=float)
+
+    def corner_gap(m):
+        return np.linalg.norm(m.vertices[None] - corners[:, None], axis=2).min(axis=1).max()
+
+    plain = retile(src, 150)
+    sharp = retile(src, 150, features=40.0)
+    assert corner_gap(plain.mesh) > 0.05                 # uniform points round the corners off
+    assert corner_gap(sharp.mesh) == 0.0                 # crease ends stay where they are
+    assert sharp.report["crease_lines"] == 12
+    # every vertex on the cube's surface and every edge of the cube kept: no face leaves it
+    d = lodkit.evaluate(src, sharp.mesh, samples=5000).distance
+    assert d.hausdorff < 1e-9
+    t = lodkit.topology(sharp.mesh)
+    assert t.is_manifold and t.genus == 0
+    assert sharp.report["quality_mean"] >= MEAN_QUALITY and sharp.report["quality_min"] >= MIN_QUALITY
+    with pytest.raises(OptionError, match="features"):
+        retile(src, 50, features=0)
