@@ -194,3 +194,15 @@ def test_other_objects_are_refused_with_what_is_accepted():
         lodkit.simplify(object(), target_ratio=0.5)
     with pytest.raises(MeshError, match="original: expected"):
         lodkit.evaluate({"a": 1}, (np.eye(3), [[0, 1, 2]]))
+
+
+def test_topology_and_render_take_the_other_types_too():
+    trimesh = pytest.importorskip("trimesh")
+    src = _grid(colors=False, uvs=False, normals=False)
+    tm = trimesh.Trimesh(src.vertices, src.faces, process=False)
+    assert lodkit.topology(tm).as_dict() == lodkit.topology(src).as_dict()
+    from lodkit import render
+
+    a = render.render(tm, 40, 30, backend="numpy")
+    b = render.render(src, 40, 30, backend="numpy")
+    np.testing.assert_array_equal(a, b)
