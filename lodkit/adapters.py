@@ -88,7 +88,9 @@ def coerce(obj, what: str | None = None, *, load=None) -> tuple[Mesh, Callable[[
 def _coerce(obj, load):
     if isinstance(obj, Mesh):
         return obj, _identity
-    if isinstance(obj, (str, os.PathLike)) and load is not None:
+    if isinstance(obj, (str, os.PathLike)):
+        if load is None:
+            raise MeshError(f"got the path {os.fspath(obj)!r}; read it with lodkit.load() first")
         return load(obj), _identity
     if isinstance(obj, (tuple, list)) and len(obj) == 2:
         mesh = Mesh(obj[0], obj[1])
