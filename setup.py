@@ -1,10 +1,18 @@
-"""Build the Cython extensions. Everything else lives in pyproject.toml."""
+"""Build the Cython extensions. Everything else lives in pyproject.toml.
+
+Lean by default (docs/install.md has the figures): the extensions compile in parallel, one job
+per core (``LODKIT_BUILD_JOBS=N`` to change), the generated C goes to build/ (not into the
+package, nor the wheel), and the shared objects carry no debug information (``-g0``, linked
+with ``-s`` on Linux).  ``LODKIT_DEBUG=1`` keeps ``-g`` and the symbols, for gdb or perf.
+"""
 import os
+import sys
 import tempfile
 
 import numpy
 from Cython.Build import cythonize
 from setuptools import Extension, setup
+from setuptools.command.build_ext import build_ext
 
 MODULES = ["heap", "halfedge", "chain", "quadric", "fields", "edge", "triangle", "passes", "decimate",
            "qem_kernel", "melod_kernel", "curvature_kernel", "retriangulate", "vremove", "schroeder_kernel",
@@ -48,6 +56,32 @@ def openmp_flags():
 
 _omp = openmp_flags() if OPENMP_MODULES & set(MODULES) else []
 
+
+def _jobs() -> int:
+    """Parallel compile jobs: $LODKIT_BUILD_JOBS, else the cores this process may use."""
+    env = os.environ.get("LODKIT_BUILD_JOBS", "")
+    if env.isdigit() and int(env) > 0:
+        return int(env)
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
+
+
+_DEBUG = os.environ.get("LODKIT_DEBUG", "0") not in ("", "0")
+# -g0 after Python's own CFLAGS (which carry -g) wins; -s strips the symbol table at link time
+_SIZE_COMPILE = [] if _DEBUG else ["-g0"]
+_SIZE_LINK = [] if _DEBUG or not sys.platform.startswith("linux") else ["-s"]
+
+
+class ParallelBuildExt(build_ext):
+    """build_ext that compiles the extensions in parallel unless told otherwise (-j N)."""
+
+    def finalize_options(self):
+        super().finalize_options()
+        if not self.parallel:
+            self.parallel = _jobs()
+
 extensions = [
     Extension(
         f"{package}.{name}",
@@ -55,16 +89,20 @@ extensions = [
         include_dirs=[numpy.get_include()],
         define_macros=[("NPY_NO_DEPRECATED_API", "NPY_1_7_API_VERSION")],
         # -fno-math-errno: sqrt compiles to one instruction (nothing here reads errno)
-        extra_compile_args=["-O3", "-fno-math-errno"] + (_omp if name in OPENMP_MODULES else []),
-        extra_link_args=_omp if name in OPENMP_MODULES else [],
+        extra_compile_args=["-O3", "-fno-math-errno"] + _SIZE_COMPILE + (_omp if name in OPENMP_MODULES else []),
+        extra_link_args=(_omp if name in OPENMP_MODULES else []) + _SIZE_LINK,
     )
     for package, names in (("lodkit", PUBLIC_MODULES), ("lodkit._core", MODULES))
     for name in names
 ]
 
 setup(
+    cmdclass={"build_ext": ParallelBuildExt},
     ext_modules=cythonize(
         extensions,
+        # the generated C stays out of the package (and so out of the wheel)
+        build_dir=os.path.join("build", "cython"),
+        nthreads=_jobs(),
         language_level=3,
         compiler_directives={
             "boundscheck": False,

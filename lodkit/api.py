@@ -14,8 +14,9 @@ import numpy as np
 
 from . import _pipeline
 from ._pipeline import STOP_MAX_ERROR, STOP_NO_COLLAPSE, STOP_TARGET, Prepared, prepare
+from .adapters import coerce
 from .drivers import DRIVERS
-from .mesh import as_mesh, is_open3d
+from .io import load
 from .metrics import create as create_metrics
 from .settings import (
     BOUNDARY_POLICIES,
@@ -88,9 +89,10 @@ def simplify(
     """Simplify a triangle mesh by greedy edge collapse with quadric error metrics (or by
     triangle collapse or vertex removal: ``operator``).
 
-    Stops at whichever comes first: ``target_faces`` faces, ``target_ratio`` times the input
-    face count, or a collapse error above ``max_error`` (a fraction of the bbox diagonal
-    unless ``absolute=True``).  With no legal collapse left it stops and says so in
+    Stops at whichever comes first: ``target_faces`` faces, ``target_ratio`` (in (0, 1]; 0 is
+    refused, as by the CLI's ``--ratio``: use ``target_faces=0``) times the input face count,
+    or a collapse error above ``max_error`` (a fraction of the bbox diagonal unless
+    ``absolute=True``).  With no legal collapse left it stops and says so in
     ``stop_reason``.
 
     metric           : the cost: a registered name ("qem", see ``lodkit.metrics.available()``),
@@ -147,7 +149,7 @@ def simplify(
     a seam is done on both sides together (docs/metrics.md, "Attribute seams").
     """
     t0 = time.perf_counter()
-    src, was_o3d = as_mesh(mesh), is_open3d(mesh)
+    src, back = coerce(mesh, load=load)
     metrics = create_metrics(metric)
     operator = resolve_operator(operator, metrics)
     settings = resolve_settings(metrics, placement=placement, boundary=boundary,
@@ -171,7 +173,7 @@ def simplify(
 
     scale = work.prep.scale if absolute else 1.0
     return SimplifyResult(
-        mesh=out_mesh.to_open3d() if was_o3d else out_mesh,
+        mesh=back(out_mesh),
         vertex_map=vertex_map,
         face_map=face_map,
         error=float(run.max_error * scale),

@@ -61,6 +61,8 @@ def main(argv=None) -> int:
         return EXIT_USAGE
     except LodkitError as exc:
         return _fail(str(exc))
+    except ImportError as exc:          # a dependency lodkit.deps does not wrap
+        return _fail(f"a library lodkit needs cannot be imported: {exc}")
     except OSError as exc:
         return _fail(_describe_os_error(exc))
 
@@ -117,8 +119,9 @@ def _build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("demo", help="simplify a generated test surface to several levels",
                        description="Generate the demo surface (creases, a boundary, fine detail, "
-                                   "colours), simplify it to 50 %%, 20 %%, 5 %% and 1 %%, write "
-                                   "one PLY per level and a picture of the levels (demo_lods.png).")
+                                   "colours), simplify it to 50 %, 20 %, 5 % and 1 %, write "
+                                   "one PLY per level (demo_lod0.ply is the original, demo_lod1.ply "
+                                   "... demo_lod4.ply the levels) and a picture of them (demo_lods.png).")
     p.add_argument("--out", default="lodkit-demo", metavar="DIR", help="output directory (default: lodkit-demo)")
     p.add_argument("--faces", type=_count, default=100_000, metavar="N",
                    help="faces of the demo surface (default: 100000)")
@@ -128,7 +131,9 @@ def _build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("lods", help="write a chain of levels of detail from one simplification run",
                        description="Simplify IN once into a progressive mesh, extract one level per "
                                    "ratio (each equal to 'lodkit simplify --ratio R') and write them "
-                                   "to DIR as <name>_lod<i>.<format>, with summary.json and "
+                                   "to DIR as <name>_lod1.<format>, <name>_lod2.<format>, ... in the "
+                                   "order given, with the input itself as <name>_lod0.<format> (level 0 "
+                                   "is the original, as in 'lodkit demo'), and summary.json and "
                                    "summary.csv (level, ratio, faces, vertices, error, file).")
     p.add_argument("input", metavar="IN", help="input mesh file")
     p.add_argument("--ratios", type=_ratio_list, required=True, metavar="R1,R2,...",
@@ -229,7 +234,41 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=_seed, default=0, metavar="S", help="random seed (default: 0)")
     p.add_argument("--quiet", "-q", action="store_true", help="no summary line nor progress bar")
     p.set_defaults(run=_run_optimize)
+
+    parser.set_defaults(subcommands=sub.choices)
     return parser
+
+
+SYNOPSIS_BEGIN = "<!-- cli-synopsis: generated from argparse by lodkit.cli.update_synopsis; do not edit -->"
+SYNOPSIS_END = "<!-- end of cli-synopsis -->"
+
+
+def synopsis(width: int = 100) -> str:
+    """The usage line of every subcommand, as argparse prints it at ``width`` columns (the
+    command-line synopsis of docs/getting-started.md)."""
+    commands = _build_parser().get_default("subcommands")
+    blocks = []
+    for p in commands.values():
+        formatter = argparse.HelpFormatter(prog=p.prog, width=width)
+        formatter.add_usage(p.usage, p._actions, p._mutually_exclusive_groups, prefix="")
+        blocks.append(formatter.format_help().strip())
+    return "\n".join(blocks)
+
+
+def update_synopsis(path) -> bool:
+    """Rewrite the synopsis block of the Markdown file ``path`` (between SYNOPSIS_BEGIN and
+    SYNOPSIS_END) from :func:`synopsis`; True when it changed."""
+    with open(path, encoding="utf-8") as fh:
+        text = fh.read()
+    head, begin, rest = text.partition(SYNOPSIS_BEGIN)
+    _, end, tail = rest.partition(SYNOPSIS_END)
+    if not begin or not end:
+        raise ValueError(f"{path} has no {SYNOPSIS_BEGIN!r} ... {SYNOPSIS_END!r} block")
+    new = f"{head}{SYNOPSIS_BEGIN}\n```text\n{synopsis()}\n```\n{SYNOPSIS_END}{tail}"
+    if new != text:
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(new)
+    return new != text
 
 
 def _add_collapse_options(p, metric_help: str) -> None:
@@ -545,8 +584,12 @@ def _run_lods(args) -> int:
     seconds = time.perf_counter() - t0
     os.makedirs(out_dir, exist_ok=True)
     stem = os.path.splitext(os.path.basename(args.input))[0] or "mesh"
-    rows = []
-    for i, ratio in enumerate(args.ratios):
+    # level 0 is the original, as in `lodkit demo` (demo_lod0.ply): one numbering everywhere
+    name = f"{stem}_lod0.{args.format}"
+    save(mesh, os.path.join(out_dir, name))
+    rows = [{"level": 0, "ratio": 1.0, "faces": mesh.n_faces, "vertices": mesh.n_vertices, "error": 0.0,
+             "file": name}]
+    for i, ratio in enumerate(args.ratios, start=1):
         level = pm.level(ratio=ratio)
         name = f"{stem}_lod{i}.{args.format}"
         save(level.mesh, os.path.join(out_dir, name))

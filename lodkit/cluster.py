@@ -26,9 +26,11 @@ from typing import Any
 import numpy as np
 
 from ._core import cluster as kern
+from .adapters import coerce
 from .errors import MeshError, OptionError
 from .geometry import face_vectors
-from .mesh import Mesh, as_mesh, is_open3d
+from .io import load
+from .mesh import Mesh
 
 __all__ = ["ClusterResult", "cluster", "REPRESENTATIVES"]
 
@@ -150,7 +152,7 @@ def cluster(
     cell.  An open3d.geometry.TriangleMesh in gives one out.
     """
     t0 = time.perf_counter()
-    src, was_o3d = as_mesh(mesh), is_open3d(mesh)
+    src, back = coerce(mesh, load=load)
     if representative not in REPRESENTATIVES:
         raise OptionError(f"representative must be one of {', '.join(REPRESENTATIVES)}, got {representative!r}")
     given = [k for k, v in (("cell_size", cell_size), ("target_vertices", target_vertices),
@@ -178,7 +180,7 @@ def cluster(
         stop = STOP_TARGET_FACES if target_faces is not None else STOP_TARGET_VERTICES
     out, vertex_map, face_map, err, rms = _build(src, data, grid, representative)
     return ClusterResult(
-        mesh=out.to_open3d() if was_o3d else out,
+        mesh=back(out),
         vertex_map=vertex_map,
         face_map=face_map,
         error=float(err * to_model),

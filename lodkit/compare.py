@@ -43,11 +43,13 @@ from pathlib import Path
 import numpy as np
 
 from . import viz
+from .adapters import to_mesh
 from .api import simplify
+from .deps import open3d as import_open3d
 from .errors import LodkitError, OptionError
 from .evaluate import DEFAULT_SAMPLES, Evaluation, Evaluator
 from .io import atomic_write, load
-from .mesh import Mesh, as_mesh
+from .mesh import Mesh
 from .metrics import create
 
 __all__ = ["PEERS", "SHORT_TOLERANCE", "Comparison", "Run", "MissingDependencyError", "compare"]
@@ -66,7 +68,7 @@ class MissingDependencyError(LodkitError, ImportError):
 # target faces) -> (vertices, faces, colours or None, seconds of the simplification call
 # alone; conversions are not timed). Colours go through where the library carries them.
 def _peer_open3d(V, F, C, target):
-    import open3d as o3d
+    o3d = import_open3d()
 
     m = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(V), o3d.utility.Vector3iVector(F.astype(np.int32)))
     if C is not None:
@@ -330,7 +332,7 @@ def compare(mesh, *, metrics=("qem",), peers=(), ratios=(0.5, 0.1, 0.02), out=No
     if out is not None:
         _matplotlib()
     source = str(mesh) if isinstance(mesh, (str, os.PathLike)) else type(mesh).__name__
-    original = as_mesh(mesh, "input", tensor=True, load=load)
+    original = to_mesh(mesh, "input", load=load)
     evaluator = Evaluator(original, samples, seed)
     out_dir = None if out is None else _prepare_dir(out)     # only once everything else is known to be fine
     n_faces = original.n_faces

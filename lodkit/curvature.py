@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .deps import open3d as import_open3d
 from .errors import MeshError, OptionError
 
 __all__ = ["point_curvature", "normalized_curvature", "DEFAULT_K"]
@@ -167,7 +168,7 @@ def _spread_bits(x: np.ndarray) -> np.ndarray:
 
 def _curvature_unique(pts: np.ndarray, k: int, radius: float | None) -> np.ndarray:
     """Curvature of distinct points (n >= 3)."""
-    import open3d as o3d  # lazily: importing Open3D takes a second or two
+    o3d = import_open3d()  # lazily: importing Open3D takes a second or two
 
     n = pts.shape[0]
     # centre the cloud: the KD-tree's arithmetic then works on small numbers

@@ -33,3 +33,8 @@ class RenderError(LodkitError, RuntimeError):
 
 class ImageIOError(LodkitError, OSError):
     """An image file could not be written."""
+
+
+class DependencyError(LodkitError, ImportError):
+    """A library lodkit needs cannot be imported: not installed, or (Open3D) a system library
+    it links against is missing.  The message says what to install."""

@@ -36,10 +36,12 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from .adapters import to_mesh
+from .deps import open3d as import_open3d
 from .errors import MeshError, OptionError
 from .geometry import face_normals, triangle_quality, weld_positions
 from .io import load
-from .mesh import Mesh, as_mesh
+from .mesh import Mesh
 from .topology import TopologyReport, topology
 
 __all__ = [
@@ -278,9 +280,8 @@ def _columns(rows) -> list[str]:
 
 # ---------------------------------------------------------------------- inputs
 def _input(mesh, what: str) -> Mesh:
-    """A lodkit Mesh from any input evaluate() takes: those of :func:`lodkit.mesh.as_mesh`,
-    Open3D tensor meshes and file paths."""
-    return as_mesh(mesh, what, tensor=True, load=load)
+    """A lodkit Mesh from any input evaluate() takes: those of :func:`lodkit.adapters.coerce`."""
+    return to_mesh(mesh, what, load=load)
 
 
 def _check_surface(mesh: Mesh, what: str) -> None:
@@ -415,7 +416,7 @@ class _Surface:
     # -- closest points
     def scene(self):
         if self._scene is None:
-            import open3d as o3d
+            o3d = import_open3d()
 
             self._scene = o3d.t.geometry.RaycastingScene()
             self._scene.add_triangles(o3d.core.Tensor(np.ascontiguousarray(self.Vc, dtype=np.float32)),
@@ -424,7 +425,7 @@ class _Surface:
 
     def closest(self, Pc: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """For centred points: (closest face (n,), barycentric weights (n, 3), distance (n,))."""
-        import open3d as o3d
+        o3d = import_open3d()
 
         res = self.scene().compute_closest_points(o3d.core.Tensor(np.ascontiguousarray(Pc, dtype=np.float32)))
         face = res["primitive_ids"].numpy().astype(np.int64)

@@ -31,6 +31,7 @@ from typing import Union
 
 import numpy as np
 
+from .deps import open3d as import_open3d
 from .errors import MeshError, MeshIOError
 from .mesh import Mesh, as_mesh
 
@@ -54,14 +55,8 @@ PathLike = Union[str, "os.PathLike[str]"]
 
 # ---------------------------------------------------------------------------- helpers
 def _import_open3d():
-    try:
-        import open3d as o3d
-    except (ImportError, OSError) as exc:  # OSError: a missing system library (libusb-1.0)
-        raise ImportError(
-            f"lodkit's file I/O needs open3d (pip install open3d; on Debian/Ubuntu it also "
-            f"needs the libusb-1.0-0 package): {exc}"
-        ) from exc
-    return o3d
+    """Open3D, or lodkit.errors.DependencyError (an ImportError) saying what to install."""
+    return import_open3d()
 
 
 def _io_error(action: str, path: Path, problem: str, err: int | None = None) -> MeshIOError:
@@ -317,6 +312,64 @@ def _writable_mesh(mesh, fmt: str, o3d) -> Mesh:
     )
 
 
+def _used_extensions(node, found: set) -> set:
+    if isinstance(node, dict):
+        for key, value in node.items():
+            if key == "extensions" and isinstance(value, dict):
+                found.update(value)
+            _used_extensions(value, found)
+    elif isinstance(node, list):
+        for value in node:
+            _used_extensions(value, found)
+    return found
+
+
+def _tidy_gltf(path: Path, fmt: str, colors_only: bool) -> None:
+    """Fix up the glTF JSON Open3D's writer (assimp) produced, in place:
+
+    * ``extensionsUsed`` / ``extensionsRequired`` list only extensions the file uses (assimp
+      declares ``KHR_materials_volume`` and ``FB_ngon_encoding`` without using them);
+    * with vertex colours and no uvs, the primitive gets no material: readers such as
+      trimesh take a primitive with a material for a textured one and file its COLOR_0 as a
+      texture attribute; without one, COLOR_0 is the vertex colour (glTF's default material
+      multiplies it by white).
+    """
+    import json
+    import struct
+
+    raw = path.read_bytes()
+    if fmt == "glb":
+        magic, version, _ = struct.unpack_from("<4sII", raw, 0)
+        json_len, json_type = struct.unpack_from("<I4s", raw, 12)
+        if magic != b"glTF" or version != 2 or json_type != b"JSON":
+            return
+        doc = json.loads(raw[20:20 + json_len])
+        rest = raw[20 + json_len:]
+    else:
+        doc = json.loads(raw)
+    used = _used_extensions({k: v for k, v in doc.items() if not k.startswith("extensions")}, set())
+    used |= set(doc.get("extensions", {}))
+    for key in ("extensionsUsed", "extensionsRequired"):
+        if key in doc:
+            doc[key] = [e for e in doc[key] if e in used]
+            if not doc[key]:
+                del doc[key]
+    if colors_only:
+        for mesh in doc.get("meshes", []):
+            for prim in mesh.get("primitives", []):
+                if "COLOR_0" in prim.get("attributes", {}):
+                    prim.pop("material", None)
+        if not any("material" in prim for mesh in doc.get("meshes", []) for prim in mesh.get("primitives", [])):
+            doc.pop("materials", None)
+    text = json.dumps(doc, separators=(",", ":")).encode("utf-8")
+    if fmt == "glb":
+        text += b" " * (-len(text) % 4)             # chunks are 4-byte aligned, JSON padded with spaces
+        body = struct.pack("<I4s", len(text), b"JSON") + text + rest
+        path.write_bytes(struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body)
+    else:
+        path.write_bytes(text)
+
+
 def _fsync_file(path: Path) -> None:
     with open(path, "rb") as fh:
         os.fsync(fh.fileno())
@@ -444,6 +497,8 @@ def save(mesh, path: PathLike, *, ascii: bool = False) -> None:
             raise _io_error("save", p, "Open3D's writer reported failure")
         if not tmp.is_file() or tmp.stat().st_size == 0:
             raise _io_error("save", p, "Open3D's writer reported success but wrote nothing")
+        if fmt in ("glb", "gltf"):
+            _tidy_gltf(tmp, fmt, colors_only=out.colors is not None and out.uvs is None)
         try:
             side_files = sorted(f for f in tmp_dir.iterdir() if f.name != p.name)
             for f in side_files + [tmp]:

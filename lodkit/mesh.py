@@ -1,5 +1,8 @@
-"""The triangle mesh lodkit works on, its conversion to and from Open3D, and the one
-:func:`as_mesh` every entry point turns its input into a :class:`Mesh` with."""
+"""The triangle mesh lodkit works on and its conversion to and from Open3D.
+
+The entry points turn their input into a :class:`Mesh` with :func:`lodkit.adapters.coerce`
+(every supported mesh type, the same type back); :func:`as_mesh` here is its Open3D-only
+subset, for :mod:`lodkit.io`'s writer (lodkit.adapters imports this module, not the reverse)."""
 from __future__ import annotations
 
 import os
@@ -7,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .deps import open3d as import_open3d
 from .errors import MeshError
 
 __all__ = ["Mesh", "as_mesh", "is_open3d"]
@@ -155,7 +159,7 @@ class Mesh:
 
     def to_open3d(self):
         """An ``open3d.geometry.TriangleMesh`` with the same vertices, faces and attributes."""
-        import open3d as o3d
+        o3d = import_open3d()
 
         m = o3d.geometry.TriangleMesh()
         m.vertices = o3d.utility.Vector3dVector(self.vertices)
@@ -176,7 +180,9 @@ def is_open3d(mesh) -> bool:
 
 
 def as_mesh(mesh, what: str | None = None, *, tensor: bool = False, load=None) -> Mesh:
-    """A :class:`Mesh` from a Mesh (as is), a legacy Open3D ``TriangleMesh`` or a
+    """The Open3D subset of :func:`lodkit.adapters.coerce`, for lodkit.io's writer.
+
+    A :class:`Mesh` from a Mesh (as is), a legacy Open3D ``TriangleMesh`` or a
     ``(vertices, faces)`` tuple; with ``tensor`` also an ``open3d.t.geometry.TriangleMesh``;
     with a ``load`` function (:func:`lodkit.load`) also a file path, read with it.
 

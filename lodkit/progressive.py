@@ -20,10 +20,11 @@ from typing import Any
 import numpy as np
 
 from ._pipeline import attribute_arrays, prepare
+from .adapters import coerce
 from .api import simplify
 from .errors import MeshIOError, OptionError
-from .io import atomic_write
-from .mesh import Mesh, as_mesh, is_open3d
+from .io import atomic_write, load
+from .mesh import Mesh, is_open3d
 from .metrics import create as create_metrics
 
 __all__ = ["progressive", "ProgressiveMesh", "Level", "Cursor", "FORMAT", "FORMAT_VERSION"]
@@ -88,7 +89,8 @@ def progressive(mesh, metric="qem", *, min_faces: int = 0, max_error: float | No
     if any(m.kind == "removal" for m in create_metrics(metric)):
         raise OptionError(f"metric {metric!r} removes vertices and re-triangulates their holes; progressive "
                           "meshes are made of edge collapses (use an edge-collapse metric)")
-    src, was_o3d = as_mesh(mesh), is_open3d(mesh)
+    src, back = coerce(mesh, load=load)
+    was_o3d = is_open3d(mesh)
     result = simplify(src, target_faces=int(min_faces), max_error=max_error, metric=metric, absolute=absolute,
                       placement=placement, boundary=boundary, boundary_weight=boundary_weight,
                       locked=locked, max_normal_angle=max_normal_angle, min_quality=min_quality,
@@ -129,9 +131,9 @@ def progressive(mesh, metric="qem", *, min_faces: int = 0, max_error: float | No
     }
     pm = ProgressiveMesh(data, info)
     # the records must give back the run's own result (O(mesh), once)
-    pm._open3d = False                     # compare lodkit Meshes (result.mesh is one)
+    pm._back = None                        # compare lodkit Meshes (result.mesh is one)
     base = pm.level(step=pm.n_steps) if pm.stops[-1] else None
-    pm._open3d = bool(was_o3d)
+    pm._back = back
     if base is None or not (np.array_equal(base.face_map, result.face_map)
                             and np.array_equal(base.vertex_map, result.vertex_map)
                             and np.array_equal(base.mesh.faces, result.mesh.faces)
@@ -181,6 +183,8 @@ class ProgressiveMesh:
         self._d = data
         self.info = info
         self._open3d = bool(info.get("open3d", False))
+        # turns a level's Mesh into the input's type (a saved one knows only "Open3D or not")
+        self._back = Mesh.to_open3d if self._open3d else None
         d = data
         self._names = [(name, d["input_" + name].shape[1]) for name in _ATTRIBUTES if "input_" + name in d]
         self.n_steps = int(d["removed"].shape[0])
@@ -291,9 +295,10 @@ class ProgressiveMesh:
             try:
                 r = float(ratio)
             except (TypeError, ValueError):
-                raise OptionError(f"ratio must be a number in [0, 1], got {ratio!r}") from None
-            if not (0.0 <= r <= 1.0):
-                raise OptionError(f"ratio must be in [0, 1], got {ratio!r}")
+                raise OptionError(f"ratio must be a number in (0, 1], got {ratio!r}") from None
+            if isinstance(ratio, bool) or not (0.0 < r <= 1.0):
+                # as simplify(target_ratio=) and --ratio: faces=0 or step=n_steps for the base
+                raise OptionError(f"ratio must be in (0, 1] (faces=0 gives the base mesh), got {ratio!r}")
             faces = int(round(r * self.n_input_faces))      # as simplify(target_ratio=) does
         if faces is not None:
             if isinstance(faces, bool) or not isinstance(faces, (int, np.integer)) or faces < 0:
@@ -421,8 +426,8 @@ class ProgressiveMesh:
             block[has] = d["attributes"][rec]
             attrs = attribute_arrays(block, self._names)
         mesh = _trusted_mesh(verts, out_faces, attrs)
-        if self._open3d:
-            mesh = mesh.to_open3d()
+        if self._back is not None:
+            mesh = self._back(mesh)
         return Level(mesh, vertex_map.astype(np.int64), face_map,
                      float(self.errors_per_step[s]), int(s))
 

@@ -143,9 +143,15 @@ def resolve_target(n_faces: int, target_faces, target_ratio, max_error) -> int:
             raise OptionError(f"target_faces must be a non-negative integer, got {target_faces!r}")
         target = max(target, int(target_faces))
     if target_ratio is not None:
-        r = float(target_ratio)
-        if not (0.0 <= r <= 1.0):
-            raise OptionError(f"target_ratio must be in [0, 1], got {target_ratio!r}")
+        try:
+            r = float(target_ratio)
+        except (TypeError, ValueError):
+            raise OptionError(f"target_ratio must be a number in (0, 1], got {target_ratio!r}") from None
+        if isinstance(target_ratio, bool) or not (0.0 < r <= 1.0):
+            # 0 is refused as the CLI's --ratio refuses it: "keep no faces" is not a ratio
+            # anyone means; target_faces=0 simplifies as far as the checks allow
+            raise OptionError(f"target_ratio must be in (0, 1] (the fraction of the faces to keep; "
+                              f"target_faces=0 simplifies as far as possible), got {target_ratio!r}")
         target = max(target, int(round(r * n_faces)))
     return target
 

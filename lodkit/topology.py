@@ -22,7 +22,9 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from .adapters import to_mesh
 from .errors import MeshError
+from .io import load
 from .mesh import Mesh
 
 __all__ = ["TopologyReport", "topology"]
@@ -107,7 +109,8 @@ def topology(mesh) -> TopologyReport:
     """Count edges, boundaries, non-manifold elements, orientation conflicts and genus.
 
     mesh : :class:`lodkit.Mesh`, or an ``open3d.geometry.TriangleMesh`` (its vertices and
-           triangles are used as stored; UV seams are not split).
+           triangles are used as stored; UV seams are not split), or any other type
+           :func:`lodkit.adapters.coerce` takes (trimesh, pyvista, (V, F), a path).
 
     Returns a :class:`TopologyReport`. Runs in O(m log m) for m faces, vectorised.
     """
@@ -172,7 +175,7 @@ def _arrays(mesh) -> tuple[int, np.ndarray]:
     """(number of vertices, faces as (m, 3) int64) from a Mesh or an Open3D TriangleMesh."""
     if isinstance(mesh, Mesh):
         return mesh.n_vertices, mesh.faces.astype(np.int64)
-    if hasattr(mesh, "triangles") and hasattr(mesh, "vertices"):
+    if type(mesh).__name__ == "TriangleMesh" and hasattr(mesh, "triangles") and hasattr(mesh, "vertices"):
         # Open3D. Coordinates do not matter here (NaNs included); indices must be in range.
         n = len(mesh.vertices)
         faces = np.asarray(mesh.triangles, dtype=np.int64).reshape(-1, 3)
@@ -180,7 +183,8 @@ def _arrays(mesh) -> tuple[int, np.ndarray]:
         if bad.size:
             raise MeshError(f"face {bad[0]} {faces[bad[0]].tolist()} has a vertex index outside 0..{n - 1}")
         return n, faces
-    raise MeshError(f"topology() needs a lodkit.Mesh or an open3d TriangleMesh, got {type(mesh).__name__}")
+    m = to_mesh(mesh, "topology()", load=load)          # every other type lodkit.adapters takes
+    return m.n_vertices, m.faces.astype(np.int64)
 
 
 def _count_distinct_rows(rows: np.ndarray, n: int) -> int:

@@ -452,3 +452,44 @@ def test_bad_metric_fails_before_loading(builtin_metrics_only, tetra_ply, tmp_pa
     assert main(["simplify", str(tetra_ply), str(tmp_path / "o.ply"), "--faces", "2",
                  "--metric", "qem", "--metric", metric]) == 2
     assert message in one_error_line(capsys)
+
+
+class _NoSystemLibrary:
+    """An import finder that fails as Open3D's import does on a machine without libusb."""
+
+    def find_spec(self, name, path=None, target=None):
+        if name == "open3d" or name.startswith("open3d."):
+            raise OSError("libusb-1.0.so.0: cannot open shared object file: No such file or directory")
+        return None
+
+
+@pytest.mark.parametrize("command", ["demo", "compare"])
+def test_a_missing_system_library_is_one_line(command, tmp_path, capsys, monkeypatch):
+    src = tmp_path / "in.ply"
+    lodkit.save(lodkit.Mesh(np.eye(3), [[0, 1, 2]]), src)
+    monkeypatch.delitem(sys.modules, "open3d", raising=False)
+    monkeypatch.setattr(sys, "meta_path", [_NoSystemLibrary(), *sys.meta_path])
+    argv = (["demo", "--out", str(tmp_path / "d"), "--faces", "200"] if command == "demo"
+            else ["compare", str(src), "--out", str(tmp_path / "c"), "--samples", "100", "-q"])
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("lodkit: error: Open3D cannot be loaded"), err
+    assert "libusb-1.0.so.0" in lines[0] and "apt-get install libusb-1.0-0" in lines[0]
+
+
+def test_getting_started_synopsis_is_argparse_s(tmp_path):
+    """docs/getting-started.md's command-line synopsis is what the parser prints today."""
+    import shutil
+
+    from lodkit.cli import update_synopsis
+
+    doc = Path(__file__).resolve().parents[1] / "docs" / "getting-started.md"
+    if not doc.is_file():
+        pytest.skip("docs/ is not beside the tests")
+    copy = tmp_path / "gs.md"
+    shutil.copy(doc, copy)
+    assert not update_synopsis(copy), (
+        "docs/getting-started.md's CLI synopsis is out of date; regenerate it with: "
+        "python -c \"import lodkit.cli as c; c.update_synopsis('docs/getting-started.md')\"")
+    assert "lodkit lods [-h] --ratios" in copy.read_text()

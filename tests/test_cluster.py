@@ -124,7 +124,7 @@ def check_clean(result, n_in_faces: int):
 def test_two_triangles_in_a_2x1x1_grid_collapse_entirely():
     # the rectangle [0,2] x [0,1] in cells of side 1: two cells, so no face keeps three
     v = np.array([[0, 0, 0], [2, 0, 0], [2, 1, 0], [0, 1, 0]], float)
-    r = lodkit.cluster((v, [[0, 1, 2], [0, 2, 3]]), cell_size=1.0, absolute=True, representative="mean")
+    r = lodkit.cluster(lodkit.Mesh(v, [[0, 1, 2], [0, 2, 3]]), cell_size=1.0, absolute=True, representative="mean")
     assert r.report["grid"] == [2, 1, 1] and r.report["occupied_cells"] == 2
     assert r.report["collapsed_faces"] == 2
     assert r.mesh.n_faces == 0 and r.mesh.n_vertices == 0
@@ -136,7 +136,7 @@ def test_flat_grid_collapses_to_its_middle_square(representative):
     # (faces 8 and 9) reaches three cells.  Cells in key order: (0,0) (0,1) (1,0) (1,1),
     # each holding a 2 x 2 block of vertices whose centroid is its centre.
     v, f = flat_grid(3)
-    r = lodkit.cluster((v, f), cell_size=1.5, absolute=True, representative=representative)
+    r = lodkit.cluster(lodkit.Mesh(v, f), cell_size=1.5, absolute=True, representative=representative)
     assert r.report["grid"] == [2, 2, 1]
     assert r.mesh.faces.tolist() == [[0, 2, 3], [0, 3, 1]]
     assert r.face_map.tolist() == [8, 9]
@@ -153,7 +153,7 @@ def test_cube_collapses_to_a_cube_with_centroids_by_hand():
     # octant.  The octant at the origin holds the 7 surface points of {0, 1/3}^3, whose mean
     # is (0*4 + 1/3*3)/7 = 1/7 per coordinate; the far one 6/7.
     v, f = cube_surface(3)
-    r = lodkit.cluster((v, f), cell_size=0.5, absolute=True, representative="mean")
+    r = lodkit.cluster(lodkit.Mesh(v, f), cell_size=0.5, absolute=True, representative="mean")
     out = r.mesh
     assert out.n_vertices == 8 and out.n_faces == 12
     octant = (out.vertices > 0.5).astype(int)
@@ -170,7 +170,7 @@ def test_cube_quadric_representatives_are_the_corners():
     # each octant's faces lie on three orthogonal planes through one cube corner: the
     # quadric minimiser is that corner (Lindstrom's corner preservation), error 0
     v, f = cube_surface(3)
-    r = lodkit.cluster((v, f), cell_size=0.5, absolute=True, representative="quadric")
+    r = lodkit.cluster(lodkit.Mesh(v, f), cell_size=0.5, absolute=True, representative="quadric")
     corners = (r.mesh.vertices > 0.5).astype(float)
     np.testing.assert_allclose(r.mesh.vertices, corners, atol=1e-9)
     assert r.error < 1e-7                     # sqrt of the rounding in Q(x) ~ 1e-16
@@ -185,19 +185,19 @@ def test_duplicates_keep_the_area_majority_orientation():
                   [0.2, 0.2, 0], [0.2, 1.2, 0], [1.2, 0.2, 0],
                   [0, 0, 0], [1.9, 0, 0], [0, 1.9, 0]], float)
     f = [[0, 1, 2], [3, 4, 5], [6, 7, 8]]
-    r = lodkit.cluster((v, f), cell_size=1.0, absolute=True, representative="mean")
+    r = lodkit.cluster(lodkit.Mesh(v, f), cell_size=1.0, absolute=True, representative="mean")
     assert r.report["duplicate_faces"] == 2
     assert r.face_map.tolist() == [2]
     # cells in key order A (0,0), C (0,1), B (1,0): A B C is 0 2 1
     assert r.mesh.faces.tolist() == [[0, 2, 1]]
     # with the big face turned over, the clockwise side wins and face 0 is kept
-    r = lodkit.cluster((v, [[0, 1, 2], [3, 4, 5], [6, 8, 7]]), cell_size=1.0, absolute=True)
+    r = lodkit.cluster(lodkit.Mesh(v, [[0, 1, 2], [3, 4, 5], [6, 8, 7]]), cell_size=1.0, absolute=True)
     assert r.face_map.tolist() == [0] and r.mesh.faces.tolist() == [[0, 1, 2]]
 
 
 def test_opposite_duplicates_of_equal_area_keep_the_first():
     v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0]], float)
-    r = lodkit.cluster((v, [[0, 2, 1], [0, 1, 2]]), cell_size=0.5, absolute=True)
+    r = lodkit.cluster(lodkit.Mesh(v, [[0, 2, 1], [0, 1, 2]]), cell_size=0.5, absolute=True)
     # cells in key order: vertex 0 (0,0), vertex 2 (0,1), vertex 1 (1,0)
     assert r.face_map.tolist() == [0] and r.mesh.faces.tolist() == [[0, 1, 2]]
 
@@ -208,7 +208,7 @@ def test_faces_and_their_reverses_tie_whatever_the_rounding():
     # areas are summed in, so the group's first face (0) decides; faces 1 and 3 collapse
     v = np.array([[0.1, 0.1, 0], [0.9, 0.3, 0.2], [0.2, 0.7, 0.4], [0.3, 0.15, 0.05], [0.45, 0.1, 0.3]])
     f = [[1, 0, 2], [3, 4, 2], [0, 1, 2], [2, 4, 3], [4, 1, 2], [2, 1, 4]]
-    r = lodkit.cluster((v, f), cell_size=0.55, absolute=True, representative="mean")
+    r = lodkit.cluster(lodkit.Mesh(v, f), cell_size=0.55, absolute=True, representative="mean")
     assert r.report["grid"] == [2, 2, 1] and r.report["occupied_cells"] == 3
     assert r.report["collapsed_faces"] == 2 and r.report["duplicate_faces"] == 3
     assert r.face_map.tolist() == [0]
@@ -219,7 +219,7 @@ def test_faces_and_their_reverses_tie_whatever_the_rounding():
 @given(soups(), st.floats(0.05, 0.7))
 def test_mean_clustering_matches_the_reference(soup, h):
     v, f = soup
-    r = lodkit.cluster((v, f), cell_size=h, representative="mean")
+    r = lodkit.cluster(lodkit.Mesh(v, f), cell_size=h, representative="mean")
     check_clean(r, f.shape[0])
     rv, rf, rmap = reference_cluster(v, f, h)
     assert r.face_map.tolist() == rmap.tolist()
@@ -232,8 +232,8 @@ def test_mean_clustering_matches_the_reference(soup, h):
 def test_other_representatives_give_the_same_faces(soup, h, representative):
     # the faces depend on the grid only; the representative only places the vertices
     v, f = soup
-    a = lodkit.cluster((v, f), cell_size=h, representative="mean")
-    b = lodkit.cluster((v, f), cell_size=h, representative=representative)
+    a = lodkit.cluster(lodkit.Mesh(v, f), cell_size=h, representative="mean")
+    b = lodkit.cluster(lodkit.Mesh(v, f), cell_size=h, representative=representative)
     check_clean(b, f.shape[0])
     assert b.mesh.faces.tolist() == a.mesh.faces.tolist() and b.face_map.tolist() == a.face_map.tolist()
     # every representative stays in its cell: within the cell's box of the centroid's cell
@@ -400,7 +400,7 @@ def test_unused_and_degenerate_input_is_dropped():
     v, f = flat_grid(3)
     v = np.vstack([v, [[9, 9, 9]]])                           # unused, and far away
     f = np.vstack([f, [[0, 0, 1]]])
-    r = lodkit.cluster((v, f), cell_size=1.5, absolute=True)
+    r = lodkit.cluster(lodkit.Mesh(v, f), cell_size=1.5, absolute=True)
     assert r.report["unreferenced_vertices_removed"] == 1 and r.report["degenerate_faces_removed"] == 1
     assert r.report["grid"] == [2, 2, 1] and r.mesh.n_faces == 2
 
@@ -422,7 +422,7 @@ def test_target_is_approached(kind, want):
 
 def test_smaller_cells_keep_more():
     v, f = cube_surface(12)
-    counts = [lodkit.cluster((v, f), cell_size=h).mesh.n_faces for h in (0.4, 0.2, 0.1, 0.05)]
+    counts = [lodkit.cluster(lodkit.Mesh(v, f), cell_size=h).mesh.n_faces for h in (0.4, 0.2, 0.1, 0.05)]
     assert counts == sorted(counts) and counts[0] < counts[-1]
 
 

@@ -734,3 +734,31 @@ def test_atomic_write_replaces_whole_or_leaves_the_target(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["out.txt"]  # no temporary left behind
     atomic_write(target, lambda fh: fh.write(b"\x00bytes"), binary=True)
     assert target.read_bytes() == b"\x00bytes"
+
+
+@pytest.mark.parametrize("fmt", ["glb", "gltf"])
+def test_gltf_declares_only_what_it_uses_and_colours_are_vertex_colours(tmp_path, fmt):
+    import json
+    import struct
+
+    mesh = octahedron()
+    mesh = Mesh(mesh.vertices, mesh.faces, normals=mesh.normals, colors=mesh.colors)     # colours, no uvs
+    path = tmp_path / f"c.{fmt}"
+    save(mesh, path)
+    raw = path.read_bytes()
+    if fmt == "glb":
+        (n,) = struct.unpack_from("<I", raw, 12)
+        assert len(raw) == struct.unpack_from("<I", raw, 8)[0] and n % 4 == 0
+        doc = json.loads(raw[20:20 + n])
+    else:
+        doc = json.loads(raw)
+    assert "extensionsUsed" not in doc and "extensionsRequired" not in doc
+    prims = [p for m in doc["meshes"] for p in m["primitives"]]
+    assert all("COLOR_0" in p["attributes"] and "material" not in p for p in prims)
+    back = load(path)
+    rows = np.argmin(np.linalg.norm(back.vertices[:, None] - mesh.vertices[None], axis=2), axis=1)
+    np.testing.assert_allclose(back.colors[:, :3], mesh.colors[rows, :3], atol=COLOR_TOL[fmt])
+    trimesh = pytest.importorskip("trimesh")
+    tm = trimesh.load(path, force="mesh")
+    assert tm.visual.kind == "vertex"                 # COLOR_0 read as vertex colours, not a texture
+    assert len(tm.visual.vertex_colors) == len(tm.vertices)

@@ -527,14 +527,14 @@ def test_flat_grid_is_removed_down_to_its_corners():
     from test_qem import grid_mesh
 
     V, F = grid_mesh(6, 6)
-    result = lodkit.simplify((V, F), target_faces=2, metric="volume")
+    result = lodkit.simplify(lodkit.Mesh(V, F), target_faces=2, metric="volume")
     assert result.stop_reason == "target_faces" and result.mesh.n_faces == 2
     corners = {(0.0, 0.0), (6.0, 0.0), (0.0, 6.0), (6.0, 6.0)}
     assert {tuple(p[:2]) for p in result.mesh.vertices.tolist()} == corners
     assert np.all(result.mesh.vertices[:, 2] == 0.0)
     assert result.error == 0.0                          # every removal was flat (ht = 0)
     # with the boundary locked only the interior goes
-    result = lodkit.simplify((V, F), target_faces=2, metric="volume", boundary="lock")
+    result = lodkit.simplify(lodkit.Mesh(V, F), target_faces=2, metric="volume", boundary="lock")
     assert result.stop_reason == "no_valid_collapse"
     assert result.mesh.n_vertices == 24                 # the 24 boundary vertices of the 6 x 6 grid
 

@@ -146,7 +146,7 @@ def test_edges_are_not_virtual_pairs():
     # every pair of a small tetrahedron is an edge: nothing for pair contraction
     v = np.array([[0, 0, 0], [0.01, 0, 0], [0, 0.01, 0], [0, 0, 0.01]])
     f = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
-    r = lodkit.simplify((v, f), target_ratio=1.0, pair_threshold=0.5)
+    r = lodkit.simplify(lodkit.Mesh(v, f), target_ratio=1.0, pair_threshold=0.5)
     assert r.report["pair_contraction"]["candidate_pairs"] == 0
     assert r.mesh.n_faces == 4
 

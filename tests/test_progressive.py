@@ -375,18 +375,22 @@ def test_cli_lods(tmp_path, capsys):
     assert main(["lods", str(src), "--ratios", "0.5,0.1,0.02", "--out-dir", str(out), "--format", "ply"]) == 0
     summary = json.loads((out / "summary.json").read_text())
     rows = list(csv.DictReader((out / "summary.csv").open()))
-    assert [r["level"] for r in summary["levels"]] == [0, 1, 2]
-    assert len(rows) == 3
-    for row, lv, ratio in zip(rows, summary["levels"], (0.5, 0.1, 0.02)):
+    assert [r["level"] for r in summary["levels"]] == [0, 1, 2, 3]      # 0: the original
+    assert len(rows) == 4
+    original = lodkit.load(out / summary["levels"][0]["file"])
+    assert summary["levels"][0]["file"] == "cow_lod0.ply" and summary["levels"][0]["ratio"] == 1.0
+    assert original.n_faces == mesh.n_faces == int(rows[0]["faces"])
+    np.testing.assert_array_equal(original.faces, mesh.faces)
+    for row, lv, ratio in zip(rows[1:], summary["levels"][1:], (0.5, 0.1, 0.02)):
         direct = lodkit.simplify(mesh, target_ratio=ratio)
         written = lodkit.load(out / lv["file"])
         assert written.n_faces == direct.mesh.n_faces == lv["faces"] == int(row["faces"])
         assert lv["vertices"] == direct.mesh.n_vertices == int(row["vertices"])
         assert lv["error"] == direct.error == float(row["error"])
         np.testing.assert_array_equal(written.faces, direct.mesh.faces)
-    assert "lod2" in capsys.readouterr().out
+    assert "lod3" in capsys.readouterr().out
     assert sorted(p.name for p in out.iterdir()) == ["cow_lod0.ply", "cow_lod1.ply", "cow_lod2.ply",
-                                                     "summary.csv", "summary.json"]
+                                                     "cow_lod3.ply", "summary.csv", "summary.json"]
     assert (os.stat(out / "summary.json").st_mode & 0o444) == 0o444
 
 
@@ -398,7 +402,9 @@ def test_cli_lods_formats_and_metric(tmp_path):
                      "--metric", "appearance", "-q"]) == 0
         summary = json.loads((out / "summary.json").read_text())
         assert summary["metrics"] == ["appearance"]
-        assert lodkit.load(out / summary["levels"][0]["file"]).n_faces == summary["levels"][0]["faces"]
+        assert [lv["level"] for lv in summary["levels"]] == [0, 1]
+        for lv in summary["levels"]:
+            assert lodkit.load(out / lv["file"]).n_faces == lv["faces"]
 
 
 @pytest.mark.parametrize("argv,message", [

@@ -298,13 +298,20 @@ def test_bad_meshes_raise_mesh_error(vertices, faces, message):
 
 
 def test_unknown_mesh_type_raises_mesh_error():
-    with pytest.raises(MeshError, match="str"):
-        lodkit.simplify("bunny.ply", target_ratio=0.5)
+    with pytest.raises(MeshError, match="builtins.dict"):
+        lodkit.simplify({"vertices": []}, target_ratio=0.5)
+
+
+def test_a_path_is_read_and_a_missing_one_named(tmp_path):
+    with pytest.raises(lodkit.MeshIOError, match="nope.ply"):
+        lodkit.simplify(tmp_path / "nope.ply", target_ratio=0.5)
 
 
 @pytest.mark.parametrize("options, message", [
     ({"target_ratio": 2}, "target_ratio"),
     ({"target_ratio": -0.1}, "target_ratio"),
+    ({"target_ratio": 0}, r"target_ratio must be in \(0, 1\]"),         # as --ratio 0 on the CLI
+    ({"target_ratio": 0.0}, "target_faces=0"),
     ({"target_faces": -1}, "target_faces"),
     ({"target_faces": 2.5}, "target_faces"),
     ({}, "stop criterion"),
@@ -406,11 +413,16 @@ def check_target_and_repairs(mesh, result, target, faces):
     assert result.report["vertices_split"] == ref.n_split
 
 
+def _target(ratio: float) -> dict:
+    """target_ratio=ratio, or target_faces=0 for 0 (target_ratio=0 is refused)."""
+    return {"target_faces": 0} if ratio == 0 else {"target_ratio": ratio}
+
+
 @pytest.mark.parametrize("ratio", [0.5, 0.1, 0.0])
 @pytest.mark.parametrize("name", BROKEN)
 def test_broken_meshes(name, ratio):
     mesh = load(name)
-    result = lodkit.simplify(mesh, target_ratio=ratio)
+    result = lodkit.simplify(mesh, **_target(ratio))
     f = mesh.faces
     bad = (f[:, 0] == f[:, 1]) | (f[:, 1] == f[:, 2]) | (f[:, 0] == f[:, 2])
     check_target_and_repairs(mesh, result, int(round(ratio * mesh.n_faces)), f[~bad])
@@ -439,7 +451,7 @@ def face_soups(draw):
 @given(face_soups(), st.sampled_from([0.0, 0.3, 0.7]), st.sampled_from(["optimal", "endpoint"]),
        st.sampled_from(["preserve", "lock", "free"]))
 def test_face_soups_are_repaired_not_damaged(mesh, ratio, placement, boundary):
-    result = lodkit.simplify(mesh, target_ratio=ratio, placement=placement, boundary=boundary)
+    result = lodkit.simplify(mesh, **_target(ratio), placement=placement, boundary=boundary)
     check_target_and_repairs(mesh, result, int(round(ratio * mesh.n_faces)), mesh.faces)
     before, after = lodkit.topology(mesh), lodkit.topology(result.mesh)
     assert after.n_degenerate_faces == 0

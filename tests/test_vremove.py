@@ -721,7 +721,8 @@ def test_real_mesh_with_uvs_keeps_attributes_and_seams():
 def test_face_soups_are_not_damaged(mesh, ratio, boundary):
     """Non-manifold input: the cut edges and split vertices are locked, the weld rule holds
     across the copies -- nothing non-manifold or duplicated is added."""
-    r = lodkit.simplify(mesh, target_ratio=ratio, metric=PlaneFanMetric(), boundary=boundary)
+    target = {"target_faces": 0} if ratio == 0 else {"target_ratio": ratio}     # target_ratio=0 is refused
+    r = lodkit.simplify(mesh, **target, metric=PlaneFanMetric(), boundary=boundary)
     before, after = lodkit.topology(mesh), lodkit.topology(r.mesh)
     assert after.n_degenerate_faces == 0
     assert after.n_duplicate_faces <= before.n_duplicate_faces

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..adapters import to_mesh
 from ..errors import MeshError, OptionError
 from ..mesh import Mesh
 
@@ -230,16 +231,8 @@ def used_points(mesh: Mesh) -> np.ndarray:
 
 
 def as_drawable(mesh) -> Mesh:
-    """A lodkit Mesh from a Mesh, an Open3D (legacy or tensor) TriangleMesh or (vertices, faces)."""
-    if isinstance(mesh, Mesh):
-        return mesh
-    if type(mesh).__name__ == "TriangleMesh" and hasattr(mesh, "triangles"):
-        if hasattr(mesh, "to_legacy"):             # open3d.t.geometry.TriangleMesh
-            mesh = mesh.to_legacy()
-        return Mesh.from_open3d(mesh)
-    if isinstance(mesh, tuple) and len(mesh) == 2:
-        return Mesh(*mesh)
-    raise MeshError(f"expected a lodkit.Mesh, an open3d TriangleMesh or (vertices, faces), got {type(mesh).__name__}")
+    """A lodkit Mesh from any mesh type :func:`lodkit.adapters.coerce` takes, but a path."""
+    return to_mesh(mesh)
 
 
 def check_size(width, height) -> tuple[int, int]:

@@ -29,8 +29,8 @@ def _vertex_normals(V: np.ndarray, F: np.ndarray) -> np.ndarray:
 def render(mesh, width: int = 640, height: int = 480, *, colors=None, camera: Camera | None = None,
            wireframe: bool = False, background=(1.0, 1.0, 1.0), shading: str = "flat",
            backend: str | None = None, supersample: int = 2) -> np.ndarray:
-    """An (height, width, 3) uint8 picture of ``mesh`` (a Mesh, an Open3D TriangleMesh or
-    (vertices, faces)), drawn headless.
+    """An (height, width, 3) uint8 picture of ``mesh`` (any mesh type
+    :func:`lodkit.adapters.coerce` takes, but a path), drawn headless.
 
     colors     : None (the mesh's own vertex colours, else a light grey), (n, 3) RGB floats
                  in [0, 1] or uint8, or (n,) values mapped through :func:`colormap`
