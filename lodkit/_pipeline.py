@@ -185,15 +185,15 @@ def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolu
     vdata[:, QSIZE:] = prep.positions
     prep.positions = None
     vertex_quadrics(hm, vdata[:, QSIZE:], 0.0, out=vdata)
-    seams, n_seam_fixed = None, 0
+    n_seam_fixed = 0
+    seams = seam_partners(src, prep, fixed)
     if settings["boundary"][0] == "lock":
-        fixed |= hm.boundary_vertices        # every seam vertex is a boundary vertex: all stay
-    else:
-        seams = seam_partners(src, prep, fixed)
-        if seams is not None:
-            stays = seams != SEAM_NONE if fix_seams else seams == SEAM_STAYS
-            fixed |= stays
-            n_seam_fixed = int(np.count_nonzero(stays))
+        # the true border stays; a seam is no border (its pairs collapse together)
+        fixed |= hm.boundary_vertices if seams is None else hm.boundary_vertices & (seams == SEAM_NONE)
+    if seams is not None:
+        stays = seams != SEAM_NONE if fix_seams else seams == SEAM_STAYS
+        fixed |= stays
+        n_seam_fixed = int(np.count_nonzero(stays))
     return Work(src, prep, fixed, seams, n_seam_fixed, names, layout, attributes, vdata,
                 input_faces, pair_report, welded_faces)
 
@@ -208,11 +208,14 @@ def seam_partners(src: Mesh, prep: Prepared, fixed: np.ndarray) -> np.ndarray | 
     a boundary chain of the split connectivity, the two chains running side by side in
     opposite directions.  A boundary half-edge a -> b is a seam edge when some boundary
     half-edge runs from a copy of b to a copy of a.  Two boundary copies of one position
-    are partners when each one's outgoing seam edge pairs with the other's incoming one
-    (as in meshoptimizer, positions alone decide: equal attributes on both sides make
-    no difference).  Boundary vertices touching a seam that cannot be paired -- more than
-    two copies, the end of a cut, a seam meeting a true boundary -- stay (-2).  Copies of
-    one input vertex (non-manifold splits) are no seam; they are locked anyway."""
+    are partners when one's outgoing seam edge pairs with the other's incoming one (as in
+    meshoptimizer, positions alone decide: equal attributes on both sides make no
+    difference).  That includes the two copies at the end of a seam (where it meets a
+    true boundary or stops) and fixed copies: ``EdgeCollapser`` fixes both copies of
+    such a pair, but a seam pair next to it may still collapse into it.  Boundary
+    vertices touching a seam that cannot be paired (more than two copies at one
+    position) stay (-2).  Copies of one input vertex (non-manifold splits) are no seam;
+    they are locked anyway."""
     hm = prep.hm
     n = hm.n_vertices
     corners = hm.corners.reshape(-1)
@@ -258,7 +261,10 @@ def seam_partners(src: Mesh, prep: Prepared, fixed: np.ndarray) -> np.ndarray | 
         o, i = out_he[x], in_he[y]
         return mated[o] & mated[i] & (cls[b[o]] == cls[a[i]])
 
-    ok = chains_pair(s, t) & chains_pair(t, s) & ~fixed[s] & ~fixed[t]
+    # chains side by side in at least one direction: along the seam, or at its end (where
+    # it meets a true border or stops).  The collapser keeps an end, and a pair with a
+    # fixed copy, in place; a seam pair next to one may still collapse into it
+    ok = chains_pair(s, t) | chains_pair(t, s)
     partners[s[ok]] = t[ok]
     partners[t[ok]] = s[ok]
     near = shared.copy()

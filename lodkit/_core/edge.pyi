@@ -121,6 +121,9 @@ class EdgeCollapser:
     def seam_partners(self) -> NDArray[np.intc] | None:
         """Each slot's seam partner (-1 none, -2 stays) as used, or None without seams."""
     @property
+    def n_seam_fixed(self) -> int:
+        """Seam slots that may neither move nor go (seam ends, -2 copies, pairs with a fixed copy)."""
+    @property
     def positions(self) -> NDArray[np.float64]: ...
     @property
     def attributes(self) -> NDArray[np.float64]: ...

@@ -32,7 +32,7 @@ from .chain import make_chain
 from .common cimport (QSIZE, VSTRIDE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, RUN_ERROR, BOUNDARY_LOCK,
                       BOUNDARY_PRESERVE, BOUNDARY_FREE, PLACE_OPTIMAL, PLACE_ENDPOINT)
 from .quadric cimport (AttributeQuadrics, sq, collapse_error, quadric_eval, take_if_lower, quadric_solve,
-                       quadric_solve_truncated)
+                       quadric_solve_truncated, within_reach)
 from .checks cimport (check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality, face_volume,
                       turns_inside_out)
 from .fields cimport FieldSet, STEP_VFIELD, STEP_EFIELD
@@ -166,10 +166,15 @@ cdef class EdgeCollapser:
         cdef int v
         for v in range(n):
             if self.m.v_he[v] >= 0 and he_is_boundary(self.m, v):
-                # under the 'lock' policy a boundary vertex is also fixed
-                self.vflags[v] |= (VERTEX_FIXED | VERTEX_BOUNDARY) if boundary == BOUNDARY_LOCK else VERTEX_BOUNDARY
+                self.vflags[v] |= VERTEX_BOUNDARY
         self.A = &self.attr[0, 0] if n and self.n_attr else NULL
         self._setup_seams(seam_partners)
+        if boundary == BOUNDARY_LOCK:
+            # under the 'lock' policy a vertex of the true border is also fixed; a seam is
+            # no border: its vertices pair up as under the other policies
+            for v in range(n):
+                if (self.vflags[v] & VERTEX_BOUNDARY) and (self.SP == NULL or self.SP[v] == SEAM_NONE):
+                    self.vflags[v] |= VERTEX_FIXED
         self._setup_metric(quadric_weight, error_scale, vertex_fields, vertex_rules,
                            edge_fields, edge_rules, kernels, use_heap, steps)
         self.aq = AttributeQuadrics(hm, self.attr, attribute_quadrics, attribute_columns)
@@ -204,15 +209,29 @@ cdef class EdgeCollapser:
         if (arr[arr[paired]] != paired).any() or (arr[paired] == paired).any():
             raise ValueError("seam_partners must pair distinct vertex slots both ways")
         flags = np.asarray(self.vflags)
-        # a seam vertex off the boundary is no seam (nothing to keep apart); one whose
-        # partner is fixed stays too, so that both sides always agree
+        # a seam vertex off the boundary is no seam (nothing to keep apart)
         stays = (arr == SEAM_STAYS)
-        stays[paired] |= ((flags[paired] & VERTEX_FIXED) != 0) | ((flags[arr[paired]] & VERTEX_FIXED) != 0)
         stays[paired] |= ((flags[paired] & VERTEX_BOUNDARY) == 0) | ((flags[arr[paired]] & VERTEX_BOUNDARY) == 0)
         arr[stays] = SEAM_STAYS
         flags[stays] |= VERTEX_FIXED
+        # a pair stays where it is (both copies fixed, so that both sides agree) when one
+        # copy is fixed, or at the end of a seam: where a copy's boundary chain leaves the
+        # seam on either side.  It stays paired: a seam pair next to it collapses into it
         self.seam = arr
         self.SP = &self.seam[0]
+        cdef int v, w, h
+        fix = np.zeros(n, dtype=bool)
+        for v in np.flatnonzero(arr >= 0):
+            w = self.SP[v]
+            h = self.m.v_he[v]                    # v's outgoing boundary half-edge
+            if (flags[v] & VERTEX_FIXED) or (flags[w] & VERTEX_FIXED):
+                fix[v] = True
+            elif self.m.twin[h] >= 0 or self.SP[he_dest(self.m, h)] == SEAM_NONE:
+                fix[v] = True                     # the chain leaves the seam here
+            elif self.seam_mate(h, v, he_dest(self.m, h)) < 0:
+                fix[v] = True
+        fix[arr[fix]] = True
+        flags[fix] |= VERTEX_FIXED
 
     def _setup_metric(self, double quadric_weight, double error_scale, vertex_fields, vertex_rules,
                       edge_fields, edge_rules, kernels, bint use_heap, steps=None):
@@ -282,7 +301,8 @@ cdef class EdgeCollapser:
         hs_out[0] = -1
         if self.SP != NULL:
             if self.SP[u] != SEAM_NONE or self.SP[v] != SEAM_NONE:
-                if self.SP[u] >= 0 and self.SP[v] >= 0 and self.m.twin[h] < 0:
+                if (self.SP[u] != SEAM_NONE and self.SP[v] != SEAM_NONE and (self.SP[u] >= 0 or self.SP[v] >= 0)
+                        and self.m.twin[h] < 0):
                     hs = self.seam_mate(h, u, v)
                     if hs >= 0:
                         return self.plan_seam(h, hs, h_out, r_out, hs_out, p, cost, err)
@@ -326,16 +346,21 @@ cdef class EdgeCollapser:
             r_out[0] = v if keep == u else u
             c = d0 if keep == u else d1
         else:
-            if quadric_solve(q, p):
+            if quadric_solve(q, p) and within_reach(p, &self.P[VSTRIDE * u], &self.P[VSTRIDE * v]):
                 c = quadric_eval(q, p)
             else:
-                # fallback: the best of the truncated solve about the midpoint, both ends,
-                # the midpoint and the minimum along the edge
+                # fallback: the best of the truncated solve about the midpoint (if within
+                # reach), both ends, the midpoint and the minimum along the edge
                 for i in range(3):
                     du[i] = self.P[VSTRIDE * v + i] - self.P[VSTRIDE * u + i]
                     cand[i] = self.P[VSTRIDE * u + i] + 0.5 * du[i]
                 quadric_solve_truncated(q, cand, p)
-                best = quadric_eval(q, p)
+                if within_reach(p, &self.P[VSTRIDE * u], &self.P[VSTRIDE * v]):
+                    best = quadric_eval(q, p)
+                else:
+                    for i in range(3):
+                        p[i] = cand[i]
+                    best = quadric_eval(q, p)
                 take_if_lower(q, &self.P[VSTRIDE * u], p, &best)
                 take_if_lower(q, &self.P[VSTRIDE * v], p, &best)
                 take_if_lower(q, cand, p, &best)
@@ -375,14 +400,43 @@ cdef class EdgeCollapser:
         return 0
 
     cdef int seam_mate(self, int h, int u, int v) noexcept nogil:
-        """The partner of seam edge ``h`` (u -> v, a boundary half-edge between two paired
-        seam vertices): the boundary half-edge partner(v) -> partner(u) on the other side
-        of the seam, or -1 if there is none (the seam chains part there)."""
-        cdef int vs = self.SP[v]
-        cdef int hs = self.m.v_he[vs]          # a boundary vertex's fan starts at its border
-        if self.m.twin[hs] < 0 and he_dest(self.m, hs) == self.SP[u]:
+        """The partner of seam edge ``h`` (u -> v, a boundary half-edge between two seam
+        vertices, at least one of them paired): the boundary half-edge mate(v) -> mate(u)
+        on the other side of the seam, or -1 if there is none (the seam chains part
+        there).  The mate of a paired vertex is its partner; that of a seam copy that
+        stays (SEAM_STAYS: a seam end with more than two copies, a cube's corner) is the
+        copy at its position at the other end of the partner side's boundary edge."""
+        cdef int hs, y, ny, w
+        if self.SP[v] >= 0:
+            hs = self.m.v_he[self.SP[v]]          # a boundary vertex's fan starts at its border
+            if self.m.twin[hs] >= 0:
+                return -1
+            w = he_dest(self.m, hs)
+            if self.SP[u] >= 0:
+                return hs if w == self.SP[u] else -1
+            if w != u and self.SP[w] == SEAM_STAYS and same_point(&self.P[VSTRIDE * w], &self.P[VSTRIDE * u]):
+                return hs
+            return -1
+        # v stays, u is paired: the boundary half-edge into partner(u), from a copy of v
+        y = self.m.v_he[self.SP[u]]
+        while True:
+            ny = he_ring_next(self.m, y)
+            if ny < 0:
+                break
+            if ny == self.m.v_he[self.SP[u]]:
+                return -1                         # not on the boundary
+            y = ny
+        hs = he_prev(y)
+        if self.m.twin[hs] >= 0:
+            return -1
+        w = self.m.corner[hs]
+        if w != v and self.SP[w] == SEAM_STAYS and same_point(&self.P[VSTRIDE * w], &self.P[VSTRIDE * v]):
             return hs
         return -1
+
+    cdef int seam_kept(self, int hs, int rs) noexcept nogil:
+        """The end of seam half-edge ``hs`` that is not ``rs``: the partner side's kept vertex."""
+        return he_dest(self.m, hs) if self.m.corner[hs] == rs else self.m.corner[hs]
 
     cdef int plan_seam(self, int h, int hs, int* h_out, int* r_out, int* hs_out, double* p,
                        double* cost, double* err) noexcept nogil:
@@ -486,12 +540,18 @@ cdef class EdgeCollapser:
                 r_out[0] = cand.removed
                 kept = cand.kept
                 if not same_point(cand.p, p):
-                    p[0] = cand.p[0]
-                    p[1] = cand.p[1]
-                    p[2] = cand.p[2]
-                    cq = quadric_eval(q, p)
-                    if cq < 0.0:
-                        cq = 0.0
+                    if within_reach(cand.p, &self.P[VSTRIDE * u], &self.P[VSTRIDE * v]):
+                        p[0] = cand.p[0]
+                        p[1] = cand.p[1]
+                        p[2] = cand.p[2]
+                        cq = quadric_eval(q, p)
+                        if cq < 0.0:
+                            cq = 0.0
+                    else:
+                        # flung off the edge: the core's placement stands (quadric.pxd within_reach)
+                        cand.p[0] = p[0]
+                        cand.p[1] = p[1]
+                        cand.p[2] = p[2]
         e_err = collapse_error(quadric_eval(qg, p) if qg != q else cq, q[10], self.opt.error_scale)
         if err != NULL:
             err[0] = e_err
@@ -984,7 +1044,7 @@ cdef class EdgeCollapser:
             if hs >= 0:
                 # a seam edge: both sides together or neither
                 rs = self.SP[r]
-                ks = self.SP[k]
+                ks = self.seam_kept(hs, rs)
                 if not self.pair_ok(h, r, k, hs, rs, ks, p, dvol):
                     self.refused[r] = 1
                     self.refused[k] = 1
@@ -1111,6 +1171,15 @@ cdef class EdgeCollapser:
         if self.SP == NULL:
             return None
         return np.asarray(self.seam).copy()
+
+    @property
+    def n_seam_fixed(self):
+        """Seam vertex slots that may neither move nor go (SEAM_STAYS, and both copies of
+        a seam end or of a pair with a fixed copy), as set up (0 without seams)."""
+        if self.SP == NULL:
+            return 0
+        sp = np.asarray(self.seam)
+        return int(np.count_nonzero((sp != SEAM_NONE) & ((np.asarray(self.vflags) & VERTEX_FIXED) != 0)))
 
     @property
     def positions(self):

@@ -76,6 +76,8 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
         **compiled.core,
     )
     raise_if_failed(collapser, compiled)
+    if work.seams is not None:
+        work.n_seam_fixed = collapser.n_seam_fixed      # seam ends stay too (EdgeCollapser)
 
     bar = progress_bar(progress, hm, target)
     n_passes = 0
