@@ -87,6 +87,8 @@ class EdgeCollapser:
     def _setup_seams(self, partners: ArrayLike | None) -> None: ...
     def run(self, target_faces: int, max_steps: int = ...) -> int:
         """0: target reached, 1: step budget used, 2: no legal collapse left, 3: a kernel failed."""
+    def relax_quality(self, min_quality: float) -> None:
+        """Lower the quality limit; the next run() gives every live candidate another chance."""
     def collapse_pass(self, edges: ArrayLike, positions: ArrayLike | None = ..., target_faces: int = ...) -> int:
         """Collapse, in the order given, the edges no earlier collapse of this pass touched;
         the number of collapses, or -1 if a kernel failed.  Here: RuntimeError (the pass

@@ -592,9 +592,10 @@ cdef class EdgeCollapser:
 
     # ------------------------------------------------------------- checks
     cdef bint fan_ok(self, int center, int fa, int fb, int skip_c, int skip_d, const double* p,
-                     double* dvol) noexcept nogil:
+                     double* dvol, double* min_q) noexcept nogil:
         """Do the faces around ``center`` (except fa, fb) stay valid when it moves to p?
-        Adds to ``dvol`` six times the change of the enclosed volume.  Faces ``skip_c`` /
+        Adds to ``dvol`` six times the change of the enclosed volume; lowers ``min_q`` to
+        the lowest quality of a moved face (with a quality limit).  Faces ``skip_c`` /
         ``skip_d`` (-1: none; a triangle collapse's first step) count for the volume only."""
         cdef int start = self.m.v_he[center]
         cdef int y = start
@@ -603,7 +604,7 @@ cdef class EdgeCollapser:
         cdef double e2[3]
         cdef double n0[3]
         cdef double n1[3]
-        cdef double l0, l1, l2, len0, len1, q0, q1, lg, prev_ok
+        cdef double l0, l1, l2, len0, len1, q1, lg, prev_ok
         cdef double bc[3]
         cdef double ng[3]
         cdef double prev_n1[3]
@@ -658,19 +659,13 @@ cdef class EdgeCollapser:
                             self.lim.cos_orig_angle, 32767.0, len1):
                         return False                 # turned away from the input face it stands for
                     if self.lim.min_quality > 0.0:
+                        # judged over the whole fan by geometry_ok (relative_quality_ok)
                         l2 = 0.0
                         for i in range(3):
                             l2 += sq(self.P[VSTRIDE * b + i] - self.P[VSTRIDE * c + i])
                         q1 = tri_quality(len1, l0 + l1 + l2)
-                        if q1 < self.lim.min_quality:
-                            l0 = 0.0
-                            l1 = 0.0
-                            for i in range(3):
-                                l0 += sq(self.P[VSTRIDE * b + i] - self.P[VSTRIDE * center + i])
-                                l1 += sq(self.P[VSTRIDE * c + i] - self.P[VSTRIDE * center + i])
-                            q0 = tri_quality(len0, l0 + l1 + l2)
-                            if q1 < q0:
-                                return False         # a sliver, worse than before
+                        if q1 < min_q[0]:
+                            min_q[0] = q1
                     if self.lim.check_orig:
                         # no new fold: the face must not bend back onto the neighbour across
                         # its far edge b-c, nor onto the previous face of the fan
@@ -703,10 +698,16 @@ cdef class EdgeCollapser:
         cdef int fa = h // 3
         cdef int fb = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
         cdef double dvol = 0.0
-        if not self.fan_ok(r, fa, fb, skip_c, skip_d, p, &dvol):
+        cdef double min_q = INFINITY
+        if not self.fan_ok(r, fa, fb, skip_c, skip_d, p, &dvol, &min_q):
             return False
         if not same_point(p, &self.P[VSTRIDE * k]):
-            if not self.fan_ok(k, fa, fb, skip_c, skip_d, p, &dvol):
+            if not self.fan_ok(k, fa, fb, skip_c, skip_d, p, &dvol, &min_q):
+                return False
+        if min_q < self.lim.min_quality:
+            # a sliver is refused only when the fan had none as bad: the new worst face may
+            # not be worse than min(min_quality, the worst face of both fans before)
+            if min_q < self.fan_worst_quality(r, min_q) and min_q < self.fan_worst_quality(k, min_q):
                 return False
         if self.closed_volume != 0.0:
             # a closed surface must not be turned inside out (locally valid faces can still
@@ -718,6 +719,35 @@ cdef class EdgeCollapser:
                 return False
         dvol_out[0] = dvol
         return True
+
+    cdef double fan_worst_quality(self, int center, double floor) noexcept nogil:
+        """The lowest quality among the faces around ``center`` as they are (the ones a
+        collapse removes included); stops early once one is at or below ``floor``."""
+        cdef int start = self.m.v_he[center]
+        cdef int y = start
+        cdef int a, b, c, i
+        cdef double e1[3]
+        cdef double e2[3]
+        cdef double n0[3]
+        cdef double l2, q, worst = INFINITY
+        while True:
+            a = self.m.corner[y]
+            b = he_dest(self.m, y)
+            c = self.m.corner[he_prev(y)]
+            l2 = 0.0
+            for i in range(3):
+                e1[i] = self.P[VSTRIDE * b + i] - self.P[VSTRIDE * a + i]
+                e2[i] = self.P[VSTRIDE * c + i] - self.P[VSTRIDE * a + i]
+                l2 += sq(e1[i]) + sq(e2[i]) + sq(self.P[VSTRIDE * c + i] - self.P[VSTRIDE * b + i])
+            cross3(e1, e2, n0)
+            q = tri_quality(sqrt(dot3(n0, n0)), l2) if l2 > 0.0 else 0.0
+            if q < worst:
+                worst = q
+                if worst <= floor:
+                    return worst
+            y = he_ring_next(self.m, y)
+            if y < 0 or y == start:
+                return worst
 
     cdef bint ring_has(self, int v, int a, int b) noexcept nogil:
         """Is ``a`` or ``b`` a neighbour of ``v``?"""
@@ -984,7 +1014,8 @@ cdef class EdgeCollapser:
             self.A[self.n_attr * k + i] = (1.0 - t) * self.A[self.n_attr * r + i] + t * self.A[self.n_attr * k + i]
         if self.aq.dim > 0:
             # a seam vertex keeps its attributes: its side's chart at the seam
-            self.aq.commit(r, k, p, self.A, self.n_attr, self.SP != NULL and self.SP[k] != SEAM_NONE)
+            self.aq.commit(r, k, p, self.A, self.n_attr,
+                           (self.SP != NULL and self.SP[k] != SEAM_NONE) or (self.vflags[k] & VERTEX_FIXED) != 0)
         if not same_point(p, &self.P[VSTRIDE * k]):
             for i in range(3):
                 self.P[VSTRIDE * k + i] = p[i]
@@ -1082,6 +1113,17 @@ cdef class EdgeCollapser:
         with nogil:
             status = self.run_c(target_faces, max_steps)
         return status
+
+    def relax_quality(self, double min_quality):
+        """Lower the quality limit (``min_quality``) and give every live candidate another
+        chance on the next ``run`` (a full rescan; the pass driver ranks every live edge
+        again): ``simplify``'s relaxation steps when the checks leave no collapse."""
+        if self.released:
+            raise RuntimeError("this EdgeCollapser was released")
+        if not (0.0 <= min_quality <= 1.0):
+            raise ValueError("min_quality must be in [0, 1]")
+        self.lim.min_quality = min_quality
+        self.collapses_since_rescan += 1
 
     def collapse_pass(self, edges, positions=None, int target_faces=0):
         """The pass driver's step (``lodkit._core.passes.PassCollapser``, made with

@@ -81,16 +81,21 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
 
     bar = progress_bar(progress, hm, target)
     n_passes = 0
+    relaxed = None
     if compiled.batch:
         status, rejected_error, n_passes = run_passes(collapser, compiled, work, target, bar)
-    elif passes:
-        driver = PassDriver(collapser, threads=int(settings["threads"][0]))
-        status = run_chunked(driver, hm, target, bar)
-        rejected_error = collapser.n_rejected_error
-        n_passes = driver.n_passes
     else:
-        status = run_chunked(collapser, hm, target, bar)
+        driver = PassDriver(collapser, threads=int(settings["threads"][0])) if passes else collapser
+        status = run_chunked(driver, hm, target, bar)
+        for step in quality_steps(settings):
+            if status != RUN_EXHAUSTED:
+                break
+            # the checks left no collapse: relax the quality limit a step and go on
+            collapser.relax_quality(step)
+            relaxed = step
+            status = run_chunked(driver, hm, target, bar)
         rejected_error = collapser.n_rejected_error
+        n_passes = driver.n_passes if passes else 0
     if bar:
         bar.close()
     raise_if_failed(collapser, compiled)
@@ -101,6 +106,8 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
         stop, detail = STOP_MAX_ERROR, f"{rejected_error} candidate collapses exceed max_error"
     else:
         stop, detail = STOP_NO_COLLAPSE, _no_collapse_detail(collapser)
+    if relaxed is not None and detail:
+        detail += f" (min_quality relaxed to {relaxed:g})"
     collapser.release()          # the heap and quadrics are not needed to build the output
     return Run(
         core=collapser,
@@ -119,8 +126,24 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
             "operator": operator + "_collapse",
             "triangle_collapses": int(collapser.n_tri_collapses),
             "refused_at_second_collapse": int(collapser.n_tri_refused_second),
+            "min_quality_relaxed_to": relaxed,
         },
     )
+
+
+#: when the checks leave no collapse above the target, a default ``min_quality`` (one the
+#: caller did not give) is relaxed in these steps, as fractions of it (docs/algorithms.md,
+#: "Relative quality"); a caller's value is a hard limit
+QUALITY_STEPS = (0.1, 0.0)
+
+
+def quality_steps(settings: dict) -> list:
+    """The lower quality limits to try in turn once the run is exhausted (none when the
+    caller set ``min_quality``, or it is 0)."""
+    value, source = settings["min_quality"]
+    if source == "caller" or not float(value) > 0.0:
+        return []
+    return [float(value) * f for f in QUALITY_STEPS]
 
 
 def raise_if_failed(collapser, compiled: Compiled) -> None:
