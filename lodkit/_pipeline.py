@@ -148,7 +148,8 @@ class Work:
     vdata: np.ndarray            # (n_slots, VSTRIDE): plain face quadric, then position
     input_faces: int             # faces of the mesh as given (before pair contraction)
     pair_report: dict | None = None
-    welded_faces: np.ndarray | None = None   # after pair contraction: input face of each face
+    welded_faces: np.ndarray | None = None   # after pair contraction / pruning: input face of each face
+    prune_report: dict | None = None
 
     @property
     def positions(self) -> np.ndarray:
@@ -157,7 +158,7 @@ class Work:
 
 
 def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolute: bool = False,
-          fix_seams: bool = False, memory_order: bool = False) -> Work:
+          fix_seams: bool = False, memory_order: bool = False, prune: float | None = None) -> Work:
     """Everything before the metrics: pair contraction (when ``pair_threshold`` is given),
     :func:`prepare`, the fixed vertices (non-manifold copies, ``locked``, the boundary
     under "lock", attribute seam copies that stay -- every seam copy with ``fix_seams``, for
@@ -169,6 +170,10 @@ def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolu
         src, welded_faces, pair_report = contract_pairs(
             src, pair_threshold, absolute=absolute,
             locked=None if locked is None else locked_mask(locked, src.n_vertices))
+    prune_report = None
+    if prune is not None:
+        src, kept_faces, prune_report = prune_debris(src, prune)
+        welded_faces = kept_faces if welded_faces is None else welded_faces[kept_faces]
     prep = prepare(src, memory_order=memory_order)
     hm = prep.hm
     fixed = hm.locked_vertices.copy()
@@ -195,7 +200,72 @@ def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolu
         fixed |= stays
         n_seam_fixed = int(np.count_nonzero(stays))
     return Work(src, prep, fixed, seams, n_seam_fixed, names, layout, attributes, vdata,
-                input_faces, pair_report, welded_faces)
+                input_faces, pair_report, welded_faces, prune_report)
+
+
+#: twice a face's area at most this times its summed squared edge lengths: zero area, up to
+#: rounding (quality below ~3.5e-12); ``prune`` removes such faces
+ZERO_AREA = 1e-12
+
+
+def prune_debris(src: Mesh, size: float):
+    """``simplify(prune=)``: (mesh, kept input faces, report) without the debris of ``src``:
+
+    - zero-area faces: twice the area at most ZERO_AREA (1e-12) times the sum of the
+      squared edge lengths (collinear or coincident corners, up to rounding);
+    - small parts: connected components (faces sharing a position, so attribute seams do
+      not part them) whose bounding-box diagonal is below ``size`` times the whole mesh's.
+      The part with the most faces always stays.
+
+    The vertices stay (unreferenced ones are dropped later, by :func:`prepare`)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    from .geometry import face_vectors, weld_positions
+
+    faces = src.faces
+    m = faces.shape[0]
+    keep = np.ones(m, dtype=bool)
+    v = src.vertices
+    if m:
+        cross = face_vectors(v, faces)
+        twice_area = np.linalg.norm(cross, axis=1)
+        p0, p1, p2 = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
+        sum_sq = (np.einsum("ij,ij->i", p1 - p0, p1 - p0) + np.einsum("ij,ij->i", p2 - p1, p2 - p1)
+                  + np.einsum("ij,ij->i", p0 - p2, p0 - p2))
+        keep &= twice_area > ZERO_AREA * sum_sq
+    n_zero = int(m - np.count_nonzero(keep))
+    n_parts, part_faces = 0, 0
+    if m and size > 0.0:
+        positions, wf = weld_positions(v, faces)
+        k = positions.shape[0]
+        graph = coo_matrix((np.ones(2 * m), (np.concatenate([wf[:, 0], wf[:, 1]]), np.concatenate([wf[:, 1], wf[:, 2]]))),
+                           shape=(k, k))
+        n_comp, label = connected_components(graph, directed=False)
+        if n_comp > 1:
+            face_label = label[wf[:, 0]]
+            corners = np.repeat(face_label, 3)
+            pts = positions[wf.reshape(-1)]
+            lo = np.full((n_comp, 3), np.inf)
+            hi = np.full((n_comp, 3), -np.inf)
+            for c in range(3):
+                np.minimum.at(lo[:, c], corners, pts[:, c])
+                np.maximum.at(hi[:, c], corners, pts[:, c])
+            diag = np.linalg.norm(hi - lo, axis=1)
+            whole = float(np.linalg.norm(positions.max(axis=0) - positions.min(axis=0)))
+            counts = np.bincount(face_label, minlength=n_comp)
+            small = diag < size * whole
+            small[int(np.argmax(counts))] = False
+            drop = small[face_label] & keep
+            n_parts = int(np.count_nonzero(small & (counts > 0)))
+            part_faces = int(np.count_nonzero(drop))
+            keep &= ~small[face_label]
+    kept = np.flatnonzero(keep)
+    report = {"zero_area_faces": n_zero, "small_parts": n_parts, "small_part_faces": part_faces,
+              "size": float(size)}
+    if kept.size == m:
+        return src, kept, report
+    return Mesh(src.vertices, faces[kept], **src.attributes()), kept, report
 
 
 def seam_partners(src: Mesh, prep: Prepared, fixed: np.ndarray) -> np.ndarray | None:
@@ -413,6 +483,7 @@ def report(work: Work, run: Run, metrics, settings: dict, target: int) -> dict:
     }
     out.update(run.counters)
     out["stop_detail"] = run.detail
+    out["pruned"] = work.prune_report
     out["seams"] = {"paired_vertices": 0 if seams is None else int(np.count_nonzero(seams >= 0)),
                     "fixed_vertices": work.n_seam_fixed,
                     "pair_collapses": run.seam_pair_collapses}

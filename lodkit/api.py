@@ -25,6 +25,7 @@ from .settings import (
     check_settings,
     resolve_driver,
     resolve_operator,
+    resolve_prune,
     resolve_settings,
     resolve_target,
     resolve_threads,
@@ -84,6 +85,7 @@ def simplify(
     operator: str = "edge",
     driver: str | None = None,
     threads: int | None = None,
+    prune: bool | float = False,
 ) -> SimplifyResult:
     """Simplify a triangle mesh by greedy edge collapse with quadric error metrics (or by
     triangle collapse or vertex removal: ``operator``).
@@ -140,6 +142,13 @@ def simplify(
                        else the cores this process may use).  The output is the same for any
                        number of threads
 
+    prune            : drop debris before simplifying (off by default): zero-area faces (twice
+                       the area at most 1e-12 times the summed squared edge lengths) and
+                       small parts -- connected components (faces sharing a position) whose
+                       bounding-box diagonal is below 1% of the mesh's (``prune=True``) or
+                       below the given fraction (``prune=0.05``); the largest part always
+                       stays.  ``report["pruned"]`` counts what went (docs/getting-started.md)
+
     An open3d.geometry.TriangleMesh in gives one out.  Per-vertex normals, colours and uvs
     are carried along (interpolated on the collapsed edge at the new position).  Attribute
     seams (coincident vertex copies, as OBJ / glTF uv seams load) stay closed under the
@@ -156,13 +165,14 @@ def simplify(
     settings["driver"] = resolve_driver(driver)
     settings["threads"] = resolve_threads(threads)
     check_settings(settings, max_error)
+    prune_size = resolve_prune(prune)
     target = resolve_target(src.n_faces, target_faces, target_ratio, max_error)
     runner = DRIVERS[operator]
     runner.check(metrics, pair_threshold)
 
     work = _pipeline.start(src, settings, locked=locked, pair_threshold=pair_threshold,
                            absolute=absolute, fix_seams=runner.FIX_SEAMS,
-                           memory_order=runner.memory_order(metrics, settings))
+                           memory_order=runner.memory_order(metrics, settings), prune=prune_size)
     ctx = _pipeline.metric_context(work, settings)
     compiled = runner.setup(metrics, ctx, work)
     run = runner.run(work, compiled, settings, target=target, record=record, progress=progress,

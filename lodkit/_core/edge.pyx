@@ -34,7 +34,7 @@ from .common cimport (QSIZE, VSTRIDE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, RUN_
 from .quadric cimport (AttributeQuadrics, sq, collapse_error, quadric_eval, take_if_lower, quadric_solve,
                        quadric_solve_truncated, within_reach)
 from .checks cimport (check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality, face_volume,
-                      turns_inside_out)
+                      turns_inside_out, sides_of_a_sheet)
 from .fields cimport FieldSet, STEP_VFIELD, STEP_EFIELD
 from .quadric import face_unit_normals
 
@@ -609,7 +609,7 @@ cdef class EdgeCollapser:
         cdef double ng[3]
         cdef double prev_n1[3]
         cdef double prev_len1 = 0.0
-        cdef int t, g, x
+        cdef int t, g, x, prev_f = -1
         prev_n1[0] = prev_n1[1] = prev_n1[2] = 0.0
         while True:
             f = y // 3
@@ -679,13 +679,14 @@ cdef class EdgeCollapser:
                                     e2[i] = self.P[VSTRIDE * x + i] - self.P[VSTRIDE * c + i]
                                 cross3(e1, e2, ng)
                                 lg = sqrt(dot3(ng, ng))
-                                if new_fold(n1, len1, n0, len0, ng, lg):
+                                if new_fold(n1, len1, n0, len0, ng, lg) and not sides_of_a_sheet(self.N0, f, g):
                                     return False
-                        if prev_ok > 0.0 and folds(n1, len1, prev_n1, prev_ok):
+                        if prev_ok > 0.0 and folds(n1, len1, prev_n1, prev_ok) and not sides_of_a_sheet(self.N0, f, prev_f):
                             return False
                         for i in range(3):
                             prev_n1[i] = n1[i]
                         prev_len1 = len1
+                        prev_f = f
             y = he_ring_next(self.m, y)
             if y < 0 or y == start:
                 return True
