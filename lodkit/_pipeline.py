@@ -239,8 +239,9 @@ def prune_debris(src: Mesh, size: float):
     if m and size > 0.0:
         positions, wf = weld_positions(v, faces)
         k = positions.shape[0]
-        graph = coo_matrix((np.ones(2 * m), (np.concatenate([wf[:, 0], wf[:, 1]]), np.concatenate([wf[:, 1], wf[:, 2]]))),
-                           shape=(k, k))
+        rows = np.concatenate([wf[:, 0], wf[:, 1]])
+        cols = np.concatenate([wf[:, 1], wf[:, 2]])
+        graph = coo_matrix((np.ones(2 * m), (rows, cols)), shape=(k, k))
         n_comp, label = connected_components(graph, directed=False)
         if n_comp > 1:
             face_label = label[wf[:, 0]]

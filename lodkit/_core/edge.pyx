@@ -681,7 +681,8 @@ cdef class EdgeCollapser:
                                 lg = sqrt(dot3(ng, ng))
                                 if new_fold(n1, len1, n0, len0, ng, lg) and not sides_of_a_sheet(self.N0, f, g):
                                     return False
-                        if prev_ok > 0.0 and folds(n1, len1, prev_n1, prev_ok) and not sides_of_a_sheet(self.N0, f, prev_f):
+                        if (prev_ok > 0.0 and folds(n1, len1, prev_n1, prev_ok)
+                                and not sides_of_a_sheet(self.N0, f, prev_f)):
                             return False
                         for i in range(3):
                             prev_n1[i] = n1[i]
