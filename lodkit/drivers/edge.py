@@ -87,7 +87,7 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
     else:
         driver = PassDriver(collapser, threads=int(settings["threads"][0])) if passes else collapser
         status = run_chunked(driver, hm, target, bar)
-        for step in quality_steps(settings):
+        for step in quality_steps(settings) if target > 0 else ():
             if status != RUN_EXHAUSTED:
                 break
             # the checks left no collapse: relax the quality limit a step and go on
@@ -138,8 +138,9 @@ QUALITY_STEPS = (0.1, 0.0)
 
 
 def quality_steps(settings: dict) -> list:
-    """The lower quality limits to try in turn once the run is exhausted (none when the
-    caller set ``min_quality``, or it is 0)."""
+    """The lower quality limits to try in turn once a run to a face target is exhausted
+    (none when the caller set ``min_quality``, or it is 0; a run stopped by ``max_error``
+    alone is not relaxed)."""
     value, source = settings["min_quality"]
     if source == "caller" or not float(value) > 0.0:
         return []
