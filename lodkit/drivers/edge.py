@@ -87,7 +87,7 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
     else:
         driver = PassDriver(collapser, threads=int(settings["threads"][0])) if passes else collapser
         status = run_chunked(driver, hm, target, bar)
-        for step in quality_steps(settings) if target > 0 else ():
+        for step in quality_steps(settings) if max_error == math.inf else ():
             if status != RUN_EXHAUSTED:
                 break
             # the checks left no collapse: relax the quality limit a step and go on
@@ -131,19 +131,20 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
     )
 
 
-#: when the checks leave no collapse above the target, a default ``min_quality`` (one the
-#: caller did not give) is relaxed in these steps, as fractions of it (docs/algorithms.md,
+#: when the checks leave no collapse above the target, lodkit's default ``min_quality`` (not
+#: the caller's, nor a metric's preferred value) is relaxed in these steps, as fractions of it (docs/algorithms.md,
 #: "Relative quality"); a caller's value is a hard limit
 QUALITY_STEPS = (0.1, 0.0)
 
 
 def quality_steps(settings: dict) -> list:
-    """The lower quality limits to try in turn once a run to a face target is exhausted
-    (none when the caller set ``min_quality``, or it is 0; a run stopped by ``max_error``
-    alone is not relaxed)."""
+    """The lower quality limits to try in turn once a run is exhausted (none when the
+    caller or the metric set ``min_quality``, or it is 0; a run with a ``max_error`` is
+    not relaxed: a run to N faces stays the start of a run to fewer, as progressive meshes
+    need, with or without one)."""
     value, source = settings["min_quality"]
-    if source == "caller" or not float(value) > 0.0:
-        return []
+    if source != "lodkit" or not float(value) > 0.0:
+        return []            # the caller's value, or a metric's own (a paper's setting)
     return [float(value) * f for f in QUALITY_STEPS]
 
 
