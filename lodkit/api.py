@@ -104,14 +104,18 @@ def simplify(
                        vertices are a subset of the input)
     boundary         : "preserve" (default; boundary planes weighted by ``boundary_weight``; a boundary
                        vertex never moves into the interior), "lock" (boundary vertices never
-                       move nor go) or "free" (no special treatment)
+                       move nor go; attribute seams are no border) or "free" (no special
+                       treatment)
     locked           : (n,) bool mask or index array of vertices that must stay as they are
     boundary_weight  : weight of the boundary planes under "preserve" (default 10)
     max_normal_angle : reject a collapse that turns any face normal by more than this
                        (degrees, default 90)
-    min_quality      : reject a collapse that makes a face with quality
-                       Q = 4*sqrt(3)*A/(l0^2+l1^2+l2^2) below this (and below its old Q); 0 = off
-                       (default 0.1)
+    min_quality      : reject a collapse that leaves the worst face of its fan with quality
+                       Q = 4*sqrt(3)*A/(l0^2+l1^2+l2^2) below min(this, the fan's worst
+                       before); 0 = off (default 0.1).  lodkit's default (not given here nor
+                       by the metric) is relaxed to 0.01, then 0, when no collapse is left
+                       above the target in a run without ``max_error``
+                       (``report["min_quality_relaxed_to"]``)
 
     The five settings above that are left as None take the value the metric prefers (a
     metric's ``defaults``, e.g. ``curvature`` checks normals within 60 degrees and quality
