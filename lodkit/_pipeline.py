@@ -148,7 +148,8 @@ class Work:
     vdata: np.ndarray            # (n_slots, VSTRIDE): plain face quadric, then position
     input_faces: int             # faces of the mesh as given (before pair contraction)
     pair_report: dict | None = None
-    welded_faces: np.ndarray | None = None   # after pair contraction: input face of each face
+    welded_faces: np.ndarray | None = None   # after pair contraction / pruning: input face of each face
+    prune_report: dict | None = None
 
     @property
     def positions(self) -> np.ndarray:
@@ -157,7 +158,7 @@ class Work:
 
 
 def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolute: bool = False,
-          fix_seams: bool = False, memory_order: bool = False) -> Work:
+          fix_seams: bool = False, memory_order: bool = False, prune: float | None = None) -> Work:
     """Everything before the metrics: pair contraction (when ``pair_threshold`` is given),
     :func:`prepare`, the fixed vertices (non-manifold copies, ``locked``, the boundary
     under "lock", attribute seam copies that stay -- every seam copy with ``fix_seams``, for
@@ -169,6 +170,10 @@ def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolu
         src, welded_faces, pair_report = contract_pairs(
             src, pair_threshold, absolute=absolute,
             locked=None if locked is None else locked_mask(locked, src.n_vertices))
+    prune_report = None
+    if prune is not None:
+        src, kept_faces, prune_report = prune_debris(src, prune)
+        welded_faces = kept_faces if welded_faces is None else welded_faces[kept_faces]
     prep = prepare(src, memory_order=memory_order)
     hm = prep.hm
     fixed = hm.locked_vertices.copy()
@@ -185,17 +190,83 @@ def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolu
     vdata[:, QSIZE:] = prep.positions
     prep.positions = None
     vertex_quadrics(hm, vdata[:, QSIZE:], 0.0, out=vdata)
-    seams, n_seam_fixed = None, 0
+    n_seam_fixed = 0
+    seams = seam_partners(src, prep, fixed)
     if settings["boundary"][0] == "lock":
-        fixed |= hm.boundary_vertices        # every seam vertex is a boundary vertex: all stay
-    else:
-        seams = seam_partners(src, prep, fixed)
-        if seams is not None:
-            stays = seams != SEAM_NONE if fix_seams else seams == SEAM_STAYS
-            fixed |= stays
-            n_seam_fixed = int(np.count_nonzero(stays))
+        # the true border stays; a seam is no border (its pairs collapse together)
+        fixed |= hm.boundary_vertices if seams is None else hm.boundary_vertices & (seams == SEAM_NONE)
+    if seams is not None:
+        stays = seams != SEAM_NONE if fix_seams else seams == SEAM_STAYS
+        fixed |= stays
+        n_seam_fixed = int(np.count_nonzero(stays))
     return Work(src, prep, fixed, seams, n_seam_fixed, names, layout, attributes, vdata,
-                input_faces, pair_report, welded_faces)
+                input_faces, pair_report, welded_faces, prune_report)
+
+
+#: twice a face's area at most this times its summed squared edge lengths: zero area, up to
+#: rounding (quality below ~3.5e-12); ``prune`` removes such faces
+ZERO_AREA = 1e-12
+
+
+def prune_debris(src: Mesh, size: float):
+    """``simplify(prune=)``: (mesh, kept input faces, report) without the debris of ``src``:
+
+    - zero-area faces: twice the area at most ZERO_AREA (1e-12) times the sum of the
+      squared edge lengths (collinear or coincident corners, up to rounding);
+    - small parts: connected components (faces sharing a position, so attribute seams do
+      not part them) whose bounding-box diagonal is below ``size`` times the whole mesh's.
+      The part with the most faces always stays.
+
+    The vertices stay (unreferenced ones are dropped later, by :func:`prepare`)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    from .geometry import face_vectors, weld_positions
+
+    faces = src.faces
+    m = faces.shape[0]
+    keep = np.ones(m, dtype=bool)
+    v = src.vertices
+    if m:
+        cross = face_vectors(v, faces)
+        twice_area = np.linalg.norm(cross, axis=1)
+        p0, p1, p2 = v[faces[:, 0]], v[faces[:, 1]], v[faces[:, 2]]
+        sum_sq = (np.einsum("ij,ij->i", p1 - p0, p1 - p0) + np.einsum("ij,ij->i", p2 - p1, p2 - p1)
+                  + np.einsum("ij,ij->i", p0 - p2, p0 - p2))
+        keep &= twice_area > ZERO_AREA * sum_sq
+    n_zero = int(m - np.count_nonzero(keep))
+    n_parts, part_faces = 0, 0
+    if m and size > 0.0:
+        positions, wf = weld_positions(v, faces)
+        k = positions.shape[0]
+        rows = np.concatenate([wf[:, 0], wf[:, 1]])
+        cols = np.concatenate([wf[:, 1], wf[:, 2]])
+        graph = coo_matrix((np.ones(2 * m), (rows, cols)), shape=(k, k))
+        n_comp, label = connected_components(graph, directed=False)
+        if n_comp > 1:
+            face_label = label[wf[:, 0]]
+            corners = np.repeat(face_label, 3)
+            pts = positions[wf.reshape(-1)]
+            lo = np.full((n_comp, 3), np.inf)
+            hi = np.full((n_comp, 3), -np.inf)
+            for c in range(3):
+                np.minimum.at(lo[:, c], corners, pts[:, c])
+                np.maximum.at(hi[:, c], corners, pts[:, c])
+            diag = np.linalg.norm(hi - lo, axis=1)
+            whole = float(np.linalg.norm(positions.max(axis=0) - positions.min(axis=0)))
+            counts = np.bincount(face_label, minlength=n_comp)
+            small = diag < size * whole
+            small[int(np.argmax(counts))] = False
+            drop = small[face_label] & keep
+            n_parts = int(np.count_nonzero(small & (counts > 0)))
+            part_faces = int(np.count_nonzero(drop))
+            keep &= ~small[face_label]
+    kept = np.flatnonzero(keep)
+    report = {"zero_area_faces": n_zero, "small_parts": n_parts, "small_part_faces": part_faces,
+              "size": float(size)}
+    if kept.size == m:
+        return src, kept, report
+    return Mesh(src.vertices, faces[kept], **src.attributes()), kept, report
 
 
 def seam_partners(src: Mesh, prep: Prepared, fixed: np.ndarray) -> np.ndarray | None:
@@ -208,11 +279,14 @@ def seam_partners(src: Mesh, prep: Prepared, fixed: np.ndarray) -> np.ndarray | 
     a boundary chain of the split connectivity, the two chains running side by side in
     opposite directions.  A boundary half-edge a -> b is a seam edge when some boundary
     half-edge runs from a copy of b to a copy of a.  Two boundary copies of one position
-    are partners when each one's outgoing seam edge pairs with the other's incoming one
-    (as in meshoptimizer, positions alone decide: equal attributes on both sides make
-    no difference).  Boundary vertices touching a seam that cannot be paired -- more than
-    two copies, the end of a cut, a seam meeting a true boundary -- stay (-2).  Copies of
-    one input vertex (non-manifold splits) are no seam; they are locked anyway."""
+    are partners when one's outgoing seam edge pairs with the other's incoming one (as in
+    meshoptimizer, positions alone decide: equal attributes on both sides make no
+    difference).  That includes the two copies at the end of a seam (where it meets a
+    true boundary or stops) and fixed copies: ``EdgeCollapser`` fixes both copies of
+    such a pair, but a seam pair next to it may still collapse into it.  Boundary
+    vertices touching a seam that cannot be paired (more than two copies at one
+    position) stay (-2).  Copies of one input vertex (non-manifold splits) are no seam;
+    they are locked anyway."""
     hm = prep.hm
     n = hm.n_vertices
     corners = hm.corners.reshape(-1)
@@ -258,7 +332,10 @@ def seam_partners(src: Mesh, prep: Prepared, fixed: np.ndarray) -> np.ndarray | 
         o, i = out_he[x], in_he[y]
         return mated[o] & mated[i] & (cls[b[o]] == cls[a[i]])
 
-    ok = chains_pair(s, t) & chains_pair(t, s) & ~fixed[s] & ~fixed[t]
+    # chains side by side in at least one direction: along the seam, or at its end (where
+    # it meets a true border or stops).  The collapser keeps an end, and a pair with a
+    # fixed copy, in place; a seam pair next to one may still collapse into it
+    ok = chains_pair(s, t) | chains_pair(t, s)
     partners[s[ok]] = t[ok]
     partners[t[ok]] = s[ok]
     near = shared.copy()
@@ -406,6 +483,7 @@ def report(work: Work, run: Run, metrics, settings: dict, target: int) -> dict:
     }
     out.update(run.counters)
     out["stop_detail"] = run.detail
+    out["pruned"] = work.prune_report
     out["seams"] = {"paired_vertices": 0 if seams is None else int(np.count_nonzero(seams >= 0)),
                     "fixed_vertices": work.n_seam_fixed,
                     "pair_collapses": run.seam_pair_collapses}

@@ -26,6 +26,7 @@ from .settings import (
     check_settings,
     resolve_driver,
     resolve_operator,
+    resolve_prune,
     resolve_settings,
     resolve_target,
     resolve_threads,
@@ -85,6 +86,7 @@ def simplify(
     operator: str = "edge",
     driver: str | None = None,
     threads: int | None = None,
+    prune: bool | float = False,
 ) -> SimplifyResult:
     """Simplify a triangle mesh by greedy edge collapse with quadric error metrics (or by
     triangle collapse or vertex removal: ``operator``).
@@ -104,14 +106,18 @@ def simplify(
                        vertices are a subset of the input)
     boundary         : "preserve" (default; boundary planes weighted by ``boundary_weight``; a boundary
                        vertex never moves into the interior), "lock" (boundary vertices never
-                       move nor go) or "free" (no special treatment)
+                       move nor go; attribute seams are no border) or "free" (no special
+                       treatment)
     locked           : (n,) bool mask or index array of vertices that must stay as they are
     boundary_weight  : weight of the boundary planes under "preserve" (default 10)
     max_normal_angle : reject a collapse that turns any face normal by more than this
                        (degrees, default 90)
-    min_quality      : reject a collapse that makes a face with quality
-                       Q = 4*sqrt(3)*A/(l0^2+l1^2+l2^2) below this (and below its old Q); 0 = off
-                       (default 0.1)
+    min_quality      : reject a collapse that leaves the worst face of its fan with quality
+                       Q = 4*sqrt(3)*A/(l0^2+l1^2+l2^2) below min(this, the fan's worst
+                       before); 0 = off (default 0.1).  lodkit's default (not given here nor
+                       by the metric) is relaxed to 0.01, then 0, when no collapse is left
+                       above the target in a run without ``max_error``
+                       (``report["min_quality_relaxed_to"]``)
 
     The five settings above that are left as None take the value the metric prefers (a
     metric's ``defaults``, e.g. ``curvature`` checks normals within 60 degrees and quality
@@ -142,6 +148,13 @@ def simplify(
                        else the cores this process may use).  The output is the same for any
                        number of threads
 
+    prune            : drop debris before simplifying (off by default): zero-area faces (twice
+                       the area at most 1e-12 times the summed squared edge lengths) and
+                       small parts -- connected components (faces sharing a position) whose
+                       bounding-box diagonal is below 1% of the mesh's (``prune=True``) or
+                       below the given fraction (``prune=0.05``); the largest part always
+                       stays.  ``report["pruned"]`` counts what went (docs/getting-started.md)
+
     An open3d.geometry.TriangleMesh in gives one out.  Per-vertex normals, colours and uvs
     are carried along (interpolated on the collapsed edge at the new position).  Attribute
     seams (coincident vertex copies, as OBJ / glTF uv seams load) stay closed under the
@@ -158,13 +171,14 @@ def simplify(
     settings["driver"] = resolve_driver(driver)
     settings["threads"] = resolve_threads(threads)
     check_settings(settings, max_error)
+    prune_size = resolve_prune(prune)
     target = resolve_target(src.n_faces, target_faces, target_ratio, max_error)
     runner = DRIVERS[operator]
     runner.check(metrics, pair_threshold)
 
     work = _pipeline.start(src, settings, locked=locked, pair_threshold=pair_threshold,
                            absolute=absolute, fix_seams=runner.FIX_SEAMS,
-                           memory_order=runner.memory_order(metrics, settings))
+                           memory_order=runner.memory_order(metrics, settings), prune=prune_size)
     ctx = _pipeline.metric_context(work, settings)
     compiled = runner.setup(metrics, ctx, work)
     run = runner.run(work, compiled, settings, target=target, record=record, progress=progress,

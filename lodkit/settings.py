@@ -19,7 +19,7 @@ from .errors import OptionError
 
 __all__ = ["SETTING_DEFAULTS", "PLACEMENTS", "BOUNDARY_POLICIES", "OPERATORS", "COLLAPSE_OPERATORS",
            "EDGE_DRIVERS", "resolve_operator", "resolve_settings", "resolve_driver", "resolve_threads",
-           "check_settings", "resolve_target", "locked_mask"]
+           "check_settings", "resolve_target", "locked_mask", "resolve_prune", "PRUNE_SIZE"]
 
 #: simplify()'s own defaults for the settings a metric may prefer other values of
 SETTING_DEFAULTS = {
@@ -154,6 +154,21 @@ def resolve_target(n_faces: int, target_faces, target_ratio, max_error) -> int:
                               f"target_faces=0 simplifies as far as possible), got {target_ratio!r}")
         target = max(target, int(round(r * n_faces)))
     return target
+
+
+#: simplify(prune=True): parts whose bounding-box diagonal is below this fraction of the mesh's go
+PRUNE_SIZE = 0.01
+
+
+def resolve_prune(prune) -> float | None:
+    """The part size ``prune`` stands for (a fraction of the bbox diagonal), None when off."""
+    if prune is None or prune is False:
+        return None
+    if prune is True:
+        return PRUNE_SIZE
+    if isinstance(prune, (int, float, np.integer, np.floating)) and 0.0 <= float(prune) < 1.0:
+        return float(prune)
+    raise OptionError(f"prune must be True, False or a fraction in [0, 1) of the bounding-box diagonal, got {prune!r}")
 
 
 def locked_mask(locked, n: int) -> np.ndarray:

@@ -276,11 +276,10 @@ def test_seam_partners_on_a_hand_made_cut():
     slot = {int(iv): k for k, iv in enumerate(prep.input_vertex)}
     col = sorted(copy)
     expect = np.full(len(prep.input_vertex), -1)
-    # inner cut vertices pair up; the two ends, where the cut meets the grid's border, stay
-    for a in col[1:-1]:
+    # the cut's copies pair up, its two ends (where it meets the grid's border) too: the
+    # collapser keeps those in place (both copies fixed) but a pair next to one collapses into it
+    for a in col:
         expect[slot[a]], expect[slot[copy[a]]] = slot[copy[a]], slot[a]
-    for a in (col[0], col[-1]):
-        expect[slot[a]] = expect[slot[copy[a]]] = -2
     np.testing.assert_array_equal(partners, expect)
     # no seams without coincident copies
     v, f = grid_mesh(4, 3)
@@ -328,7 +327,8 @@ def test_hand_made_seam_collapses_in_pairs(metric, placement):
     mesh, copy = seam_grid(8, 6, 4)
     res = lodkit.simplify(mesh, target_ratio=0.25, metric=metric, placement=placement, record=True)
     assert res.stop_reason == "target_faces"
-    assert res.report["seams"]["paired_vertices"] == 2 * 5 and res.report["seams"]["fixed_vertices"] == 4
+    # the 7 cut vertices pair up; the two ends stay in place (both copies fixed)
+    assert res.report["seams"]["paired_vertices"] == 2 * 7 and res.report["seams"]["fixed_vertices"] == 4
     pairs = res.report["seams"]["pair_collapses"]
     # melod's boundary penalty (lambda * phi * length) keeps seam vertices, which are boundary
     # vertices of the split mesh, until nothing else is left
@@ -455,7 +455,9 @@ def test_spot_keeps_its_uv_seams(metric, ratio):
     seams = res.report["seams"]
     assert seams["paired_vertices"] == 518 and seams["fixed_vertices"] == 58
     assert seams["pair_collapses"] > (20 if metric == "melod" else 100)
-    assert seam_intact(spot, res, closed=True) >= 100
+    # seam pairs next to a seam end that stays (3+ copies) collapse into it too, so at 2% a
+    # few less than 100 seam copies remain
+    assert seam_intact(spot, res, closed=True) >= 90
 
 
 def test_without_seam_handling_spot_cracks(monkeypatch):

@@ -524,12 +524,15 @@ def test_real_mesh_invariants(name):
     np.testing.assert_array_equal(again.mesh.vertices, r.mesh.vertices)
 
 
-def test_fandisk_stuck_below_the_paper_quality_reports_why():
-    # Q >= 0.5 leaves no legal collapse on fandisk's long crease strips well before 2%
+def test_fandisk_reaches_2_percent_under_the_paper_quality():
+    # Q >= 0.5 judged face by face left no legal collapse on fandisk's long crease strips
+    # well before 2%; judged over the fan (a fan that held a sliver may keep one as bad,
+    # issue 17) it reaches the target, and the paper's limit is never relaxed
     mesh = load("fandisk.obj")
     r = lodkit.simplify(mesh, target_ratio=0.02, metric="curvature")
-    assert r.stop_reason == "no_valid_collapse" and r.report["stop_detail"]
-    assert r.mesh.n_faces > round(0.02 * mesh.n_faces)
+    assert r.stop_reason == "target_faces"
+    assert r.report["min_quality_relaxed_to"] is None
+    assert r.report["settings"]["min_quality"] == {"value": 0.5, "from": "metric curvature"}
 
 
 def crease_vertex_count(mesh, out, angle=30.0, within=0.005):

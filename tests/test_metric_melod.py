@@ -272,7 +272,9 @@ def test_runs_down_to_the_smallest_mesh():
     t = lodkit.Mesh(v, f)
     r = lodkit.simplify(t, target_faces=0, metric="melod", driver="greedy")
     check_result(t, r, 0)
-    assert r.mesh.n_faces <= 24          # a torus needs at least 14 faces (7 vertices)
+    # a torus needs at least 14 faces (7 vertices); where the greedy path ends depends on the
+    # checks (26 since the fold tests let the two sides of a collapsed tube meet, issue 17)
+    assert r.mesh.n_faces <= 26
     p = lodkit.simplify(t, target_faces=0, metric="melod", driver="pass")
     check_result(t, p, 0)
     assert p.mesh.n_faces <= 32          # another path: it ends at another minimal-looking torus

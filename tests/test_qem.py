@@ -180,6 +180,12 @@ def q_eval(q, p):
     return float(p @ a @ p + 2 * b @ p + c)
 
 
+def within_reach(p, a, b):
+    """Inside the bounding box of a and b grown by their distance (quadric.pxd within_reach)."""
+    grow = np.linalg.norm(a - b)
+    return bool(np.all(p >= np.minimum(a, b) - grow) and np.all(p <= np.maximum(a, b) + grow))
+
+
 def reference_plan(u, v, q_all, positions, boundary, fixed, interior, placement, policy):
     """What plan_edge(u, v) must return, as (removed, kept, position, cost, error, exact):
     ``exact`` False means the 3x3 system is ill-conditioned and only the fallback's
@@ -207,10 +213,9 @@ def reference_plan(u, v, q_all, positions, boundary, fixed, interior, placement,
         p = positions[kept].copy()
     else:
         a, b, _ = split(q)
-        if np.linalg.cond(a) < 1e3:
-            p = np.linalg.solve(a, -b)
-        else:
-            p, exact = None, False
+        p = np.linalg.solve(a, -b) if np.linalg.cond(a) < 1e3 else None
+        if p is None or not within_reach(p, positions[u], positions[v]):
+            p, exact = None, False           # ill-conditioned, or flung off the edge: the fallback
         kept = None
     removed = None if kept is None else (v if kept == u else u)
     cost = None if p is None else max(q_eval(q, p), 0.0)
@@ -304,6 +309,8 @@ def test_plan_edge_matches_reference(name, placement, policy, boundary_weight, w
         assert got is not None, (u, v)
         removed, kept, position, cost, error = got
         assert {removed, kept} == {u, v}
+        # never placed outside the box of the two ends grown by the edge's length
+        assert within_reach(position, vertices[u], vertices[v]), (u, v, position)
         scale = quadrics[u, 10] + quadrics[v, 10]
         q = quadrics[u] + quadrics[v]
         # always: cost is the summed quadric at the returned position, error its RMS form

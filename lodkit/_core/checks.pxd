@@ -61,6 +61,15 @@ cdef inline bint folds(const double* n_a, double l_a, const double* n_b, double 
     return dot3(n_a, n_b) < FOLD_COS * l_a * l_b
 
 
+cdef inline bint sides_of_a_sheet(const short* N0, int f, int g) noexcept nogil:
+    """Do faces ``f`` and ``g`` stand for input faces that are themselves folded onto each
+    other (more than ~120 degrees apart: FOLD_COS), the two sides of a thin sheet?  Then a
+    fold between them is the sheet's shape at a coarse level, not a new fold: the edge
+    driver's fold tests let it be (``N0``: the input faces' unit normals times 32767)."""
+    return (<double>N0[3 * f] * N0[3 * g] + <double>N0[3 * f + 1] * N0[3 * g + 1]
+            + <double>N0[3 * f + 2] * N0[3 * g + 2]) < FOLD_COS * 32767.0 * 32767.0
+
+
 cdef inline double tri_quality(double twice_area, double sum_sq_edges) noexcept nogil:
     """Triangle quality 4 sqrt(3) A / (l0^2 + l1^2 + l2^2): 1 for an equilateral triangle,
     0 for a degenerate one (``twice_area`` is |(b - a) x (c - a)|)."""

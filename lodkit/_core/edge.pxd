@@ -93,10 +93,12 @@ cdef class EdgeCollapser:
                          int* r_out, double* p, double* c, double* err) noexcept nogil
     cdef int kernel_refused(self, int rc) noexcept nogil
     cdef int seam_mate(self, int h, int u, int v) noexcept nogil
+    cdef int seam_kept(self, int hs, int rs) noexcept nogil
     cdef int plan_seam(self, int h, int hs, int* h_out, int* r_out, int* hs_out, double* p,
                        double* cost, double* err) noexcept nogil
     cdef bint fan_ok(self, int center, int fa, int fb, int skip_c, int skip_d, const double* p,
-                     double* dvol) noexcept nogil
+                     double* dvol, double* min_q) noexcept nogil
+    cdef double fan_worst_quality(self, int center, double floor) noexcept nogil
     cdef bint geometry_ok(self, int h, int r, int k, const double* p, int skip_c, int skip_d,
                           double* dvol_out) noexcept nogil
     cdef double face_volume6(self, int f) noexcept nogil

@@ -87,6 +87,8 @@ class EdgeCollapser:
     def _setup_seams(self, partners: ArrayLike | None) -> None: ...
     def run(self, target_faces: int, max_steps: int = ...) -> int:
         """0: target reached, 1: step budget used, 2: no legal collapse left, 3: a kernel failed."""
+    def relax_quality(self, min_quality: float) -> None:
+        """Lower the quality limit; the next run() gives every live candidate another chance."""
     def collapse_pass(self, edges: ArrayLike, positions: ArrayLike | None = ..., target_faces: int = ...) -> int:
         """Collapse, in the order given, the edges no earlier collapse of this pass touched;
         the number of collapses, or -1 if a kernel failed.  Here: RuntimeError (the pass
@@ -120,6 +122,9 @@ class EdgeCollapser:
     @property
     def seam_partners(self) -> NDArray[np.intc] | None:
         """Each slot's seam partner (-1 none, -2 stays) as used, or None without seams."""
+    @property
+    def n_seam_fixed(self) -> int:
+        """Seam slots that may neither move nor go (seam ends, -2 copies, pairs with a fixed copy)."""
     @property
     def positions(self) -> NDArray[np.float64]: ...
     @property

@@ -32,9 +32,9 @@ from .chain import make_chain
 from .common cimport (QSIZE, VSTRIDE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, RUN_ERROR, BOUNDARY_LOCK,
                       BOUNDARY_PRESERVE, BOUNDARY_FREE, PLACE_OPTIMAL, PLACE_ENDPOINT)
 from .quadric cimport (AttributeQuadrics, sq, collapse_error, quadric_eval, take_if_lower, quadric_solve,
-                       quadric_solve_truncated)
+                       quadric_solve_truncated, within_reach)
 from .checks cimport (check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality, face_volume,
-                      turns_inside_out)
+                      turns_inside_out, sides_of_a_sheet)
 from .fields cimport FieldSet, STEP_VFIELD, STEP_EFIELD
 from .quadric import face_unit_normals
 
@@ -166,10 +166,15 @@ cdef class EdgeCollapser:
         cdef int v
         for v in range(n):
             if self.m.v_he[v] >= 0 and he_is_boundary(self.m, v):
-                # under the 'lock' policy a boundary vertex is also fixed
-                self.vflags[v] |= (VERTEX_FIXED | VERTEX_BOUNDARY) if boundary == BOUNDARY_LOCK else VERTEX_BOUNDARY
+                self.vflags[v] |= VERTEX_BOUNDARY
         self.A = &self.attr[0, 0] if n and self.n_attr else NULL
         self._setup_seams(seam_partners)
+        if boundary == BOUNDARY_LOCK:
+            # under the 'lock' policy a vertex of the true border is also fixed; a seam is
+            # no border: its vertices pair up as under the other policies
+            for v in range(n):
+                if (self.vflags[v] & VERTEX_BOUNDARY) and (self.SP == NULL or self.SP[v] == SEAM_NONE):
+                    self.vflags[v] |= VERTEX_FIXED
         self._setup_metric(quadric_weight, error_scale, vertex_fields, vertex_rules,
                            edge_fields, edge_rules, kernels, use_heap, steps)
         self.aq = AttributeQuadrics(hm, self.attr, attribute_quadrics, attribute_columns)
@@ -204,15 +209,29 @@ cdef class EdgeCollapser:
         if (arr[arr[paired]] != paired).any() or (arr[paired] == paired).any():
             raise ValueError("seam_partners must pair distinct vertex slots both ways")
         flags = np.asarray(self.vflags)
-        # a seam vertex off the boundary is no seam (nothing to keep apart); one whose
-        # partner is fixed stays too, so that both sides always agree
+        # a seam vertex off the boundary is no seam (nothing to keep apart)
         stays = (arr == SEAM_STAYS)
-        stays[paired] |= ((flags[paired] & VERTEX_FIXED) != 0) | ((flags[arr[paired]] & VERTEX_FIXED) != 0)
         stays[paired] |= ((flags[paired] & VERTEX_BOUNDARY) == 0) | ((flags[arr[paired]] & VERTEX_BOUNDARY) == 0)
         arr[stays] = SEAM_STAYS
         flags[stays] |= VERTEX_FIXED
+        # a pair stays where it is (both copies fixed, so that both sides agree) when one
+        # copy is fixed, or at the end of a seam: where a copy's boundary chain leaves the
+        # seam on either side.  It stays paired: a seam pair next to it collapses into it
         self.seam = arr
         self.SP = &self.seam[0]
+        cdef int v, w, h
+        fix = np.zeros(n, dtype=bool)
+        for v in np.flatnonzero(arr >= 0):
+            w = self.SP[v]
+            h = self.m.v_he[v]                    # v's outgoing boundary half-edge
+            if (flags[v] & VERTEX_FIXED) or (flags[w] & VERTEX_FIXED):
+                fix[v] = True
+            elif self.m.twin[h] >= 0 or self.SP[he_dest(self.m, h)] == SEAM_NONE:
+                fix[v] = True                     # the chain leaves the seam here
+            elif self.seam_mate(h, v, he_dest(self.m, h)) < 0:
+                fix[v] = True
+        fix[arr[fix]] = True
+        flags[fix] |= VERTEX_FIXED
 
     def _setup_metric(self, double quadric_weight, double error_scale, vertex_fields, vertex_rules,
                       edge_fields, edge_rules, kernels, bint use_heap, steps=None):
@@ -282,7 +301,8 @@ cdef class EdgeCollapser:
         hs_out[0] = -1
         if self.SP != NULL:
             if self.SP[u] != SEAM_NONE or self.SP[v] != SEAM_NONE:
-                if self.SP[u] >= 0 and self.SP[v] >= 0 and self.m.twin[h] < 0:
+                if (self.SP[u] != SEAM_NONE and self.SP[v] != SEAM_NONE and (self.SP[u] >= 0 or self.SP[v] >= 0)
+                        and self.m.twin[h] < 0):
                     hs = self.seam_mate(h, u, v)
                     if hs >= 0:
                         return self.plan_seam(h, hs, h_out, r_out, hs_out, p, cost, err)
@@ -326,16 +346,21 @@ cdef class EdgeCollapser:
             r_out[0] = v if keep == u else u
             c = d0 if keep == u else d1
         else:
-            if quadric_solve(q, p):
+            if quadric_solve(q, p) and within_reach(p, &self.P[VSTRIDE * u], &self.P[VSTRIDE * v]):
                 c = quadric_eval(q, p)
             else:
-                # fallback: the best of the truncated solve about the midpoint, both ends,
-                # the midpoint and the minimum along the edge
+                # fallback: the best of the truncated solve about the midpoint (if within
+                # reach), both ends, the midpoint and the minimum along the edge
                 for i in range(3):
                     du[i] = self.P[VSTRIDE * v + i] - self.P[VSTRIDE * u + i]
                     cand[i] = self.P[VSTRIDE * u + i] + 0.5 * du[i]
                 quadric_solve_truncated(q, cand, p)
-                best = quadric_eval(q, p)
+                if within_reach(p, &self.P[VSTRIDE * u], &self.P[VSTRIDE * v]):
+                    best = quadric_eval(q, p)
+                else:
+                    for i in range(3):
+                        p[i] = cand[i]
+                    best = quadric_eval(q, p)
                 take_if_lower(q, &self.P[VSTRIDE * u], p, &best)
                 take_if_lower(q, &self.P[VSTRIDE * v], p, &best)
                 take_if_lower(q, cand, p, &best)
@@ -375,14 +400,43 @@ cdef class EdgeCollapser:
         return 0
 
     cdef int seam_mate(self, int h, int u, int v) noexcept nogil:
-        """The partner of seam edge ``h`` (u -> v, a boundary half-edge between two paired
-        seam vertices): the boundary half-edge partner(v) -> partner(u) on the other side
-        of the seam, or -1 if there is none (the seam chains part there)."""
-        cdef int vs = self.SP[v]
-        cdef int hs = self.m.v_he[vs]          # a boundary vertex's fan starts at its border
-        if self.m.twin[hs] < 0 and he_dest(self.m, hs) == self.SP[u]:
+        """The partner of seam edge ``h`` (u -> v, a boundary half-edge between two seam
+        vertices, at least one of them paired): the boundary half-edge mate(v) -> mate(u)
+        on the other side of the seam, or -1 if there is none (the seam chains part
+        there).  The mate of a paired vertex is its partner; that of a seam copy that
+        stays (SEAM_STAYS: a seam end with more than two copies, a cube's corner) is the
+        copy at its position at the other end of the partner side's boundary edge."""
+        cdef int hs, y, ny, w
+        if self.SP[v] >= 0:
+            hs = self.m.v_he[self.SP[v]]          # a boundary vertex's fan starts at its border
+            if self.m.twin[hs] >= 0:
+                return -1
+            w = he_dest(self.m, hs)
+            if self.SP[u] >= 0:
+                return hs if w == self.SP[u] else -1
+            if w != u and self.SP[w] == SEAM_STAYS and same_point(&self.P[VSTRIDE * w], &self.P[VSTRIDE * u]):
+                return hs
+            return -1
+        # v stays, u is paired: the boundary half-edge into partner(u), from a copy of v
+        y = self.m.v_he[self.SP[u]]
+        while True:
+            ny = he_ring_next(self.m, y)
+            if ny < 0:
+                break
+            if ny == self.m.v_he[self.SP[u]]:
+                return -1                         # not on the boundary
+            y = ny
+        hs = he_prev(y)
+        if self.m.twin[hs] >= 0:
+            return -1
+        w = self.m.corner[hs]
+        if w != v and self.SP[w] == SEAM_STAYS and same_point(&self.P[VSTRIDE * w], &self.P[VSTRIDE * v]):
             return hs
         return -1
+
+    cdef int seam_kept(self, int hs, int rs) noexcept nogil:
+        """The end of seam half-edge ``hs`` that is not ``rs``: the partner side's kept vertex."""
+        return he_dest(self.m, hs) if self.m.corner[hs] == rs else self.m.corner[hs]
 
     cdef int plan_seam(self, int h, int hs, int* h_out, int* r_out, int* hs_out, double* p,
                        double* cost, double* err) noexcept nogil:
@@ -486,12 +540,18 @@ cdef class EdgeCollapser:
                 r_out[0] = cand.removed
                 kept = cand.kept
                 if not same_point(cand.p, p):
-                    p[0] = cand.p[0]
-                    p[1] = cand.p[1]
-                    p[2] = cand.p[2]
-                    cq = quadric_eval(q, p)
-                    if cq < 0.0:
-                        cq = 0.0
+                    if within_reach(cand.p, &self.P[VSTRIDE * u], &self.P[VSTRIDE * v]):
+                        p[0] = cand.p[0]
+                        p[1] = cand.p[1]
+                        p[2] = cand.p[2]
+                        cq = quadric_eval(q, p)
+                        if cq < 0.0:
+                            cq = 0.0
+                    else:
+                        # flung off the edge: the core's placement stands (quadric.pxd within_reach)
+                        cand.p[0] = p[0]
+                        cand.p[1] = p[1]
+                        cand.p[2] = p[2]
         e_err = collapse_error(quadric_eval(qg, p) if qg != q else cq, q[10], self.opt.error_scale)
         if err != NULL:
             err[0] = e_err
@@ -532,9 +592,10 @@ cdef class EdgeCollapser:
 
     # ------------------------------------------------------------- checks
     cdef bint fan_ok(self, int center, int fa, int fb, int skip_c, int skip_d, const double* p,
-                     double* dvol) noexcept nogil:
+                     double* dvol, double* min_q) noexcept nogil:
         """Do the faces around ``center`` (except fa, fb) stay valid when it moves to p?
-        Adds to ``dvol`` six times the change of the enclosed volume.  Faces ``skip_c`` /
+        Adds to ``dvol`` six times the change of the enclosed volume; lowers ``min_q`` to
+        the lowest quality of a moved face (with a quality limit).  Faces ``skip_c`` /
         ``skip_d`` (-1: none; a triangle collapse's first step) count for the volume only."""
         cdef int start = self.m.v_he[center]
         cdef int y = start
@@ -543,12 +604,12 @@ cdef class EdgeCollapser:
         cdef double e2[3]
         cdef double n0[3]
         cdef double n1[3]
-        cdef double l0, l1, l2, len0, len1, q0, q1, lg, prev_ok
+        cdef double l0, l1, l2, len0, len1, q1, lg, prev_ok
         cdef double bc[3]
         cdef double ng[3]
         cdef double prev_n1[3]
         cdef double prev_len1 = 0.0
-        cdef int t, g, x
+        cdef int t, g, x, prev_f = -1
         prev_n1[0] = prev_n1[1] = prev_n1[2] = 0.0
         while True:
             f = y // 3
@@ -598,19 +659,13 @@ cdef class EdgeCollapser:
                             self.lim.cos_orig_angle, 32767.0, len1):
                         return False                 # turned away from the input face it stands for
                     if self.lim.min_quality > 0.0:
+                        # judged over the whole fan by geometry_ok (relative_quality_ok)
                         l2 = 0.0
                         for i in range(3):
                             l2 += sq(self.P[VSTRIDE * b + i] - self.P[VSTRIDE * c + i])
                         q1 = tri_quality(len1, l0 + l1 + l2)
-                        if q1 < self.lim.min_quality:
-                            l0 = 0.0
-                            l1 = 0.0
-                            for i in range(3):
-                                l0 += sq(self.P[VSTRIDE * b + i] - self.P[VSTRIDE * center + i])
-                                l1 += sq(self.P[VSTRIDE * c + i] - self.P[VSTRIDE * center + i])
-                            q0 = tri_quality(len0, l0 + l1 + l2)
-                            if q1 < q0:
-                                return False         # a sliver, worse than before
+                        if q1 < min_q[0]:
+                            min_q[0] = q1
                     if self.lim.check_orig:
                         # no new fold: the face must not bend back onto the neighbour across
                         # its far edge b-c, nor onto the previous face of the fan
@@ -624,13 +679,15 @@ cdef class EdgeCollapser:
                                     e2[i] = self.P[VSTRIDE * x + i] - self.P[VSTRIDE * c + i]
                                 cross3(e1, e2, ng)
                                 lg = sqrt(dot3(ng, ng))
-                                if new_fold(n1, len1, n0, len0, ng, lg):
+                                if new_fold(n1, len1, n0, len0, ng, lg) and not sides_of_a_sheet(self.N0, f, g):
                                     return False
-                        if prev_ok > 0.0 and folds(n1, len1, prev_n1, prev_ok):
+                        if (prev_ok > 0.0 and folds(n1, len1, prev_n1, prev_ok)
+                                and not sides_of_a_sheet(self.N0, f, prev_f)):
                             return False
                         for i in range(3):
                             prev_n1[i] = n1[i]
                         prev_len1 = len1
+                        prev_f = f
             y = he_ring_next(self.m, y)
             if y < 0 or y == start:
                 return True
@@ -643,10 +700,16 @@ cdef class EdgeCollapser:
         cdef int fa = h // 3
         cdef int fb = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
         cdef double dvol = 0.0
-        if not self.fan_ok(r, fa, fb, skip_c, skip_d, p, &dvol):
+        cdef double min_q = INFINITY
+        if not self.fan_ok(r, fa, fb, skip_c, skip_d, p, &dvol, &min_q):
             return False
         if not same_point(p, &self.P[VSTRIDE * k]):
-            if not self.fan_ok(k, fa, fb, skip_c, skip_d, p, &dvol):
+            if not self.fan_ok(k, fa, fb, skip_c, skip_d, p, &dvol, &min_q):
+                return False
+        if min_q < self.lim.min_quality:
+            # a sliver is refused only when the fan had none as bad: the new worst face may
+            # not be worse than min(min_quality, the worst face of both fans before)
+            if min_q < self.fan_worst_quality(r, min_q) and min_q < self.fan_worst_quality(k, min_q):
                 return False
         if self.closed_volume != 0.0:
             # a closed surface must not be turned inside out (locally valid faces can still
@@ -658,6 +721,35 @@ cdef class EdgeCollapser:
                 return False
         dvol_out[0] = dvol
         return True
+
+    cdef double fan_worst_quality(self, int center, double floor) noexcept nogil:
+        """The lowest quality among the faces around ``center`` as they are (the ones a
+        collapse removes included); stops early once one is at or below ``floor``."""
+        cdef int start = self.m.v_he[center]
+        cdef int y = start
+        cdef int a, b, c, i
+        cdef double e1[3]
+        cdef double e2[3]
+        cdef double n0[3]
+        cdef double l2, q, worst = INFINITY
+        while True:
+            a = self.m.corner[y]
+            b = he_dest(self.m, y)
+            c = self.m.corner[he_prev(y)]
+            l2 = 0.0
+            for i in range(3):
+                e1[i] = self.P[VSTRIDE * b + i] - self.P[VSTRIDE * a + i]
+                e2[i] = self.P[VSTRIDE * c + i] - self.P[VSTRIDE * a + i]
+                l2 += sq(e1[i]) + sq(e2[i]) + sq(self.P[VSTRIDE * c + i] - self.P[VSTRIDE * b + i])
+            cross3(e1, e2, n0)
+            q = tri_quality(sqrt(dot3(n0, n0)), l2) if l2 > 0.0 else 0.0
+            if q < worst:
+                worst = q
+                if worst <= floor:
+                    return worst
+            y = he_ring_next(self.m, y)
+            if y < 0 or y == start:
+                return worst
 
     cdef bint ring_has(self, int v, int a, int b) noexcept nogil:
         """Is ``a`` or ``b`` a neighbour of ``v``?"""
@@ -925,7 +1017,8 @@ cdef class EdgeCollapser:
             self.A[self.n_attr * k + i] = (1.0 - t) * self.A[self.n_attr * r + i] + t * self.A[self.n_attr * k + i]
         if self.aq.dim > 0:
             # a seam vertex keeps its attributes: its side's chart at the seam
-            self.aq.commit(r, k, p, self.A, self.n_attr, self.SP != NULL and self.SP[k] != SEAM_NONE)
+            self.aq.commit(r, k, p, self.A, self.n_attr,
+                           (self.SP != NULL and self.SP[k] != SEAM_NONE) or (self.vflags[k] & VERTEX_FIXED) != 0)
         if not same_point(p, &self.P[VSTRIDE * k]):
             for i in range(3):
                 self.P[VSTRIDE * k + i] = p[i]
@@ -985,7 +1078,7 @@ cdef class EdgeCollapser:
             if hs >= 0:
                 # a seam edge: both sides together or neither
                 rs = self.SP[r]
-                ks = self.SP[k]
+                ks = self.seam_kept(hs, rs)
                 if not self.pair_ok(h, r, k, hs, rs, ks, p, dvol):
                     self.refused[r] = 1
                     self.refused[k] = 1
@@ -1023,6 +1116,17 @@ cdef class EdgeCollapser:
         with nogil:
             status = self.run_c(target_faces, max_steps)
         return status
+
+    def relax_quality(self, double min_quality):
+        """Lower the quality limit (``min_quality``) and give every live candidate another
+        chance on the next ``run`` (a full rescan; the pass driver ranks every live edge
+        again): ``simplify``'s relaxation steps when the checks leave no collapse."""
+        if self.released:
+            raise RuntimeError("this EdgeCollapser was released")
+        if not (0.0 <= min_quality <= 1.0):
+            raise ValueError("min_quality must be in [0, 1]")
+        self.lim.min_quality = min_quality
+        self.collapses_since_rescan += 1
 
     def collapse_pass(self, edges, positions=None, int target_faces=0):
         """The pass driver's step (``lodkit._core.passes.PassCollapser``, made with
@@ -1112,6 +1216,15 @@ cdef class EdgeCollapser:
         if self.SP == NULL:
             return None
         return np.asarray(self.seam).copy()
+
+    @property
+    def n_seam_fixed(self):
+        """Seam vertex slots that may neither move nor go (SEAM_STAYS, and both copies of
+        a seam end or of a pair with a fixed copy), as set up (0 without seams)."""
+        if self.SP == NULL:
+            return 0
+        sp = np.asarray(self.seam)
+        return int(np.count_nonzero((sp != SEAM_NONE) & ((np.asarray(self.vflags) & VERTEX_FIXED) != 0)))
 
     @property
     def positions(self):

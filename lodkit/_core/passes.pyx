@@ -41,7 +41,7 @@ from .halfedge cimport HEArrays, he_next, he_prev, he_dest, he_ring_next
 from lodkit.kernel cimport Candidate, fill_candidate, KERNEL_OK, VERTEX_FIXED, VERTEX_BOUNDARY
 from .chain cimport chain_cost
 from .common cimport QSIZE, VSTRIDE, BOUNDARY_FREE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, RUN_ERROR
-from .quadric cimport collapse_error, quadric_eval
+from .quadric cimport collapse_error, quadric_eval, within_reach
 from .checks cimport turns_inside_out
 from .edge cimport EdgeCollapser, SEAM_NONE
 
@@ -181,7 +181,7 @@ cdef int collapse_pass_c(PassCollapser c, const int* E, int n_cand, const double
             # a seam edge: both sides together or neither, where the core placed it
             k = he_dest(c.m, h) if c.m.corner[h] == r else c.m.corner[h]
             rs = c.SP[r]
-            ks = c.SP[k]
+            ks = c.seam_kept(hs, rs)
             if c.touched[rs] == stamp or c.touched[ks] == stamp:
                 continue
             if err > c.opt.max_error:
@@ -200,7 +200,8 @@ cdef int collapse_pass_c(PassCollapser c, const int* E, int n_cand, const double
             pass            # a seam vertex stays where it is, whatever a batch metric says
         elif PO != NULL and not ((c.vflags[u] | c.vflags[v])
                                  & (VERTEX_FIXED if c.opt.boundary == BOUNDARY_FREE
-                                    else VERTEX_FIXED | VERTEX_BOUNDARY)):
+                                    else VERTEX_FIXED | VERTEX_BOUNDARY)) \
+                and within_reach(&PO[3 * i], &c.P[VSTRIDE * u], &c.P[VSTRIDE * v]):
             # the batch metric placed it: both ends are free to move
             p[0] = PO[3 * i]
             p[1] = PO[3 * i + 1]
@@ -797,7 +798,7 @@ cdef class PassDriver:
             ks = -1
             if st == CK_PAIR:
                 rs = self.c.SP[r]
-                ks = self.c.SP[k]
+                ks = self.c.seam_kept(hs, rs)
                 if self.c.touched[rs] == stamp or self.c.touched[ks] == stamp:
                     continue
                 if not self.c.pair_ok(h, r, k, hs, rs, ks, x, dv2):       # counts its refusals

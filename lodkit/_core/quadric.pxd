@@ -51,6 +51,40 @@ cdef inline void take_if_lower(const double* q, const double* x, double* p, doub
             p[i] = x[i]
 
 
+cdef inline bint within_reach(const double* p, const double* a, const double* b) noexcept nogil:
+    """Is ``p`` inside the bounding box of ``a`` and ``b`` grown by their distance on every
+    side?  A placement outside it is one an ill-conditioned quadric flung off (a thin
+    sheet, a flat CAD face): the planners then fall back to the edge (lodkit's rule,
+    docs/algorithms.md, "Placement reach").  A NaN ``p`` is out of reach."""
+    cdef double L = sqrt(sq(a[0] - b[0]) + sq(a[1] - b[1]) + sq(a[2] - b[2]))
+    cdef int i
+    for i in range(3):
+        if not (p[i] >= (a[i] if a[i] < b[i] else b[i]) - L and p[i] <= (a[i] if a[i] > b[i] else b[i]) + L):
+            return False
+    return True
+
+
+cdef inline bint within_reach3(const double* p, const double* a, const double* b, const double* c) noexcept nogil:
+    """``within_reach`` for a triangle's three corners: their box grown by the longest edge."""
+    cdef double L = sqrt(sq(a[0] - b[0]) + sq(a[1] - b[1]) + sq(a[2] - b[2]))
+    cdef double L2 = sqrt(sq(c[0] - b[0]) + sq(c[1] - b[1]) + sq(c[2] - b[2]))
+    cdef double L3 = sqrt(sq(a[0] - c[0]) + sq(a[1] - c[1]) + sq(a[2] - c[2]))
+    cdef double lo, hi
+    cdef int i
+    if L2 > L:
+        L = L2
+    if L3 > L:
+        L = L3
+    for i in range(3):
+        lo = a[i] if a[i] < b[i] else b[i]
+        lo = lo if lo < c[i] else c[i]
+        hi = a[i] if a[i] > b[i] else b[i]
+        hi = hi if hi > c[i] else c[i]
+        if not (p[i] >= lo - L and p[i] <= hi + L):
+            return False
+    return True
+
+
 cdef inline bint cofactor_solve(const double* q, double* p, double min_det) noexcept nogil:
     """Solve A p = -b (A the quadric's 3x3 block) by cofactors; False if |det A| <= min_det."""
     cdef double a11 = q[0], a12 = q[1], a13 = q[2], a22 = q[3], a23 = q[4], a33 = q[5]

@@ -20,7 +20,8 @@ from .halfedge cimport he_next, he_prev, he_dest, he_ring_next
 from .vec3 cimport dot3
 from lodkit.kernel cimport VERTEX_FIXED, VERTEX_BOUNDARY
 from .common cimport QSIZE, VSTRIDE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, BOUNDARY_PRESERVE, PLACE_ENDPOINT
-from .quadric cimport sq, collapse_error, quadric_eval, take_if_lower, quadric_solve, quadric_solve_truncated
+from .quadric cimport (sq, collapse_error, quadric_eval, take_if_lower, quadric_solve, quadric_solve_truncated,
+                       within_reach3)
 from .edge cimport EdgeCollapser, SEAM_NONE
 
 cnp.import_array()
@@ -138,16 +139,22 @@ cdef class TriangleCollapser(EdgeCollapser):
                 p[i] = self.P[VSTRIDE * v[ib] + i]
             c = best
         else:
-            if quadric_solve(q, p):
+            if quadric_solve(q, p) and within_reach3(p, &self.P[VSTRIDE * v[0]], &self.P[VSTRIDE * v[1]],
+                                                     &self.P[VSTRIDE * v[2]]):
                 c = quadric_eval(q, p)
             else:
-                # fallback: the best of the truncated solve about the centroid, the three
-                # corners and the centroid
+                # fallback: the best of the truncated solve about the centroid (if within
+                # reach), the three corners and the centroid
                 for i in range(3):
                     cand[i] = (self.P[VSTRIDE * v[0] + i] + self.P[VSTRIDE * v[1] + i]
                                + self.P[VSTRIDE * v[2] + i]) / 3.0
                 quadric_solve_truncated(q, cand, p)
-                best = quadric_eval(q, p)
+                if within_reach3(p, &self.P[VSTRIDE * v[0]], &self.P[VSTRIDE * v[1]], &self.P[VSTRIDE * v[2]]):
+                    best = quadric_eval(q, p)
+                else:
+                    for i in range(3):
+                        p[i] = cand[i]
+                    best = quadric_eval(q, p)
                 for j in range(3):
                     take_if_lower(q, &self.P[VSTRIDE * v[j]], p, &best)
                 take_if_lower(q, cand, p, &best)

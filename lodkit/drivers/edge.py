@@ -81,19 +81,27 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
         **compiled.core,
     )
     raise_if_failed(collapser, compiled)
+    if work.seams is not None:
+        work.n_seam_fixed = collapser.n_seam_fixed      # seam ends stay too (EdgeCollapser)
 
     bar = progress_bar(progress, hm, target)
     n_passes = 0
+    relaxed = None
     if compiled.batch:
         status, rejected_error, n_passes = run_passes(collapser, compiled, work, target, bar)
-    elif passes:
-        driver = PassDriver(collapser, threads=int(settings["threads"][0]), fraction=PASS_FRACTION, block=PASS_BLOCK)
-        status = run_chunked(driver, hm, target, bar)
-        rejected_error = collapser.n_rejected_error
-        n_passes = driver.n_passes
     else:
-        status = run_chunked(collapser, hm, target, bar)
+        driver = (PassDriver(collapser, threads=int(settings["threads"][0]), fraction=PASS_FRACTION, block=PASS_BLOCK)
+                  if passes else collapser)
+        status = run_chunked(driver, hm, target, bar)
+        for step in quality_steps(settings) if max_error == math.inf else ():
+            if status != RUN_EXHAUSTED:
+                break
+            # the checks left no collapse: relax the quality limit a step and go on
+            collapser.relax_quality(step)
+            relaxed = step
+            status = run_chunked(driver, hm, target, bar)
         rejected_error = collapser.n_rejected_error
+        n_passes = driver.n_passes if passes else 0
     if bar:
         bar.close()
     raise_if_failed(collapser, compiled)
@@ -104,6 +112,8 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
         stop, detail = STOP_MAX_ERROR, f"{rejected_error} candidate collapses exceed max_error"
     else:
         stop, detail = STOP_NO_COLLAPSE, _no_collapse_detail(collapser)
+    if relaxed is not None and detail:
+        detail += f" (min_quality relaxed to {relaxed:g})"
     collapser.release()          # the heap and quadrics are not needed to build the output
     return Run(
         core=collapser,
@@ -122,8 +132,26 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
             "operator": operator + "_collapse",
             "triangle_collapses": int(collapser.n_tri_collapses),
             "refused_at_second_collapse": int(collapser.n_tri_refused_second),
+            "min_quality_relaxed_to": relaxed,
         },
     )
+
+
+#: when the checks leave no collapse above the target, lodkit's default ``min_quality`` (not
+#: the caller's, nor a metric's preferred value) is relaxed in these steps, as fractions of it (docs/algorithms.md,
+#: "Relative quality"); a caller's value is a hard limit
+QUALITY_STEPS = (0.1, 0.0)
+
+
+def quality_steps(settings: dict) -> list:
+    """The lower quality limits to try in turn once a run is exhausted (none when the
+    caller or the metric set ``min_quality``, or it is 0; a run with a ``max_error`` is
+    not relaxed: a run to N faces stays the start of a run to fewer, as progressive meshes
+    need, with or without one)."""
+    value, source = settings["min_quality"]
+    if source != "lodkit" or not float(value) > 0.0:
+        return []            # the caller's value, or a metric's own (a paper's setting)
+    return [float(value) * f for f in QUALITY_STEPS]
 
 
 def raise_if_failed(collapser, compiled: Compiled) -> None:
