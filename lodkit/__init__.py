@@ -4,20 +4,26 @@
 >>> result = lodkit.simplify(lodkit.load("bunny.ply"), target_ratio=0.1)
 >>> lodkit.save(result.mesh, "bunny_10.ply")
 """
-from . import metrics
-from .api import SimplifyResult, simplify
-from .cluster import ClusterResult, cluster
-from .compare import Comparison, compare
-from .curvature import point_curvature
-from .errors import LodkitError, MeshError, MeshIOError, MetricError, OptionError, UnknownMetricError
-from .evaluate import Evaluation, Evaluator, evaluate
-from .io import load, save
-from .mesh import Mesh
-from .progressive import ProgressiveMesh, progressive
-from .topology import TopologyReport, topology
-from .version import __version__ as __version__
+from ._signals import import_guard, is_command
+
+with import_guard():     # Ctrl-C while the `lodkit` command starts: one line, exit 130
+    from . import metrics
+    from .api import SimplifyResult, simplify
+    from .cluster import ClusterResult, cluster
+    from .compare import Comparison, compare
+    from .curvature import point_curvature
+    from .errors import Cancelled, LodkitError, MeshError, MeshIOError, MetricError, OptionError, UnknownMetricError
+    from .evaluate import Evaluation, Evaluator, evaluate
+    from .io import load, save
+    from .mesh import Mesh
+    from .progressive import ProgressiveMesh, progressive
+    from .topology import TopologyReport, topology
+    from .version import __version__ as __version__
+    if is_command():    # the command's own module too, inside the guard
+        from . import cli  # noqa: F401
 
 __all__ = [
+    "Cancelled",
     "ClusterResult",
     "Comparison",
     "Evaluation",

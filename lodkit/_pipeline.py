@@ -20,7 +20,7 @@ import numpy as np
 
 from ._core.decimate import vertex_quadrics
 from ._core.halfedge import build, count_face_components
-from ._progress import Progress
+from ._progress import make_progress
 from .errors import MeshError
 from .geometry import morton_order
 from .mesh import Mesh
@@ -51,6 +51,11 @@ STOP_NO_COLLAPSE = "no_valid_collapse"  # no collapse passes the checks (topolog
 
 # Run the nogil loop in chunks of this fraction of the work, to draw the progress bar.
 PROGRESS_CHUNKS = 50
+# ... and of at most this many operations (a few tens of milliseconds at 1M faces), so that
+# Ctrl-C (the signal handlers run between chunks) and a progress callable are heard soon.
+# A chunk boundary never changes the result (the drivers keep their whole state between
+# calls; the pass driver ends a chunk only between passes).
+INTERRUPT_CHUNK = 4096
 
 
 @dataclass
@@ -301,19 +306,21 @@ def closed_connected(hm) -> bool:
     return not (hm.twins < 0).any() and count_face_components(hm) == 1
 
 
-def progress_bar(progress: bool, hm, target: int):
-    """A progress bar over the faces to remove (None when ``progress`` is off)."""
-    if not progress:
-        return None
-    return Progress(total=max(hm.n_alive_faces - target, 1), enabled=True)
+def progress_bar(progress, hm, target: int):
+    """A progress report over the faces to remove: a bar (``progress=True``), the caller's
+    callable (lodkit._progress.ProgressCallback) or None (off)."""
+    return make_progress(progress, max(hm.n_alive_faces - target, 1))
 
 
 def run_chunked(driver, hm, target: int, bar) -> int:
     """``driver.run(target, chunk)`` until it stops for another reason than the chunk
-    (RUN_CHUNK), updating ``bar`` between chunks (one chunk when there is no bar); returns
-    the driver's final status."""
+    (RUN_CHUNK), updating ``bar`` between chunks; returns the driver's final status.
+    Between chunks Python runs its signal handlers (Ctrl-C raises KeyboardInterrupt here,
+    within a chunk's time) and a progress callable may cancel."""
     start_faces = hm.n_alive_faces
-    chunk = max((start_faces - target) // (2 * PROGRESS_CHUNKS), 1000) if bar else 2**31 - 1
+    chunk = INTERRUPT_CHUNK
+    if bar:
+        chunk = min(chunk, max((start_faces - target) // (2 * PROGRESS_CHUNKS), 1000))
     while True:
         status = driver.run(target, chunk)
         if bar:

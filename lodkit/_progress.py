@@ -1,10 +1,61 @@
-"""A one-line text progress bar: ``[#########...........]  45% 12345/27000``."""
+"""Progress reports: a one-line text bar (``[#########...........]  45% 12345/27000``,
+:class:`Progress`) or the caller's own function (:class:`ProgressCallback`); :func:`make_progress`
+picks one from a ``progress=`` option.  The two are separate so the bar can be swapped for
+another without touching the callback hook."""
 from __future__ import annotations
 
 import sys
 import time
 
-__all__ = ["Progress"]
+from .errors import Cancelled, OptionError
+
+__all__ = ["Progress", "ProgressCallback", "make_progress"]
+
+
+def make_progress(progress, total: int):
+    """What a ``progress=`` option asks for: None (False / None: nothing), a :class:`Progress`
+    bar on standard error (True) or a :class:`ProgressCallback` (a callable)."""
+    if progress is None or progress is False:
+        return None
+    if progress is True:
+        return Progress(total=total, enabled=True)
+    if callable(progress):
+        return ProgressCallback(progress, total)
+    raise OptionError(f"progress must be True, False or a callable (done, total) -> bool | None, "
+                      f"got {progress!r}")
+
+
+class ProgressCallback:
+    """Call ``fn(done, total)`` at each update (a few thousand operations apart) and once more
+    at ``close()``.  ``fn`` returning ``False`` (exactly False: None and True go on) stops the
+    run with :class:`lodkit.Cancelled`; an exception it raises goes through unchanged."""
+
+    def __init__(self, fn, total: int) -> None:
+        self.fn = fn
+        self.total = max(int(total), 0)
+        self.done = 0
+        self._closed = False
+
+    def update(self, done: int) -> None:
+        if self._closed:
+            return
+        self.done = int(done)
+        if self.fn(self.done, self.total) is False:
+            self._closed = True
+            raise Cancelled(f"cancelled by the progress callback at {self.done}/{self.total}")
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        self.fn(self.done, self.total)
+
+    def __enter__(self) -> ProgressCallback:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if exc[0] is None:
+            self.close()
 
 
 class Progress:

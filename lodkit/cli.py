@@ -14,6 +14,7 @@ import os
 import sys
 import time
 
+from . import _signals
 from .errors import LodkitError, MeshIOError
 from .geometry import weld_positions
 from .version import __version__
@@ -40,6 +41,17 @@ class _Parser(argparse.ArgumentParser):
 
 def main(argv=None) -> int:
     """Run the command line ``argv`` (``sys.argv[1:]`` by default); returns the exit status."""
+    with _signals.cli_handler():
+        try:
+            return _main(argv)
+        except Exception:
+            # a library that turned Ctrl-C into its own error (Open3D's import does)
+            if _signals.interrupted():
+                return _interrupted()
+            raise
+
+
+def _main(argv) -> int:
     parser = _build_parser()
     try:
         try:
@@ -53,16 +65,20 @@ def main(argv=None) -> int:
     except _UsageError as exc:
         return _fail(str(exc))
     except KeyboardInterrupt:
-        print(f"{PROG}: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return _interrupted()
     except BrokenPipeError:
         # the reader of our output went away (e.g. `lodkit info x.ply | head -1`): stop quietly
         _silence_stdout()
         return EXIT_USAGE
     except LodkitError as exc:
-        return _fail(str(exc))
+        return _interrupted() if _signals.interrupted() else _fail(str(exc))
     except OSError as exc:
-        return _fail(_describe_os_error(exc))
+        return _interrupted() if _signals.interrupted() else _fail(_describe_os_error(exc))
+
+
+def _interrupted() -> int:
+    print(f"{PROG}: interrupted", file=sys.stderr)
+    return EXIT_INTERRUPTED
 
 
 # ---------------------------------------------------------------------- the parser

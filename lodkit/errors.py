@@ -33,3 +33,8 @@ class RenderError(LodkitError, RuntimeError):
 
 class ImageIOError(LodkitError, OSError):
     """An image file could not be written."""
+
+
+class Cancelled(LodkitError):
+    """The run was cancelled: a ``progress=`` callable returned False.  Nothing was written
+    and the input is unchanged."""

@@ -42,6 +42,8 @@ from .common cimport QSIZE, VSTRIDE, BOUNDARY_FREE, RUN_TARGET, RUN_CHUNK, RUN_E
 from .quadric cimport collapse_error, quadric_eval
 from .checks cimport turns_inside_out
 from .edge cimport EdgeCollapser, SEAM_NONE
+from .common cimport RUN_INTERRUPTED
+from .interrupt cimport signal_pending, raise_pending, INTERRUPT_EVERY
 
 cnp.import_array()
 
@@ -361,6 +363,7 @@ cdef class PassDriver:
     cdef readonly int threads
     cdef readonly double fraction
     cdef bint parallel_ok
+    cdef bint interrupted            # a signal handler raised during a run: not usable again
 
     def __init__(self, PassCollapser collapser, double fraction=6.0, int threads=1):
         if not (fraction >= 1.0):
@@ -394,15 +397,21 @@ cdef class PassDriver:
     cdef void rank(self) noexcept nogil:
         """Plan every dirty live edge: its cost, or why it may not go.  Each edge writes its
         own slots only, so the result does not depend on the number of threads."""
-        cdef int i
-        if self.threads > 1:
-            for i in prange(self.n_live, num_threads=self.threads, schedule="static"):
-                self.rank_one(self.live[i])
-            return
-        for i in range(self.n_live):
-            self.rank_one(self.live[i])
-            if self.c.failed:
+        cdef int i, n, b = 0
+        while b < self.n_live:               # in blocks: Ctrl-C is heard between them
+            n = min(b + 16 * INTERRUPT_EVERY, self.n_live)
+            if self.threads > 1:
+                for i in prange(b, n, num_threads=self.threads, schedule="static"):
+                    self.rank_one(self.live[i])
+            else:
+                for i in range(b, n):
+                    self.rank_one(self.live[i])
+                    if self.c.failed:
+                        return
+            if signal_pending():
+                self.interrupted = True
                 return
+            b = n
 
     cdef inline void rank_one(self, int e) noexcept nogil:
         cdef int h, r, hs, rc
@@ -568,6 +577,8 @@ cdef class PassDriver:
         faces_left = self.c.hm.n_alive_faces
         vol = self.c.closed_volume
         while pos < n_sel and faces_left > target_faces:
+            if signal_pending():      # abandons the pass: the run ends with the exception
+                return RUN_INTERRUPTED
             # 1. the next candidates whose closed 1-rings are still free, checked on the
             #    pass-start state (several threads); a chunk keeps the checks of candidates
             #    that an earlier one of the chunk then blocks to a few percent
@@ -709,6 +720,8 @@ cdef class PassDriver:
             if steps >= max_steps:
                 return RUN_CHUNK
             self.rank()
+            if self.interrupted:
+                return RUN_INTERRUPTED
             if self.c.failed:
                 return RUN_ERROR
             valid = self.compact()
@@ -747,6 +760,11 @@ cdef class PassDriver:
         progress bar: passes are never cut, so chunks do not change the result).  Returns 0
         (target), 1 (chunk done), 2 (exhausted) or 3 (a kernel failed)."""
         cdef int status
+        if self.interrupted:
+            raise RuntimeError("this PassDriver's run was interrupted; make a new one")
         with nogil:
             status = self.run_c(target_faces, max_steps)
+        if status == RUN_INTERRUPTED:
+            self.interrupted = True
+            raise_pending()
         return status

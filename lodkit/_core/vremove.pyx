@@ -28,6 +28,7 @@ from .vec3 cimport cross3, dot3
 from lodkit.kernel cimport KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VERTEX_FIXED, VERTEX_BOUNDARY
 from lodkit.removal cimport RemovalKernel, Star, Removal, MAX_VALENCE as STAR_MAX_VALENCE
 from . cimport common
+from .interrupt cimport signal_pending, raise_pending, INTERRUPT_EVERY
 from .common cimport MAX_VALENCE, BOUNDARY_LOCK, BOUNDARY_PRESERVE, BOUNDARY_FREE
 from .checks cimport (CheckLimits, check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality,
                       face_volume, turns_inside_out)
@@ -855,9 +856,12 @@ cdef class VertexRemover:
         return 0
 
     cdef int run_c(self, int target_faces, int max_steps) noexcept nogil:
-        cdef int v, st, steps = 0
+        cdef int v, st, steps = 0, n_iter = 0
         cdef double key
         while self.hm.n_alive_faces > target_faces:
+            n_iter += 1
+            if n_iter % INTERRUPT_EVERY == 0 and signal_pending():
+                return common.RUN_INTERRUPTED
             if self.gated:
                 self.sync_median()
             if steps >= max_steps:
@@ -918,6 +922,8 @@ cdef class VertexRemover:
             with nogil:
                 status = self.run_c(target_faces, left)
             left -= self.n_collapses - before
+            if status == common.RUN_INTERRUPTED:
+                raise_pending()
             if status != common.RUN_GROW:
                 return status
             self._alloc_records(2 * self.rec.cap + 64)
