@@ -356,10 +356,16 @@ cdef class VertexRemover:
     cdef unsigned char[::1] cn      # the number of triangles
     cdef int slot_plan[MAX_VALENCE]  # geometry_ok: the face slot each new triangle takes
     cdef RemovalRecords rec
+    # ``weld``: the slots grouped by position (attribute seam copies, split copies), so the
+    # manifold rules hold for the welded surface too: weld_rep[v] names v's group, weld_next
+    # walks it (cyclic; -1 alone).  Without it, groups are the split copies of one input vertex.
+    cdef bint welded
+    cdef int[::1] weld_rep
+    cdef int[::1] weld_next
 
     def __init__(self, HalfEdgeMesh hm, positions, RemovalKernel kernel, fixed,
                  int boundary=BOUNDARY_PRESERVE, double max_normal_angle=90.0, double min_quality=0.0,
-                 double max_error=INFINITY, bint record=False, bint closed_connected=False):
+                 double max_error=INFINITY, bint record=False, bint closed_connected=False, weld=None):
         cdef int n = hm.n_vertices
         if kernel is None:
             raise TypeError("kernel must be a lodkit._core.removal.RemovalKernel")
@@ -378,6 +384,12 @@ cdef class VertexRemover:
         if not (0.0 < max_normal_angle <= 180.0):
             raise ValueError("max_normal_angle must be in (0, 180] degrees")
         self.boundary = boundary
+        self.welded = weld is not None
+        if self.welded:
+            self.weld_rep = np.ascontiguousarray(weld[0], dtype=np.intc)
+            self.weld_next = np.ascontiguousarray(weld[1], dtype=np.intc)
+            if self.weld_rep.shape[0] != n or self.weld_next.shape[0] != n:
+                raise ValueError(f"weld must be two arrays of {n} slots")
         flags = (fixed_arr != 0).astype(np.uint8) * VERTEX_FIXED
         bnd = hm.boundary_vertices
         flags[bnd] |= VERTEX_BOUNDARY
@@ -638,37 +650,44 @@ cdef class VertexRemover:
     cdef inline int source(self, int v) noexcept nogil:
         return self.hm.vertex_source[v] if self.hm.has_copies else v
 
+    cdef inline int key(self, int v) noexcept nogil:
+        """v's group: its position group with ``weld``, else its input vertex."""
+        return self.weld_rep[v] if self.welded else self.source(v)
+
     cdef bint ring_has(self, int a, int b, int c) noexcept nogil:
-        """Over every copy of ``a``, is there a live face (a, p, q) with source(b) in {p, q}
-        (``c`` < 0: the edge a b exists, for every neighbour of a is the p or q of one of
-        its faces) or with {p, q} = {source(b), source(c)} (the face a b c exists)?"""
-        cdef int sb = self.source(b), sc = self.source(c) if c >= 0 else -1
+        """Over every copy of ``a`` (its group: key()), is there a live face (a, p, q) with
+        key(b) in {p, q} (``c`` < 0: the edge a b exists, for every neighbour of a is the p or
+        q of one of its faces) or with {p, q} = {key(b), key(c)} (the face a b c exists)?"""
+        cdef int sb = self.key(b), sc = self.key(c) if c >= 0 else -1
         cdef int x = a
         cdef int start, y, ny, p, q
         while True:
             start = self.m.v_he[x]
             y = start
             while True:
-                p = self.source(he_dest(self.m, y))
-                q = self.source(self.m.corner[he_prev(y)])
+                p = self.key(he_dest(self.m, y))
+                q = self.key(self.m.corner[he_prev(y)])
                 if (p == sb and (sc < 0 or q == sc)) or (q == sb and (sc < 0 or p == sc)):
                     return True
                 ny = he_ring_next(self.m, y)
                 if ny < 0 or ny == start:
                     break
                 y = ny
-            if not self.hm.has_copies:
+            if self.welded:
+                x = self.weld_next[x]
+            elif self.hm.has_copies:
+                x = self.hm.next_copy[x]
+            else:
                 return False
-            x = self.hm.next_copy[x]
             if x < 0 or x == a:
                 return False
 
     cdef inline bint adjacent(self, int a, int b) noexcept nogil:
-        """Is there an edge between input vertices source(a) and source(b)?"""
+        """Is there an edge between the groups of a and b (key())?"""
         return self.ring_has(a, b, -1)
 
     cdef inline bint face_exists(self, int a, int b, int c) noexcept nogil:
-        """Is there a live face on input vertices {source(a), source(b), source(c)}?"""
+        """Is there a live face on the groups of a, b and c (key())?"""
         return self.ring_has(a, b, c)
 
     cdef int topology_ok(self) noexcept nogil:
