@@ -12,9 +12,9 @@ import threading
 
 import numpy as np
 import pytest
-from conftest import lodkit_subprocess_env
 
 import lodkit
+from conftest import lodkit_subprocess_env
 from lodkit.demo import demo_mesh
 
 DRIVERS = [

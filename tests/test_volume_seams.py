@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import shared_mesh
 
 import lodkit
+from conftest import shared_mesh
 from lodkit.geometry import weld_positions
 
 
