@@ -22,7 +22,7 @@ from ._core.decimate import vertex_quadrics
 from ._core.halfedge import build, count_face_components
 from ._progress import make_progress
 from .errors import MeshError
-from .geometry import morton_order
+from .geometry import box_diagonal, morton_order
 from .mesh import Mesh
 from .metrics import MetricContext
 from .pairs import contract_pairs
@@ -111,7 +111,7 @@ def prepare(mesh: Mesh, *, memory_order: bool = False) -> Prepared:
     del pts
     with np.errstate(over="ignore", invalid="ignore"):
         center = 0.5 * lo + 0.5 * hi
-        scale = float(np.linalg.norm(hi - lo))
+        scale = box_diagonal(lo, hi)
     if not scale > 0.0:
         raise MeshError("all vertices used by faces coincide: the bounding box has zero size")
     if not np.isfinite(scale):

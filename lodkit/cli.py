@@ -103,7 +103,7 @@ def _build_parser() -> argparse.ArgumentParser:
                              "diagonal, or model units with --absolute)")
     p.add_argument("--absolute", action="store_true", help="--max-error and the reported error are in model units")
     _add_collapse_options(p, "cost metric, with options after a colon, e.g. 'qem' or "
-                             "'importance:weight=2,merge=min' (values are read as int, float, "
+                             "'curvature:merge=mean,weight=2' (values are read as int, float, "
                              "true/false or text); repeat to combine metrics (default: qem); "
                              "'lodkit metrics' lists them")
     p.add_argument("--max-normal-angle", type=float, metavar="DEG",

@@ -63,6 +63,10 @@ class Level:
         return int(self.vertex_map.shape[0])
 
 
+# simplify() options progressive() passes on as they are (the others it sets itself)
+_SIMPLIFY_OPTIONS = {"pair_threshold", "operator", "driver", "threads"}
+
+
 def progressive(mesh, metric="qem", *, min_faces: int = 0, max_error: float | None = None,
                 absolute: bool = False,
                 placement: str | None = None, boundary: str | None = None,
@@ -83,6 +87,10 @@ def progressive(mesh, metric="qem", *, min_faces: int = 0, max_error: float | No
     """
     if isinstance(min_faces, bool) or not isinstance(min_faces, (int, np.integer)) or min_faces < 0:
         raise OptionError(f"min_faces must be a non-negative integer, got {min_faces!r}")
+    unknown = sorted(set(options) - _SIMPLIFY_OPTIONS)
+    if unknown:
+        raise OptionError(f"progressive() got an unexpected keyword argument {unknown[0]!r} (it takes "
+                          f"simplify()'s options but the targets: {', '.join(sorted(_SIMPLIFY_OPTIONS))})")
     if options.get("pair_threshold") is not None:
         raise OptionError("progressive meshes do not support pair_threshold: the pairs it joins "
                           "are not edge collapses of the input's half-edge arrays")
