@@ -149,6 +149,8 @@ def simplify(
     t0 = time.perf_counter()
     src, was_o3d = as_mesh(mesh), is_open3d(mesh)
     metrics = create_metrics(metric)
+    for m in metrics:
+        m.check_ready()
     operator = resolve_operator(operator, metrics)
     settings = resolve_settings(metrics, placement=placement, boundary=boundary,
                                 boundary_weight=boundary_weight,

@@ -265,7 +265,8 @@ def compare(mesh, *, metrics=("qem",), peers=(), ratios=(0.5, 0.1, 0.02), out=No
         raise OptionError("nothing to compare: give at least one metric or peer")
     labels = [_metric_label(s) for s in metric_specs]
     for spec in metric_specs:
-        create(spec)                      # unknown names and bad options fail here
+        for m in create(spec):            # unknown names and bad options fail here
+            m.check_ready()
     for name in peer_names:
         _check_peer(name)
     methods = labels + peer_names

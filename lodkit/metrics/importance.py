@@ -21,21 +21,17 @@ class Importance(FieldMetric):
                          doc="(n_input_vertices,) importance >= 0 of each input vertex"),
     }
 
-    def __init__(self, **options):
-        super().__init__(**options)
-        # checked here, when the metric is made, before any work (simplify, compare, lods)
+    def check_ready(self) -> None:
+        """Before any work (simplify, compare): values= must be given."""
         if self.params["values"] is None:
-            raise OptionError("metric 'importance' needs values=: one importance >= 0 per input vertex, "
-                              "e.g. ('importance', {'values': heights}) (an array; the command line "
+            raise OptionError("metric 'importance' needs values=: one importance per input vertex "
+                              "(an array, e.g. ('importance', {'values': heights}); the command line "
                               "cannot give one)")
-        if self.params["values"].ndim != 1:
-            raise OptionError(f"metric 'importance': values must be one number per input vertex "
-                              f"(a 1-D array), got shape {self.params['values'].shape}")
-        if (self.params["values"] < 0).any():
-            raise OptionError("metric 'importance': values must be >= 0")
 
     def values(self, ctx: MetricContext) -> np.ndarray:
         vals = self.params["values"]
+        if vals is None:
+            raise OptionError("metric 'importance' needs values=: one importance per input vertex")
         n_in = ctx.mesh.n_vertices
         if vals.shape != (n_in,):
             raise OptionError(f"metric 'importance': values must have shape ({n_in},), got {vals.shape}")
