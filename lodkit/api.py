@@ -167,6 +167,7 @@ def simplify(
                            memory_order=runner.memory_order(metrics, settings))
     ctx = _pipeline.metric_context(work, settings)
     compiled = runner.setup(metrics, ctx, work)
+    del ctx         # what the metrics keep of it they hold themselves; the rest may be freed
     run = runner.run(work, compiled, settings, target=target, record=record, progress=progress,
                      max_error=_pipeline.error_limit(max_error, work, absolute))
     out_mesh, vertex_map, face_map = _pipeline.extract(work, run)

@@ -29,6 +29,11 @@ from lodkit.kernel cimport KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VER
 from lodkit.removal cimport RemovalKernel, Star, Removal, MAX_VALENCE as STAR_MAX_VALENCE
 from . cimport common
 from .interrupt cimport signal_pending, raise_pending, INTERRUPT_EVERY
+
+cdef enum:
+    # triangles cached per vertex for a star-local kernel (stars of up to 16 link vertices;
+    # larger ones are evaluated again when popped): 42 bytes a vertex instead of 3 MAX_VALENCE
+    CACHE_TRIS = 14
 from .common cimport MAX_VALENCE, BOUNDARY_LOCK, BOUNDARY_PRESERVE, BOUNDARY_FREE
 from .checks cimport (CheckLimits, check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality,
                       face_volume, turns_inside_out)
@@ -351,7 +356,7 @@ cdef class VertexRemover:
     # star-local kernels (``star_local = True``): each candidate's triangulation, kept from
     # its evaluation so that popping it needs no second evaluation (its star is unchanged)
     cdef readonly bint star_local
-    cdef unsigned char[::1] ctri    # 3 MAX_VALENCE per vertex slot: the triangles (link indices)
+    cdef unsigned char[::1] ctri    # 3 CACHE_TRIS per vertex slot: the triangles (link indices)
     cdef unsigned char[::1] ck      # the star's k at that evaluation
     cdef unsigned char[::1] cn      # the number of triangles
     cdef int slot_plan[MAX_VALENCE]  # geometry_ok: the face slot each new triangle takes
@@ -400,7 +405,7 @@ cdef class VertexRemover:
         self.gated = kernel.gated
         self.star_local = bool(getattr(kernel, "star_local", False))
         nc = n if self.star_local else 0
-        self.ctri = np.zeros(max(3 * MAX_VALENCE * nc, 1), dtype=np.uint8)
+        self.ctri = np.zeros(max(3 * CACHE_TRIS * nc, 1), dtype=np.uint8)
         self.ck = np.zeros(max(nc, 1), dtype=np.uint8)
         self.cn = np.zeros(max(nc, 1), dtype=np.uint8)
         self.kmesh.he = self.m
@@ -427,10 +432,15 @@ cdef class VertexRemover:
         # the input face normals: a face slot keeps its input face (face_map) for good
         P = pos_arr
         C = hm.corners
-        nrm = np.cross(P[C[:, 1]] - P[C[:, 0]], P[C[:, 2]] - P[C[:, 0]]) if C.shape[0] else np.zeros((0, 3))
-        ln = np.linalg.norm(nrm, axis=1, keepdims=True)
-        self.n0 = np.ascontiguousarray(np.divide(nrm, ln, out=np.zeros_like(nrm), where=ln > 0).reshape(-1)) \
-            if C.shape[0] else np.zeros(3)
+        # in blocks of faces: the same numbers as over the whole array at once, without its
+        # temporaries (several (m, 3) arrays: ~200 bytes per input vertex at the peak)
+        n0 = np.zeros((C.shape[0], 3)) if C.shape[0] else np.zeros((1, 3))
+        for b in range(0, C.shape[0], 65536):
+            Cb = C[b:b + 65536]
+            nrm = np.cross(P[Cb[:, 1]] - P[Cb[:, 0]], P[Cb[:, 2]] - P[Cb[:, 0]])
+            ln = np.linalg.norm(nrm, axis=1, keepdims=True)
+            np.divide(nrm, ln, out=n0[b:b + 65536], where=ln > 0)
+        self.n0 = n0.reshape(-1)
         self.closed_volume = 0.0
         cdef int f
         if closed_connected:
@@ -539,11 +549,12 @@ cdef class VertexRemover:
 
     cdef void keep(self, int v) noexcept nogil:
         """Cache ``self.rem``'s triangles for ``v`` (just evaluated: ``self.star`` is its star).
-        A count outside 0..MAX_VALENCE is kept as 255, which :meth:`recall` never matches."""
+        A count outside 0..CACHE_TRIS is kept as 255, which :meth:`recall` never matches: that
+        star is evaluated again when popped (the same answer: the kernel is star-local)."""
         cdef int i, n = self.rem.n_tris
-        cdef unsigned char* t = &self.ctri[3 * MAX_VALENCE * v]
+        cdef unsigned char* t = &self.ctri[3 * CACHE_TRIS * v]
         self.ck[v] = <unsigned char>self.star.k
-        if n < 0 or n > MAX_VALENCE:
+        if n < 0 or n > CACHE_TRIS:
             self.cn[v] = 255
             return
         self.cn[v] = <unsigned char>n
@@ -560,7 +571,7 @@ cdef class VertexRemover:
         if self.cn[v] == 255 or self.fill_star(v) != self.ck[v]:
             return self.evaluate(v)
         n = self.cn[v]
-        t = &self.ctri[3 * MAX_VALENCE * v]
+        t = &self.ctri[3 * CACHE_TRIS * v]
         self.rem.n_tris = n
         for i in range(3 * n):
             self.rem.tri[i] = t[i]

@@ -54,7 +54,11 @@ def run(work: Work, compiled, settings: dict, *, target: int, max_error: float, 
     """Remove vertices down to ``target`` faces; ``n_collapses`` counts removals."""
     metric, kernel = compiled
     hm = work.prep.hm
-    remover = vremove.VertexRemover(hm, work.positions, kernel, work.fixed,
+    # the remover reads positions only (contiguous: it would copy the strided view anyway);
+    # the quadric rows of work.vdata are not needed any more: dropped, ~90 bytes a vertex
+    positions = np.ascontiguousarray(work.positions)
+    work.vdata = None
+    remover = vremove.VertexRemover(hm, positions, kernel, work.fixed,
                                     boundary=BOUNDARY_POLICIES[settings["boundary"][0]],
                                     max_normal_angle=float(settings["max_normal_angle"][0]),
                                     min_quality=float(settings["min_quality"][0]),
@@ -80,7 +84,7 @@ def run(work: Work, compiled, settings: dict, *, target: int, max_error: float, 
     refused = remover.refusals
     return Run(
         core=remover,
-        positions=work.positions,
+        positions=positions,
         moved=None,                     # removal keeps the other vertices where they are
         attributes=work.attributes,
         max_error=remover.max_error_done,
