@@ -78,7 +78,7 @@ def simplify(
     locked=None,
     max_normal_angle: float | None = None,
     min_quality: float | None = None,
-    progress: bool = False,
+    progress=False,
     record: bool = False,
     pair_threshold: float | None = None,
     operator: str = "edge",
@@ -115,7 +115,11 @@ def simplify(
     metric's ``defaults``, e.g. ``curvature`` checks normals within 60 degrees and quality
     0.5, as its paper does; the first metric listed wins), else the default given here.
     ``result.report["settings"]`` says what was used and where it came from.
-    progress         : draw a progress bar on stderr
+    progress         : True: draw a progress bar on stderr; or a callable ``(done, total)``
+                       called every few thousand operations (faces removed so far, to remove
+                       in all) whose ``False`` cancels the run with :class:`lodkit.Cancelled`
+                       (the input untouched).  Ctrl-C raises KeyboardInterrupt within a
+                       fraction of a second in every driver (docs/reliability.md, "Interrupts")
     record           : keep the collapse sequence in ``result.collapses``
     pair_threshold   : pair contraction (off when None): before the collapses, vertices closer
                        than this (a fraction of the bbox diagonal unless ``absolute=True``)
