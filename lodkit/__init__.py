@@ -4,7 +4,7 @@
 >>> result = lodkit.simplify(lodkit.load("bunny.ply"), target_ratio=0.1)
 >>> lodkit.save(result.mesh, "bunny_10.ply")
 """
-from ._signals import import_guard, is_command
+from ._signals import import_guard
 
 with import_guard():     # Ctrl-C while the `lodkit` command starts: one line, exit 130
     from . import metrics
@@ -19,8 +19,6 @@ with import_guard():     # Ctrl-C while the `lodkit` command starts: one line, e
     from .progressive import ProgressiveMesh, progressive
     from .topology import TopologyReport, topology
     from .version import __version__ as __version__
-    if is_command():    # the command's own module too, inside the guard
-        from . import cli  # noqa: F401
 
 __all__ = [
     "Cancelled",

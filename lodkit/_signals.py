@@ -20,7 +20,7 @@ import sys
 import threading
 from contextlib import contextmanager
 
-__all__ = ["EXIT_INTERRUPTED", "import_guard", "is_command", "cli_handler", "interrupted"]
+__all__ = ["EXIT_INTERRUPTED", "exit_if_command", "import_guard", "is_command", "cli_handler", "interrupted"]
 
 EXIT_INTERRUPTED = 130   # 128 + SIGINT, what shells report for Ctrl-C
 _seen = False
@@ -41,7 +41,23 @@ def import_guard():
         if not is_command():
             raise
         print("lodkit: interrupted", file=sys.stderr)
+        exit_if_command(EXIT_INTERRUPTED)
         raise SystemExit(EXIT_INTERRUPTED) from None
+
+
+def exit_if_command(code: int) -> None:
+    """In the ``lodkit`` command, end the process now with ``code`` (after flushing the
+    standard streams), skipping interpreter shutdown: a library interrupted half way may
+    complain there and change the exit status (Open3D reports "memory leaks" and exits 1
+    when a read was cut short).  Elsewhere (main() called from Python) do nothing."""
+    if not is_command():
+        return
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(code)
 
 
 def interrupted() -> bool:

@@ -7,17 +7,20 @@ with status 2; an interrupt exits with 130. Tracebacks are kept for real bugs.
 """
 from __future__ import annotations
 
-import argparse
-import json
-import math
-import os
 import sys
-import time
 
 from . import _signals
-from .errors import LodkitError, MeshIOError
-from .geometry import weld_positions
-from .version import __version__
+
+with _signals.import_guard():       # Ctrl-C while the command starts: one line, exit 130
+    import argparse
+    import json
+    import math
+    import os
+    import time
+
+    from .errors import LodkitError, MeshIOError
+    from .geometry import weld_positions
+    from .version import __version__
 
 __all__ = ["main"]
 
@@ -78,6 +81,7 @@ def _main(argv) -> int:
 
 def _interrupted() -> int:
     print(f"{PROG}: interrupted", file=sys.stderr)
+    _signals.exit_if_command(EXIT_INTERRUPTED)      # the command ends here, status 130
     return EXIT_INTERRUPTED
 
 
