@@ -153,8 +153,6 @@ def simplify(
     t0 = time.perf_counter()
     src, was_o3d = as_mesh(mesh), is_open3d(mesh)
     metrics = create_metrics(metric)
-    for m in metrics:
-        m.check_ready()
     operator = resolve_operator(operator, metrics)
     settings = resolve_settings(metrics, placement=placement, boundary=boundary,
                                 boundary_weight=boundary_weight,
@@ -165,6 +163,8 @@ def simplify(
     target = resolve_target(src.n_faces, target_faces, target_ratio, max_error)
     runner = DRIVERS[operator]
     runner.check(metrics, pair_threshold)
+    for m in metrics:
+        m.check_ready()          # options a metric cannot run without, before any work
 
     work = _pipeline.start(src, settings, locked=locked, pair_threshold=pair_threshold,
                            absolute=absolute, fix_seams=runner.FIX_SEAMS,

@@ -107,7 +107,7 @@ def test_cli_interrupt_is_one_line_and_status_130(tmp_path):
     code = ("import sys; sys.argv[0] = 'lodkit'\n"
             "from lodkit.cli import main\n"
             "print('start', flush=True)\n"
-            f"sys.exit(main(['simplify', {str(src)!r}, {str(out)!r}, '--faces', '0']))\n")
+            f"sys.exit(main(['simplify', {str(src)!r}, {str(out)!r}, '--faces', '1']))\n")
     p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                          env=lodkit_subprocess_env(), cwd=tmp_path)
     assert p.stdout.readline().strip() == "start"
