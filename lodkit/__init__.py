@@ -4,22 +4,26 @@
 >>> result = lodkit.simplify(lodkit.load("bunny.ply"), target_ratio=0.1)
 >>> lodkit.save(result.mesh, "bunny_10.ply")
 """
-from . import metrics
-from .api import SimplifyResult, simplify
-from .cluster import ClusterResult, cluster
-from .compare import Comparison, compare
-from .curvature import point_curvature
-from .errors import LodkitError, MeshError, MeshIOError, MetricError, OptionError, UnknownMetricError
-from .evaluate import Evaluation, Evaluator, evaluate
-from .io import load, save
-from .mesh import Mesh
-from .optimize import OptimizeResult, optimize
-from .progressive import ProgressiveMesh, progressive
-from .retile import RetileResult, retile
-from .topology import TopologyReport, topology
-from .version import __version__ as __version__
+from ._signals import import_guard
+
+with import_guard():     # Ctrl-C while the `lodkit` command starts: one line, exit 130
+    from . import metrics
+    from .api import SimplifyResult, simplify
+    from .cluster import ClusterResult, cluster
+    from .compare import Comparison, compare
+    from .curvature import point_curvature
+    from .errors import Cancelled, LodkitError, MeshError, MeshIOError, MetricError, OptionError, UnknownMetricError
+    from .evaluate import Evaluation, Evaluator, evaluate
+    from .io import load, save
+    from .mesh import Mesh
+    from .optimize import OptimizeResult, optimize
+    from .progressive import ProgressiveMesh, progressive
+    from .retile import RetileResult, retile
+    from .topology import TopologyReport, topology
+    from .version import __version__ as __version__
 
 __all__ = [
+    "Cancelled",
     "ClusterResult",
     "Comparison",
     "Evaluation",

@@ -22,7 +22,7 @@ from . import _progress
 from ._core.decimate import vertex_quadrics
 from ._core.halfedge import build, count_face_components
 from .errors import MeshError
-from .geometry import morton_order
+from .geometry import box_diagonal, morton_order
 from .mesh import Mesh
 from .metrics import MetricContext
 from .pairs import contract_pairs
@@ -51,6 +51,11 @@ STOP_NO_COLLAPSE = "no_valid_collapse"  # no collapse passes the checks (topolog
 
 # Run the nogil loop in chunks of this fraction of the work, to draw the progress bar.
 PROGRESS_CHUNKS = 50
+# ... and of at most this many operations (a few tens of milliseconds at 1M faces), so that
+# Ctrl-C (the signal handlers run between chunks) and a progress callable are heard soon.
+# A chunk boundary never changes the result (the drivers keep their whole state between
+# calls; the pass driver ends a chunk only between passes).
+INTERRUPT_CHUNK = 4096
 
 
 @dataclass
@@ -106,7 +111,7 @@ def prepare(mesh: Mesh, *, memory_order: bool = False) -> Prepared:
     del pts
     with np.errstate(over="ignore", invalid="ignore"):
         center = 0.5 * lo + 0.5 * hi
-        scale = float(np.linalg.norm(hi - lo))
+        scale = box_diagonal(lo, hi)
     if not scale > 0.0:
         raise MeshError("all vertices used by faces coincide: the bounding box has zero size")
     if not np.isfinite(scale):
@@ -386,10 +391,13 @@ def progress_bar(progress, hm, target: int):
 
 def run_chunked(driver, hm, target: int, bar) -> int:
     """``driver.run(target, chunk)`` until it stops for another reason than the chunk
-    (RUN_CHUNK), updating ``bar`` between chunks (one chunk when there is no bar); returns
-    the driver's final status."""
+    (RUN_CHUNK), updating ``bar`` between chunks; returns the driver's final status.
+    Between chunks Python runs its signal handlers (Ctrl-C raises KeyboardInterrupt here,
+    within a chunk's time) and a progress callable may cancel."""
     start_faces = hm.n_alive_faces
-    chunk = max((start_faces - target) // (2 * PROGRESS_CHUNKS), 1000) if bar else 2**31 - 1
+    chunk = INTERRUPT_CHUNK
+    if bar:
+        chunk = min(chunk, max((start_faces - target) // (2 * PROGRESS_CHUNKS), 1000))
     while True:
         status = driver.run(target, chunk)
         if bar:

@@ -5,7 +5,8 @@ the caller's own function.
 
 - False / None: no reports (None, so callers skip the work of counting)
 - True (or another true value): a :class:`Progress` bar on standard error (:mod:`tqdm`)
-- a callable: :class:`Callback`, which calls it with ``(done, total)``
+- a callable: :class:`Callback`, which calls it with ``(done, total)``; returning False
+  cancels the run (:class:`lodkit.Cancelled`)
 
 Whether a bar is wanted at all is the caller's decision: the CLI asks for one only when
 standard error is a terminal (``lodkit.cli``), so piped and logged output stays clean.
@@ -16,6 +17,8 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Callable
+
+from .errors import Cancelled
 
 __all__ = ["Progress", "Callback", "make"]
 
@@ -87,8 +90,10 @@ class Progress:
 
 
 class Callback:
-    """Reports progress to ``fn(done, total)``: after every update and once more on close
-    (with the last value). What ``fn`` raises propagates: it is the caller's code."""
+    """Reports progress to ``fn(done, total)``: after every update (a few thousand
+    operations apart) and once more on close (with the last value).  ``fn`` returning
+    ``False`` (exactly False: None and True go on) stops the run with
+    :class:`lodkit.Cancelled`; what ``fn`` raises propagates: it is the caller's code."""
 
     def __init__(self, fn: Callable[[int, int], object], total: int) -> None:
         self.fn = fn
@@ -100,7 +105,9 @@ class Callback:
         if self._closed:
             return
         self.done = min(max(int(done), 0), self.total)
-        self.fn(self.done, self.total)
+        if self.fn(self.done, self.total) is False:
+            self._closed = True
+            raise Cancelled(f"cancelled by the progress callback at {self.done}/{self.total}")
 
     def close(self) -> None:
         if not self._closed:
@@ -111,7 +118,8 @@ class Callback:
         return self
 
     def __exit__(self, *exc) -> None:
-        self.close()
+        if exc[0] is None:
+            self.close()
 
 
 def make(progress, total: int, **options):

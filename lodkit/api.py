@@ -80,7 +80,7 @@ def simplify(
     locked=None,
     max_normal_angle: float | None = None,
     min_quality: float | None = None,
-    progress: bool = False,
+    progress=False,
     record: bool = False,
     pair_threshold: float | None = None,
     operator: str = "edge",
@@ -123,7 +123,11 @@ def simplify(
     metric's ``defaults``, e.g. ``curvature`` checks normals within 60 degrees and quality
     0.5, as its paper does; the first metric listed wins), else the default given here.
     ``result.report["settings"]`` says what was used and where it came from.
-    progress         : draw a progress bar on stderr
+    progress         : True: draw a progress bar on stderr; or a callable ``(done, total)``
+                       called every few thousand operations (faces removed so far, to remove
+                       in all) whose ``False`` cancels the run with :class:`lodkit.Cancelled`
+                       (the input untouched).  Ctrl-C raises KeyboardInterrupt within a
+                       fraction of a second in every driver (docs/reliability.md, "Interrupts")
     record           : keep the collapse sequence in ``result.collapses``
     pair_threshold   : pair contraction (off when None): before the collapses, vertices closer
                        than this (a fraction of the bbox diagonal unless ``absolute=True``)
@@ -175,12 +179,15 @@ def simplify(
     target = resolve_target(src.n_faces, target_faces, target_ratio, max_error)
     runner = DRIVERS[operator]
     runner.check(metrics, pair_threshold)
+    for m in metrics:
+        m.check_ready()          # options a metric cannot run without, before any work
 
     work = _pipeline.start(src, settings, locked=locked, pair_threshold=pair_threshold,
                            absolute=absolute, fix_seams=runner.FIX_SEAMS,
                            memory_order=runner.memory_order(metrics, settings), prune=prune_size)
     ctx = _pipeline.metric_context(work, settings)
     compiled = runner.setup(metrics, ctx, work)
+    del ctx         # what the metrics keep of it they hold themselves; the rest may be freed
     run = runner.run(work, compiled, settings, target=target, record=record, progress=progress,
                      max_error=_pipeline.error_limit(max_error, work, absolute))
     out_mesh, vertex_map, face_map = _pipeline.extract(work, run)

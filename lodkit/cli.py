@@ -7,16 +7,20 @@ with status 2; an interrupt exits with 130. Tracebacks are kept for real bugs.
 """
 from __future__ import annotations
 
-import argparse
-import json
-import math
-import os
 import sys
-import time
 
-from .errors import LodkitError, MeshIOError
-from .geometry import weld_positions
-from .version import __version__
+from . import _signals
+
+with _signals.import_guard():       # Ctrl-C while the command starts: one line, exit 130
+    import argparse
+    import json
+    import math
+    import os
+    import time
+
+    from .errors import LodkitError, MeshIOError
+    from .geometry import weld_positions
+    from .version import __version__
 
 __all__ = ["main"]
 
@@ -40,6 +44,17 @@ class _Parser(argparse.ArgumentParser):
 
 def main(argv=None) -> int:
     """Run the command line ``argv`` (``sys.argv[1:]`` by default); returns the exit status."""
+    with _signals.cli_handler():
+        try:
+            return _main(argv)
+        except Exception:
+            # a library that turned Ctrl-C into its own error (Open3D's import does)
+            if _signals.interrupted():
+                return _interrupted()
+            raise
+
+
+def _main(argv) -> int:
     parser = _build_parser()
     try:
         try:
@@ -53,18 +68,23 @@ def main(argv=None) -> int:
     except _UsageError as exc:
         return _fail(str(exc))
     except KeyboardInterrupt:
-        print(f"{PROG}: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return _interrupted()
     except BrokenPipeError:
         # the reader of our output went away (e.g. `lodkit info x.ply | head -1`): stop quietly
         _silence_stdout()
         return EXIT_USAGE
     except LodkitError as exc:
-        return _fail(str(exc))
+        return _interrupted() if _signals.interrupted() else _fail(str(exc))
     except ImportError as exc:          # a dependency lodkit.deps does not wrap
         return _fail(f"a library lodkit needs cannot be imported: {exc}")
     except OSError as exc:
-        return _fail(_describe_os_error(exc))
+        return _interrupted() if _signals.interrupted() else _fail(_describe_os_error(exc))
+
+
+def _interrupted() -> int:
+    print(f"{PROG}: interrupted", file=sys.stderr)
+    _signals.exit_if_command(EXIT_INTERRUPTED)      # the command ends here, status 130
+    return EXIT_INTERRUPTED
 
 
 # ---------------------------------------------------------------------- the parser
@@ -89,7 +109,7 @@ def _build_parser() -> argparse.ArgumentParser:
                              "diagonal, or model units with --absolute)")
     p.add_argument("--absolute", action="store_true", help="--max-error and the reported error are in model units")
     _add_collapse_options(p, "cost metric, with options after a colon, e.g. 'qem' or "
-                             "'importance:weight=2,merge=min' (values are read as int, float, "
+                             "'curvature:merge=mean,weight=2' (values are read as int, float, "
                              "true/false or text); repeat to combine metrics (default: qem); "
                              "'lodkit metrics' lists them")
     p.add_argument("--max-normal-angle", type=float, metavar="DEG",

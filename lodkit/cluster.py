@@ -28,7 +28,7 @@ import numpy as np
 from ._core import cluster as kern
 from .adapters import coerce
 from .errors import MeshError, OptionError
-from .geometry import face_vectors
+from .geometry import box_diagonal, face_vectors
 from .io import load
 from .mesh import Mesh
 
@@ -170,6 +170,12 @@ def cluster(
         if isinstance(want, bool) or not isinstance(want, (int, np.integer)) or want < 1:
             raise OptionError(f"{given[0]} must be a positive integer, got {want!r}")
     data = _clean(src)
+    if want is not None:
+        have = data.faces.shape[0] if target_faces is not None else data.positions.shape[0]
+        if want > have:
+            noun = "faces" if target_faces is not None else "vertices (used by faces)"
+            raise OptionError(f"{given[0]}={want} is more than the mesh's {have} {noun}: clustering only "
+                              f"merges vertices, so ask for at most {have}")
     to_model = data.scale if absolute else 1.0
     searched = 0
     if cell_size is not None:
@@ -247,7 +253,7 @@ def _clean(src: Mesh) -> _Input:
     hi = np.array([pts[:, k].max() for k in range(3)])
     with np.errstate(over="ignore", invalid="ignore"):
         center = 0.5 * lo + 0.5 * hi
-        scale = float(np.linalg.norm(hi - lo))
+        scale = box_diagonal(lo, hi)
     if not scale > 0.0:
         raise MeshError("all vertices used by faces coincide: the bounding box has zero size")
     if not math.isfinite(scale):

@@ -314,7 +314,8 @@ def compare(mesh, *, metrics=("qem",), peers=(), ratios=(0.5, 0.1, 0.02), out=No
         raise OptionError("nothing to compare: give at least one metric or peer")
     labels = [_metric_label(s) for s in metric_specs]
     for spec in metric_specs:
-        create(spec)                      # unknown names and bad options fail here
+        for m in create(spec):            # unknown names and bad options fail here
+            m.check_ready()
     for name in peer_names:
         _check_peer(name)
     methods = labels + peer_names
@@ -334,7 +335,8 @@ def compare(mesh, *, metrics=("qem",), peers=(), ratios=(0.5, 0.1, 0.02), out=No
     source = str(mesh) if isinstance(mesh, (str, os.PathLike)) else type(mesh).__name__
     original = to_mesh(mesh, "input", load=load)
     evaluator = Evaluator(original, samples, seed)
-    out_dir = None if out is None else _prepare_dir(out)     # only once everything else is known to be fine
+    if out is not None:
+        _check_dir(out)          # made only once the runs are done: an error leaves nothing behind
     n_faces = original.n_faces
     V0, F0 = original.vertices, original.faces.astype(np.int64)
     runs = []
@@ -370,7 +372,8 @@ def compare(mesh, *, metrics=("qem",), peers=(), ratios=(0.5, 0.1, 0.02), out=No
     comparison = Comparison(source=source, n_faces=n_faces, n_vertices=original.n_vertices,
                             diagonal=evaluator.diagonal, n_samples=evaluator.samples, seed=evaluator.seed,
                             methods=methods, ratios=ratio_list, runs=runs, files={})
-    if out_dir is not None:
+    if out is not None:
+        out_dir = _prepare_dir(out)
         _write_report(comparison, original, out_dir, contact_sheet, width, height, peer_names, render_backend,
                       view)
     return comparison
@@ -410,10 +413,22 @@ def _check_size(size) -> tuple[int, int]:
     return w, h
 
 
-def _prepare_dir(out) -> Path:
+def _check_dir(out) -> Path:
+    """The output directory: an OptionError now if it cannot be one (a file is in the way,
+    or the nearest existing parent is not a writable directory); nothing is made."""
     p = Path(os.fspath(out))
     if p.exists() and not p.is_dir():
         raise OptionError(f"the output directory {p} exists and is not a directory")
+    parent = p.resolve()
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        raise OptionError(f"cannot create the output directory {p}: {parent} is not a writable directory")
+    return p
+
+
+def _prepare_dir(out) -> Path:
+    p = _check_dir(out)
     try:
         p.mkdir(parents=True, exist_ok=True)
     except OSError as exc:

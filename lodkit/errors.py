@@ -38,3 +38,8 @@ class ImageIOError(LodkitError, OSError):
 class DependencyError(LodkitError, ImportError):
     """A library lodkit needs cannot be imported: not installed, or (Open3D) a system library
     it links against is missing.  The message says what to install."""
+
+
+class Cancelled(LodkitError):
+    """The run was cancelled: a ``progress=`` callable returned False.  Nothing was written
+    and the input is unchanged."""

@@ -61,6 +61,8 @@ __all__ = [
 ]
 
 DEFAULT_SAMPLES = 200_000
+# about 200 bytes of working memory per sample and direction: 10^8 samples is ~40 GB
+MAX_SAMPLES = 100_000_000
 #: Edges of the triangle-quality histogram: ten bins of width 0.1 over [0, 1] (the last
 #: bin includes Q = 1).
 QUALITY_BINS = tuple(round(0.1 * k, 1) for k in range(11))
@@ -539,33 +541,52 @@ class Evaluator:
     def __init__(self, original, samples: int = DEFAULT_SAMPLES, seed: int = 0):
         if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 1:
             raise OptionError(f"samples must be a whole number >= 1, got {samples!r}")
+        if samples > MAX_SAMPLES:
+            raise OptionError(f"samples={samples} is more than evaluate() takes ({MAX_SAMPLES:.0e} per surface, "
+                              f"about 200 bytes of memory each); a few hundred thousand measure to "
+                              f"~0.1 % of the diagonal")
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
             raise OptionError(f"seed must be a whole number >= 0, got {seed!r}")
         self.mesh = _input(original, "original")
+        self.diagonal = self.mesh.bbox_diagonal()
+        # far from 1 (1e-170, 1e+200) face areas and squared distances under- or overflow:
+        # measure on copies divided by the diagonal (ratios and angles do not change; model
+        # units are the ratios times the diagonal).  Meshes of ordinary size are used as given.
+        self._unit = self.diagonal if 0.0 < self.diagonal and not (1e-50 < self.diagonal < 1e50) else 1.0
+        self.mesh = self._measured(self.mesh)
+        self._d = self.diagonal / self._unit        # the diagonal in the units measured in
         _check_surface(self.mesh, "the original mesh")
         self.samples = int(samples)
         self.seed = int(seed)
-        self.diagonal = self.mesh.bbox_diagonal()
         used = self.mesh.vertices[np.unique(self.mesh.faces)]
         self.centre = 0.5 * (used.min(axis=0) + used.max(axis=0))
         self.surface = _Surface(self.mesh.vertices, self.mesh.faces, self.mesh.colors, self.centre)
         self.quality = _quality_stats(self.mesh)
         self.topology = _topology_of(self.mesh)
 
+    def _measured(self, mesh: Mesh) -> Mesh:
+        if self._unit == 1.0:
+            return mesh
+        return Mesh(mesh.vertices / self._unit, mesh.faces, colors=mesh.colors, uvs=mesh.uvs)
+
     def _directions(self, simplified) -> tuple[Mesh, _Direction, _Direction]:
-        mesh = _input(simplified, "simplified")
+        mesh = self._measured(_input(simplified, "simplified"))
         _check_surface(mesh, "the simplified mesh")
         other = _Surface(mesh.vertices, mesh.faces, mesh.colors, self.centre)
         # fwd: samples on the original (seed); bwd: samples on the simplified mesh (seed + 1)
-        fwd = _project(self.surface, other, self.samples, self.seed)
-        bwd = _project(other, self.surface, self.samples, self.seed + 1)
+        try:
+            fwd = _project(self.surface, other, self.samples, self.seed)
+            bwd = _project(other, self.surface, self.samples, self.seed + 1)
+        except MemoryError:
+            raise OptionError(f"not enough memory for samples={self.samples} (about 200 bytes each "
+                              f"per surface); give fewer samples") from None
         return mesh, fwd, bwd
 
     def distances(self, simplified) -> DistanceStats:
         """Only the distances (fractions of the diagonal), as :meth:`evaluate` computes them:
         what a benchmark loop needs, without quality and topology."""
         _, fwd, bwd = self._directions(simplified)
-        return DistanceStats.from_distances(fwd.distance / self.diagonal, bwd.distance / self.diagonal)
+        return DistanceStats.from_distances(fwd.distance / self._d, bwd.distance / self._d)
 
     def evaluate(self, simplified) -> Evaluation:
         """Evaluate one simplified mesh against the original (see :func:`evaluate`)."""
@@ -581,7 +602,7 @@ class Evaluator:
             diagonal=self.diagonal,
             n_samples=self.samples,
             seed=self.seed,
-            distance=DistanceStats.from_distances(fwd.distance / self.diagonal, bwd.distance / self.diagonal),
+            distance=DistanceStats.from_distances(fwd.distance / self._d, bwd.distance / self._d),
             normal_deviation=_angle_stats(fwd.angle, bwd.angle),
             quality_original=self.quality,
             quality_simplified=_quality_stats(mesh),

@@ -127,3 +127,16 @@ def morton_order(points: np.ndarray) -> np.ndarray:
     """(n,) int32 permutation sorting ``points`` along their Morton curve (ties, such as
     coincident points, keep their order: a stable sort)."""
     return np.argsort(morton_codes(points), kind="stable").astype(np.int32)
+
+
+def box_diagonal(lo, hi) -> float:
+    """Length of the box diagonal ``hi - lo``, without the underflow or overflow of squaring
+    the sides: coordinates of 1e-170 or 1e+200 give their true diagonal, not 0 or inf
+    (inf only when the diagonal itself is past the float range)."""
+    d = np.abs(np.asarray(hi, dtype=np.float64) - np.asarray(lo, dtype=np.float64))
+    big = float(d.max()) if d.size else 0.0
+    if not (big > 0.0) or not math.isfinite(big):
+        return big
+    if 1e-150 < big < 1e150:
+        return float(np.linalg.norm(d))             # no under- or overflow: the plain formula
+    return big * float(np.linalg.norm(d / big))

@@ -37,6 +37,23 @@ def _as_float_array(name: str, values, n_rows: int | None, n_cols: int | tuple) 
     return arr
 
 
+def _as_index_array(faces) -> np.ndarray:
+    """``faces`` as an array; a ragged list (rows of different lengths: polygons) or
+    anything else numpy cannot make an array of is a MeshError saying which row."""
+    try:
+        return np.asarray(faces)
+    except (TypeError, ValueError) as exc:
+        try:
+            lengths = [len(row) for row in faces]
+        except TypeError:
+            lengths = []
+        odd = next((i for i, n in enumerate(lengths) if n != 3), None)
+        if odd is not None:
+            raise MeshError(f"faces must be triangles, an (m, 3) array of vertex indices: face {odd} has "
+                            f"{lengths[odd]} indices (triangulate polygons first)") from None
+        raise MeshError(f"faces must be an (m, 3) array of vertex indices: {exc}") from None
+
+
 @dataclass(eq=False)
 class Mesh:
     """A triangle mesh with optional per-vertex attributes.
@@ -61,7 +78,7 @@ class Mesh:
     def __post_init__(self) -> None:
         self.vertices = _as_float_array("vertices", self.vertices, None, 3)
         n = self.vertices.shape[0]
-        faces = np.asarray(self.faces)
+        faces = _as_index_array(self.faces)
         if faces.size == 0 and faces.ndim <= 2:
             faces = faces.reshape(0, 3)
         if faces.ndim != 2 or faces.shape[1] != 3:
@@ -117,7 +134,8 @@ class Mesh:
             pts = self.vertices
         if pts.shape[0] == 0:
             return 0.0
-        return float(np.linalg.norm(pts.max(axis=0) - pts.min(axis=0)))
+        from .geometry import box_diagonal
+        return box_diagonal(pts.min(axis=0), pts.max(axis=0))
 
     def face_normals(self) -> np.ndarray:
         """(m, 3) unit face normals (zero rows for degenerate faces)."""

@@ -28,7 +28,7 @@ import math
 import numpy as np
 
 from .errors import OptionError
-from .geometry import plane_quadrics
+from .geometry import box_diagonal, plane_quadrics
 from .mesh import Mesh
 
 __all__ = ["contract_pairs"]
@@ -66,14 +66,17 @@ def contract_pairs(mesh: Mesh, threshold, *, absolute: bool = False, locked: np.
     pts = mesh.vertices[ids]
     lo = np.array([pts[:, k].min() for k in range(3)]) if ids.size else np.zeros(3)
     hi = np.array([pts[:, k].max() for k in range(3)]) if ids.size else np.zeros(3)
-    center, scale = 0.5 * lo + 0.5 * hi, float(np.linalg.norm(hi - lo))
+    center, scale = 0.5 * lo + 0.5 * hi, box_diagonal(lo, hi)
     t_model = t if absolute else t * scale
     report = {"threshold": t_model, "candidate_pairs": 0, "merged": 0, "skipped_seams": 0,
               "membrane_faces_removed": 0, "duplicate_faces_removed": 0, "collapsed_faces_removed": 0}
     all_faces = np.arange(faces.shape[0], dtype=np.int64)
     if not (t_model > 0.0 and scale > 0.0) or ids.size < 2:
         return mesh, all_faces, report
-    pairs = _close_pairs(pts, ids, t_model)
+    if 1e-50 < scale < 1e50:
+        pairs = _close_pairs(pts, ids, t_model)
+    else:       # squared distances would under- or overflow: search in normalised coordinates
+        pairs = _close_pairs((pts - center) / scale, ids, t_model / scale)
     pairs = _drop_edges(pairs, faces, n)
     pairs, n_seams = _drop_seams(pairs, mesh)
     fixed = np.zeros(n, dtype=bool) if locked is None else np.asarray(locked, dtype=bool)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import os
+import threading
 import zipfile
 from dataclasses import dataclass
 from typing import Any
@@ -63,6 +64,10 @@ class Level:
         return int(self.vertex_map.shape[0])
 
 
+# simplify() options progressive() passes on as they are (the others it sets itself)
+_SIMPLIFY_OPTIONS = {"pair_threshold", "operator", "driver", "threads"}
+
+
 def progressive(mesh, metric="qem", *, min_faces: int = 0, max_error: float | None = None,
                 absolute: bool = False,
                 placement: str | None = None, boundary: str | None = None,
@@ -83,6 +88,10 @@ def progressive(mesh, metric="qem", *, min_faces: int = 0, max_error: float | No
     """
     if isinstance(min_faces, bool) or not isinstance(min_faces, (int, np.integer)) or min_faces < 0:
         raise OptionError(f"min_faces must be a non-negative integer, got {min_faces!r}")
+    unknown = sorted(set(options) - _SIMPLIFY_OPTIONS)
+    if unknown:
+        raise OptionError(f"progressive() got an unexpected keyword argument {unknown[0]!r} (it takes "
+                          f"simplify()'s options but the targets: {', '.join(sorted(_SIMPLIFY_OPTIONS))})")
     if options.get("pair_threshold") is not None:
         raise OptionError("progressive meshes do not support pair_threshold: the pairs it joins "
                           "are not edge collapses of the input's half-edge arrays")
@@ -229,6 +238,10 @@ class ProgressiveMesh:
         self._slot_attr = None
         self._cursor = None
         self._events = None
+        # the built-in cursor (refine / coarsen / current / step) is shared by every thread
+        # using this object: each of those calls holds the lock, so each sees and leaves a
+        # consistent state.  Threads that walk on their own take pm.cursor() each.
+        self._lock = threading.RLock()
 
     # ------------------------------------------------------------------ sizes
     @property
@@ -434,7 +447,7 @@ class ProgressiveMesh:
     # ------------------------------------------------------------------ the cursor
     def cursor(self, step: int | None = None) -> Cursor:
         """A new cursor (independent of ``pm.refine`` / ``pm.coarsen``), at ``step``
-        (default: the base mesh)."""
+        (default: the base mesh).  A cursor is for one thread; give each thread its own."""
         return Cursor(self, self.n_steps if step is None else step)
 
     def _default_cursor(self) -> Cursor:
@@ -443,22 +456,33 @@ class ProgressiveMesh:
         return self._cursor
 
     def refine(self, n: int = 1) -> int:
-        """Undo ``n`` collapses (vertex splits) at the built-in cursor; returns the step."""
-        return self._default_cursor().refine(n)
+        """Undo ``n`` collapses (vertex splits) at the built-in cursor; returns the step.
+        The built-in cursor is thread-safe: each call is done whole under a lock."""
+        with self._lock:
+            return self._default_cursor().refine(n)
 
     def coarsen(self, n: int = 1) -> int:
-        """Redo ``n`` collapses at the built-in cursor; returns the step."""
-        return self._default_cursor().coarsen(n)
+        """Redo ``n`` collapses at the built-in cursor; returns the step (thread-safe)."""
+        with self._lock:
+            return self._default_cursor().coarsen(n)
 
     @property
     def current(self):
-        """The mesh at the built-in cursor (which starts at the base mesh)."""
-        return self._default_cursor().mesh
+        """The mesh at the built-in cursor (which starts at the base mesh).  To read the
+        step and the mesh together while other threads move it, use :meth:`current_level`."""
+        with self._lock:
+            return self._default_cursor().mesh
+
+    def current_level(self) -> Level:
+        """The built-in cursor's :class:`Level` (mesh, maps, error and step, taken together)."""
+        with self._lock:
+            return self._default_cursor().level()
 
     @property
     def step(self) -> int:
         """The built-in cursor's step."""
-        return self._default_cursor().step
+        with self._lock:
+            return self._default_cursor().step
 
     def _relabel_events(self):
         """Per step, the face corners (face * 3 + j) of faces that survive the step whose

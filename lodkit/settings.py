@@ -11,6 +11,7 @@ them, and their checks.  Every check raises :class:`lodkit.OptionError` naming t
 from __future__ import annotations
 
 import math
+import numbers
 import os
 
 import numpy as np
@@ -114,6 +115,14 @@ def resolve_threads(threads) -> tuple:
         return max(os.cpu_count() or 1, 1), "cores"
 
 
+def number(name: str, value) -> float:
+    """``value`` as a float, or OptionError naming ``name`` when it is not a real number
+    (a string, a list, a bool, None...)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Real, np.integer, np.floating)):
+        raise OptionError(f"{name} must be a number, got {value!r}")
+    return float(value)
+
+
 def check_settings(settings: dict, max_error) -> None:
     """Raise OptionError on a setting (from :func:`resolve_settings`) or ``max_error`` out of range."""
     placement, boundary = settings["placement"][0], settings["boundary"][0]
@@ -123,13 +132,13 @@ def check_settings(settings: dict, max_error) -> None:
         raise OptionError(f"placement must be one of {', '.join(PLACEMENTS)}, got {placement!r}")
     if boundary not in BOUNDARY_POLICIES:
         raise OptionError(f"boundary must be one of {', '.join(BOUNDARY_POLICIES)}, got {boundary!r}")
-    if not (0.0 < float(max_normal_angle) <= 180.0):
+    if not (0.0 < number("max_normal_angle", max_normal_angle) <= 180.0):
         raise OptionError(f"max_normal_angle must be in (0, 180] degrees, got {max_normal_angle!r}")
-    if not (0.0 <= float(min_quality) <= 1.0):
+    if not (0.0 <= number("min_quality", min_quality) <= 1.0):
         raise OptionError(f"min_quality must be in [0, 1], got {min_quality!r}")
-    if not (float(boundary_weight) >= 0.0 and math.isfinite(float(boundary_weight))):
+    if not (number("boundary_weight", boundary_weight) >= 0.0 and math.isfinite(float(boundary_weight))):
         raise OptionError(f"boundary_weight must be a finite number >= 0, got {boundary_weight!r}")
-    if max_error is not None and not (float(max_error) >= 0.0):
+    if max_error is not None and not (number("max_error", max_error) >= 0.0):
         raise OptionError(f"max_error must be >= 0, got {max_error!r}")
 
 
@@ -143,11 +152,8 @@ def resolve_target(n_faces: int, target_faces, target_ratio, max_error) -> int:
             raise OptionError(f"target_faces must be a non-negative integer, got {target_faces!r}")
         target = max(target, int(target_faces))
     if target_ratio is not None:
-        try:
-            r = float(target_ratio)
-        except (TypeError, ValueError):
-            raise OptionError(f"target_ratio must be a number in (0, 1], got {target_ratio!r}") from None
-        if isinstance(target_ratio, bool) or not (0.0 < r <= 1.0):
+        r = number("target_ratio", target_ratio)
+        if not (0.0 < r <= 1.0):
             # 0 is refused as the CLI's --ratio refuses it: "keep no faces" is not a ratio
             # anyone means; target_faces=0 simplifies as far as the checks allow
             raise OptionError(f"target_ratio must be in (0, 1] (the fraction of the faces to keep; "

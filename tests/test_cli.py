@@ -414,7 +414,7 @@ def test_metric_options_reach_the_library(surface_ply, tmp_path, simplify_spy):
     argv = ["simplify", str(surface_ply), str(tmp_path / "o.ply"), "--ratio", "0.5", "--quiet",
             "--metric", "qem", "--metric", "qem_native:weight=0.5"]
     assert main(argv) == 0
-    assert seen["metric"] == ["qem", ("qem_native", {"weight": 0.5})]
+    assert seen["metric"] == ["qem", ("qem_native", {"weight": 0.5})]   # exact: the option as given
     seen.clear()
     assert main(argv[:6]) == 0                       # no --metric: simplify's default
     assert "metric" not in seen

@@ -294,7 +294,7 @@ def test_heapify_replaces_content():
     heap.push(5, 0.0)
     heap.heapify([4, 2, 3], [1.0, 1.0, 0.5])
     assert 0 not in heap and 5 not in heap
-    assert [heap.pop() for _ in range(3)] == [(3, 0.5), (2, 1.0), (4, 1.0)]
+    assert [heap.pop() for _ in range(3)] == [(3, 0.5), (2, 1.0), (4, 1.0)]   # exact: the keys as pushed
     heap.push(0, 2.0)                      # still usable after draining
     assert heap.pop() == (0, 2.0)
 

@@ -593,8 +593,8 @@ def test_from_open3d_splits_seams_keeping_vertex_indices():
     np.testing.assert_array_equal(mesh.vertices[:6], np.asarray(m.vertices))   # originals in place
     np.testing.assert_array_equal(mesh.vertices[6], mesh.vertices[0])          # the seam copy
     np.testing.assert_array_equal(mesh.colors[6], mesh.colors[0])
-    np.testing.assert_array_equal(mesh.uvs[0], [0.9, 0.5])                     # uv of first use
-    np.testing.assert_array_equal(mesh.uvs[6], [0.1, 0.5])
+    np.testing.assert_array_equal(mesh.uvs[0], [0.9, 0.5])   # exact: parsed from text; uv of first use
+    np.testing.assert_array_equal(mesh.uvs[6], [0.1, 0.5])   # exact: parsed from text
     # every corner sees the position and uv it had
     corner = np.asarray(m.triangle_uvs)
     np.testing.assert_array_equal(mesh.uvs[mesh.faces.reshape(-1)], corner)

@@ -217,7 +217,7 @@ def test_boundary_vertex_with_a_link_across_the_new_edge_stays():
 
 def test_options():
     m = Schroeder()
-    assert m.params["feature_angle"] == 30.0 and m.params["min_aspect"] == 0.04
+    assert m.params["feature_angle"] == 30.0 and m.params["min_aspect"] == 0.04   # exact: the defaults as written
     assert m.params["remove_corners"] is False and m.kind == "removal"
     assert m.kernel is SchroederKernel
     with pytest.raises(OptionError):
@@ -228,7 +228,7 @@ def test_options():
         Schroeder(remove_corners="yes")
     k = SchroederKernel()
     k.prepare(None, {"feature_angle": 45.0, "min_aspect": 0.1, "remove_corners": True})
-    assert (k.feature_angle, k.min_aspect, k.remove_corners) == (45.0, 0.1, True)
+    assert (k.feature_angle, k.min_aspect, k.remove_corners) == (45.0, 0.1, True)   # exact: the options as given
     assert k.cos_feature == pytest.approx(math.cos(math.radians(45.0)))
     with pytest.raises(ValueError):
         k.prepare(None, {"feature_angle": -1.0})

@@ -476,7 +476,7 @@ def test_fallback_when_the_closest_line_fan_folds():
 
 def test_options():
     assert Volume().params["median"] is True
-    assert Volume().params["tolerance"] == 1e-9
+    assert Volume().params["tolerance"] == 1e-9   # exact: the default as written
     with pytest.raises(OptionError):
         Volume(tolerance=-1.0)
     with pytest.raises(OptionError):
@@ -485,7 +485,7 @@ def test_options():
         Volume(bogus=1)
     k = vk.VolumeKernel()
     k.prepare(None, {"median": False, "tolerance": 1e-6, "n_vertices": 4})
-    assert not k.gated and k.tolerance == 1e-6
+    assert not k.gated and k.tolerance == 1e-6   # exact: the option as given
     k.prepare(None, {"n_vertices": 4})
     assert k.gated and k.n_hyperbolic == 0 and k.hyperbolic_mask().tolist() == [False] * 4
     with pytest.raises(ValueError):

@@ -584,7 +584,7 @@ def test_option_defaults():
 def test_every_metric_has_weight(name):
     opt = M.get(name).all_options()["weight"]
     assert opt.default == 1.0 and opt.min == 0.0
-    assert M.create((name, {"weight": 2.5}))[0].weight == 2.5
+    assert M.create((name, {"weight": 2.5}))[0].weight == 2.5   # exact: the option as given
     assert M.create((name, {"weight": 0}))[0].weight == 0.0
     with pytest.raises(OptionError) as exc:
         M.create((name, {"weight": -1.0}))
@@ -854,7 +854,7 @@ def test_kernels_driven_by_hand():
     s = testkernels.ScaleBy()
     s.prepare(None, {"factor": 2.5})
     assert s._call("cost", 3, 4, 3, 4, (0.0, 0.0, 0.0), 2.0) == (OK, 5.0, (0.0, 0.0, 0.0), 3, 4)
-    assert s._call("cost", 3, 4, 3, 4, (0.0, 0.0, 0.0), -1.0)[1] == -2.5
+    assert s._call("cost", 3, 4, 3, 4, (0.0, 0.0, 0.0), -1.0)[1] == -2.5   # exact: -1.0 * 2.5 is exact in binary
     assert s._call("commit", 3, 4, 3, 4, (0.0, 0.0, 0.0), 0.0)[0] == OK
     assert (s.n_cost, s.n_commit) == (2, 1)
 

@@ -167,7 +167,7 @@ def test_defaults(edge_length, max_edge):
     el, = metrics.create("edge_length")
     mx, = metrics.create("max_edge_length")
     assert el.params["exponent"] == 2.0 and el.weight == 1.0
-    assert mx.params["max_length"] == 0.05 and mx.weight == 1.0
+    assert mx.params["max_length"] == 0.05 and mx.weight == 1.0   # exact: the options as given
 
 
 # ----------------------------------------------------------------------------- edge_length

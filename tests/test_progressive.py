@@ -478,3 +478,42 @@ def test_records_replay_to_the_base_mesh():
     np.testing.assert_array_equal(np.flatnonzero(alive), base.face_map)
     np.testing.assert_array_equal(faces[alive], base.vertex_map[base.mesh.faces])
     np.testing.assert_array_equal(where[base.vertex_map], base.mesh.vertices)
+
+
+def test_built_in_cursor_is_thread_safe(small_pm):
+    """Four threads refining and coarsening the built-in cursor: afterwards (and at each
+    read) the current mesh is the one at the cursor's step; per-thread cursors agree too."""
+    import threading
+
+    pm = small_pm
+    errors = []
+    barrier = threading.Barrier(4)
+
+    def work(seed):
+        try:
+            walk(seed)
+        except Exception as exc:         # a thread's exception must fail the test
+            errors.append(repr(exc))
+
+    def walk(seed):
+        rng = np.random.default_rng(seed)
+        own = pm.cursor()
+        barrier.wait()
+        for _ in range(30):
+            pm.refine(int(rng.integers(1, 50)))
+            pm.coarsen(int(rng.integers(1, 50)))
+            level = pm.current_level()
+            if not np.array_equal(level.mesh.faces, pm.at(step=level.step).faces):
+                errors.append(level.step)
+            own.seek(int(rng.integers(0, pm.n_steps + 1)))
+            if not np.array_equal(own.mesh.faces, pm.at(step=own.step).faces):
+                errors.append(("own", own.step))
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert errors == []
+    at = pm.at(step=pm.step)
+    assert np.array_equal(pm.current.faces, at.faces) and np.array_equal(pm.current.vertices, at.vertices)

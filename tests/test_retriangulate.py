@@ -138,7 +138,7 @@ def test_min_aspect_refuses_thin_splits():
     P = np.array([[0, 0, 0], [1, 0, 0], [1, 0.03, 0], [0, 0.03, 0.0]])
     assert py_split_loop(P) is None
     assert py_split_loop(P, min_aspect=0.02).tolist() == [[0, 1, 2], [0, 2, 3]]
-    assert SPLIT_MIN_ASPECT == 0.04
+    assert SPLIT_MIN_ASPECT == 0.04   # exact: the constant as written
 
 
 def test_negative_min_aspect_accepts_no_invalid_split():
@@ -363,7 +363,7 @@ def exact_split(P, n, min_aspect=SPLIT_MIN_ASPECT, force=None):
                     return -1.0
                 h = -h
             mind = min(mind, h)
-        return -1.0 if mind == 1e300 else mind / L
+        return -1.0 if mind == 1e300 else mind / L   # exact: the sentinel set above
 
     forced = force is not None and force[0] >= 0 and force[1] >= 0
     if forced:

@@ -14,6 +14,9 @@ cdef enum RunStatus:     # what a driver's run() returns
     # vertex removal with record=True: the record buffers are full; run() grows them and
     # goes on (never returned to Python)
     RUN_GROW = 4
+    # a signal handler raised (Ctrl-C) during the run: the def wrapper raises its exception
+    # (interrupt.pxd); the driver is not usable afterwards
+    RUN_INTERRUPTED = 5
 
 cdef enum BoundaryPolicy:
     BOUNDARY_LOCK = 0        # boundary vertices are fixed

@@ -36,6 +36,8 @@ from .quadric cimport (AttributeQuadrics, sq, collapse_error, quadric_eval, take
 from .checks cimport (check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality, face_volume,
                       turns_inside_out, sides_of_a_sheet)
 from .fields cimport FieldSet, STEP_VFIELD, STEP_EFIELD
+from .common cimport RUN_INTERRUPTED
+from .interrupt cimport signal_pending, raise_pending, INTERRUPT_EVERY
 from .quadric import face_unit_normals
 
 cnp.import_array()
@@ -1058,11 +1060,14 @@ cdef class EdgeCollapser:
         return True
 
     cdef int run_c(self, int target_faces, int max_steps) noexcept nogil:
-        cdef int e, h, r, k, hs, rs, ks, steps = 0
+        cdef int e, h, r, k, hs, rs, ks, steps = 0, n_iter = 0
         cdef double cost, err
         cdef double p[3]
         cdef double dvol[2]
         while self.hm.n_alive_faces > target_faces:
+            n_iter += 1
+            if n_iter % INTERRUPT_EVERY == 0 and signal_pending():
+                return RUN_INTERRUPTED
             if steps >= max_steps:
                 return RUN_CHUNK
             if not self.pop_candidate(&e):
@@ -1115,6 +1120,8 @@ cdef class EdgeCollapser:
             raise RuntimeError("this EdgeCollapser was released")
         with nogil:
             status = self.run_c(target_faces, max_steps)
+        if status == RUN_INTERRUPTED:
+            raise_pending()
         return status
 
     def relax_quality(self, double min_quality):

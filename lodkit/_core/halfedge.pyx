@@ -695,7 +695,7 @@ def build(faces, int n_vertices):
     Returns a :class:`HalfEdgeMesh`.  Non-manifold edges and vertices are cut as described
     in the module docstring; the counts are in ``n_nonmanifold_edges`` / ``n_split_vertices``.
     """
-    cdef int[:, ::1] F = np.ascontiguousarray(faces, dtype=np.intc)
+    cdef const int[:, ::1] F = np.ascontiguousarray(faces, dtype=np.intc)   # read only: read-only input is fine
     cdef Py_ssize_t m = F.shape[0]
     if m >= 700_000_000:
         raise ValueError("too many faces for 32-bit half-edge ids")

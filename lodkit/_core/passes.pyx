@@ -44,6 +44,8 @@ from .common cimport QSIZE, VSTRIDE, BOUNDARY_FREE, RUN_TARGET, RUN_CHUNK, RUN_E
 from .quadric cimport collapse_error, quadric_eval, within_reach
 from .checks cimport turns_inside_out
 from .edge cimport EdgeCollapser, SEAM_NONE
+from .common cimport RUN_INTERRUPTED
+from .interrupt cimport signal_pending, raise_pending, INTERRUPT_EVERY
 
 cnp.import_array()
 
@@ -388,6 +390,7 @@ cdef class PassDriver:
     cdef readonly int threads
     cdef readonly double fraction
     cdef bint single                 # kernels or split copies: every pass in cost order
+    cdef bint interrupted            # a signal handler raised during a run: not usable again
 
     def __init__(self, PassCollapser collapser, double fraction=6.0, int threads=1, int block=4096):
         if not (fraction >= 1.0):
@@ -435,15 +438,21 @@ cdef class PassDriver:
     cdef void rank(self) noexcept nogil:
         """Plan every dirty live edge: its cost, or why it may not go.  Each edge writes its
         own slots only, so the result does not depend on the number of threads."""
-        cdef int i
-        if self.threads > 1:
-            for i in prange(self.n_live, num_threads=self.threads, schedule="static"):
-                self.rank_one(self.live[i])
-            return
-        for i in range(self.n_live):
-            self.rank_one(self.live[i])
-            if self.c.failed:
+        cdef int i, n, b = 0
+        while b < self.n_live:               # in blocks: Ctrl-C is heard between them
+            n = min(b + 16 * INTERRUPT_EVERY, self.n_live)
+            if self.threads > 1:
+                for i in prange(b, n, num_threads=self.threads, schedule="static"):
+                    self.rank_one(self.live[i])
+            else:
+                for i in range(b, n):
+                    self.rank_one(self.live[i])
+                    if self.c.failed:
+                        return
+            if signal_pending():
+                self.interrupted = True
                 return
+            b = n
 
     cdef inline void rank_one(self, int e) noexcept nogil:
         cdef int h, r, hs, rc
@@ -746,6 +755,8 @@ cdef class PassDriver:
             for i in range(n_sel):
                 if faces_left <= target_faces:
                     break
+                if (i & (INTERRUPT_EVERY - 1)) == INTERRUPT_EVERY - 1 and signal_pending():
+                    return RUN_INTERRUPTED      # abandons the pass: the run ends with the exception
                 st = self.try_inside(i, stamp, row)
                 if self.c.failed:
                     return RUN_ERROR
@@ -756,9 +767,13 @@ cdef class PassDriver:
         elif self.threads > 1:
             for b in prange(self.n_blocks, num_threads=self.threads, schedule="dynamic", chunksize=1):
                 self.walk_block(b, stamp)
+            if signal_pending():
+                return RUN_INTERRUPTED
         else:
             for b in range(self.n_blocks):
                 self.walk_block(b, stamp)
+                if signal_pending():
+                    return RUN_INTERRUPTED
         if self.single:
             if self.c.closed_volume != 0.0:
                 self.c.closed_volume += self.acc_x[0, 0]
@@ -771,6 +786,8 @@ cdef class PassDriver:
             if self.cflag[i] != CF_DEFER:
                 continue
             self.n_deferred += 1
+            if (self.n_deferred & (INTERRUPT_EVERY - 1)) == 0 and signal_pending():
+                return RUN_INTERRUPTED
             e = self.keyed_buf[i].edge
             if not self.m.edge_alive[e]:
                 continue
@@ -887,6 +904,8 @@ cdef class PassDriver:
             if steps >= max_steps:
                 return RUN_CHUNK
             self.rank()
+            if self.interrupted:
+                return RUN_INTERRUPTED
             if self.c.failed:
                 return RUN_ERROR
             valid = self.compact()
@@ -925,6 +944,11 @@ cdef class PassDriver:
         progress bar: passes are never cut, so chunks do not change the result).  Returns 0
         (target), 1 (chunk done), 2 (exhausted) or 3 (a kernel failed)."""
         cdef int status
+        if self.interrupted:
+            raise RuntimeError("this PassDriver's run was interrupted; make a new one")
         with nogil:
             status = self.run_c(target_faces, max_steps)
+        if status == RUN_INTERRUPTED:
+            self.interrupted = True
+            raise_pending()
         return status

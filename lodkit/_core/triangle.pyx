@@ -23,6 +23,8 @@ from .common cimport QSIZE, VSTRIDE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, BOUND
 from .quadric cimport (sq, collapse_error, quadric_eval, take_if_lower, quadric_solve, quadric_solve_truncated,
                        within_reach3)
 from .edge cimport EdgeCollapser, SEAM_NONE
+from .common cimport RUN_INTERRUPTED
+from .interrupt cimport signal_pending, INTERRUPT_EVERY
 
 cnp.import_array()
 
@@ -405,12 +407,15 @@ cdef class TriangleCollapser(EdgeCollapser):
     cdef int run_c(self, int target_faces, int max_steps) noexcept nogil:
         """Triangle collapse: pop the cheapest face, re-plan it, check both
         collapses, do them; ``max_steps`` counts triangle collapses."""
-        cdef int f, h1, r1, r2, h2, k, steps = 0
+        cdef int f, h1, r1, r2, h2, k, steps = 0, n_iter = 0
         cdef int dead_faces[4]
         cdef double cost, err
         cdef double p[3]
         cdef double dvol[2]
         while self.hm.n_alive_faces > target_faces:
+            n_iter += 1
+            if n_iter % INTERRUPT_EVERY == 0 and signal_pending():
+                return RUN_INTERRUPTED
             if steps >= max_steps:
                 return RUN_CHUNK
             if not self.pop_candidate(&f):

@@ -28,6 +28,12 @@ from .vec3 cimport cross3, dot3
 from lodkit.kernel cimport KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VERTEX_FIXED, VERTEX_BOUNDARY
 from lodkit.removal cimport RemovalKernel, Star, Removal, MAX_VALENCE as STAR_MAX_VALENCE
 from . cimport common
+from .interrupt cimport signal_pending, raise_pending, INTERRUPT_EVERY
+
+cdef enum:
+    # triangles cached per vertex for a star-local kernel (stars of up to 16 link vertices;
+    # larger ones are evaluated again when popped): 42 bytes a vertex instead of 3 MAX_VALENCE
+    CACHE_TRIS = 14
 from .common cimport MAX_VALENCE, BOUNDARY_LOCK, BOUNDARY_PRESERVE, BOUNDARY_FREE
 from .checks cimport (CheckLimits, check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality,
                       face_volume, turns_inside_out)
@@ -350,15 +356,21 @@ cdef class VertexRemover:
     # star-local kernels (``star_local = True``): each candidate's triangulation, kept from
     # its evaluation so that popping it needs no second evaluation (its star is unchanged)
     cdef readonly bint star_local
-    cdef unsigned char[::1] ctri    # 3 MAX_VALENCE per vertex slot: the triangles (link indices)
+    cdef unsigned char[::1] ctri    # 3 CACHE_TRIS per vertex slot: the triangles (link indices)
     cdef unsigned char[::1] ck      # the star's k at that evaluation
     cdef unsigned char[::1] cn      # the number of triangles
     cdef int slot_plan[MAX_VALENCE]  # geometry_ok: the face slot each new triangle takes
     cdef RemovalRecords rec
+    # ``weld``: the slots grouped by position (attribute seam copies, split copies), so the
+    # manifold rules hold for the welded surface too: weld_rep[v] names v's group, weld_next
+    # walks it (cyclic; -1 alone).  Without it, groups are the split copies of one input vertex.
+    cdef bint welded
+    cdef int[::1] weld_rep
+    cdef int[::1] weld_next
 
     def __init__(self, HalfEdgeMesh hm, positions, RemovalKernel kernel, fixed,
                  int boundary=BOUNDARY_PRESERVE, double max_normal_angle=90.0, double min_quality=0.0,
-                 double max_error=INFINITY, bint record=False, bint closed_connected=False):
+                 double max_error=INFINITY, bint record=False, bint closed_connected=False, weld=None):
         cdef int n = hm.n_vertices
         if kernel is None:
             raise TypeError("kernel must be a lodkit._core.removal.RemovalKernel")
@@ -377,6 +389,12 @@ cdef class VertexRemover:
         if not (0.0 < max_normal_angle <= 180.0):
             raise ValueError("max_normal_angle must be in (0, 180] degrees")
         self.boundary = boundary
+        self.welded = weld is not None
+        if self.welded:
+            self.weld_rep = np.ascontiguousarray(weld[0], dtype=np.intc)
+            self.weld_next = np.ascontiguousarray(weld[1], dtype=np.intc)
+            if self.weld_rep.shape[0] != n or self.weld_next.shape[0] != n:
+                raise ValueError(f"weld must be two arrays of {n} slots")
         flags = (fixed_arr != 0).astype(np.uint8) * VERTEX_FIXED
         bnd = hm.boundary_vertices
         flags[bnd] |= VERTEX_BOUNDARY
@@ -387,7 +405,7 @@ cdef class VertexRemover:
         self.gated = kernel.gated
         self.star_local = bool(getattr(kernel, "star_local", False))
         nc = n if self.star_local else 0
-        self.ctri = np.zeros(max(3 * MAX_VALENCE * nc, 1), dtype=np.uint8)
+        self.ctri = np.zeros(max(3 * CACHE_TRIS * nc, 1), dtype=np.uint8)
         self.ck = np.zeros(max(nc, 1), dtype=np.uint8)
         self.cn = np.zeros(max(nc, 1), dtype=np.uint8)
         self.kmesh.he = self.m
@@ -414,10 +432,15 @@ cdef class VertexRemover:
         # the input face normals: a face slot keeps its input face (face_map) for good
         P = pos_arr
         C = hm.corners
-        nrm = np.cross(P[C[:, 1]] - P[C[:, 0]], P[C[:, 2]] - P[C[:, 0]]) if C.shape[0] else np.zeros((0, 3))
-        ln = np.linalg.norm(nrm, axis=1, keepdims=True)
-        self.n0 = np.ascontiguousarray(np.divide(nrm, ln, out=np.zeros_like(nrm), where=ln > 0).reshape(-1)) \
-            if C.shape[0] else np.zeros(3)
+        # in blocks of faces: the same numbers as over the whole array at once, without its
+        # temporaries (several (m, 3) arrays: ~200 bytes per input vertex at the peak)
+        n0 = np.zeros((C.shape[0], 3)) if C.shape[0] else np.zeros((1, 3))
+        for b in range(0, C.shape[0], 65536):
+            Cb = C[b:b + 65536]
+            nrm = np.cross(P[Cb[:, 1]] - P[Cb[:, 0]], P[Cb[:, 2]] - P[Cb[:, 0]])
+            ln = np.linalg.norm(nrm, axis=1, keepdims=True)
+            np.divide(nrm, ln, out=n0[b:b + 65536], where=ln > 0)
+        self.n0 = n0.reshape(-1)
         self.closed_volume = 0.0
         cdef int f
         if closed_connected:
@@ -526,11 +549,12 @@ cdef class VertexRemover:
 
     cdef void keep(self, int v) noexcept nogil:
         """Cache ``self.rem``'s triangles for ``v`` (just evaluated: ``self.star`` is its star).
-        A count outside 0..MAX_VALENCE is kept as 255, which :meth:`recall` never matches."""
+        A count outside 0..CACHE_TRIS is kept as 255, which :meth:`recall` never matches: that
+        star is evaluated again when popped (the same answer: the kernel is star-local)."""
         cdef int i, n = self.rem.n_tris
-        cdef unsigned char* t = &self.ctri[3 * MAX_VALENCE * v]
+        cdef unsigned char* t = &self.ctri[3 * CACHE_TRIS * v]
         self.ck[v] = <unsigned char>self.star.k
-        if n < 0 or n > MAX_VALENCE:
+        if n < 0 or n > CACHE_TRIS:
             self.cn[v] = 255
             return
         self.cn[v] = <unsigned char>n
@@ -547,7 +571,7 @@ cdef class VertexRemover:
         if self.cn[v] == 255 or self.fill_star(v) != self.ck[v]:
             return self.evaluate(v)
         n = self.cn[v]
-        t = &self.ctri[3 * MAX_VALENCE * v]
+        t = &self.ctri[3 * CACHE_TRIS * v]
         self.rem.n_tris = n
         for i in range(3 * n):
             self.rem.tri[i] = t[i]
@@ -637,37 +661,44 @@ cdef class VertexRemover:
     cdef inline int source(self, int v) noexcept nogil:
         return self.hm.vertex_source[v] if self.hm.has_copies else v
 
+    cdef inline int key(self, int v) noexcept nogil:
+        """v's group: its position group with ``weld``, else its input vertex."""
+        return self.weld_rep[v] if self.welded else self.source(v)
+
     cdef bint ring_has(self, int a, int b, int c) noexcept nogil:
-        """Over every copy of ``a``, is there a live face (a, p, q) with source(b) in {p, q}
-        (``c`` < 0: the edge a b exists, for every neighbour of a is the p or q of one of
-        its faces) or with {p, q} = {source(b), source(c)} (the face a b c exists)?"""
-        cdef int sb = self.source(b), sc = self.source(c) if c >= 0 else -1
+        """Over every copy of ``a`` (its group: key()), is there a live face (a, p, q) with
+        key(b) in {p, q} (``c`` < 0: the edge a b exists, for every neighbour of a is the p or
+        q of one of its faces) or with {p, q} = {key(b), key(c)} (the face a b c exists)?"""
+        cdef int sb = self.key(b), sc = self.key(c) if c >= 0 else -1
         cdef int x = a
         cdef int start, y, ny, p, q
         while True:
             start = self.m.v_he[x]
             y = start
             while True:
-                p = self.source(he_dest(self.m, y))
-                q = self.source(self.m.corner[he_prev(y)])
+                p = self.key(he_dest(self.m, y))
+                q = self.key(self.m.corner[he_prev(y)])
                 if (p == sb and (sc < 0 or q == sc)) or (q == sb and (sc < 0 or p == sc)):
                     return True
                 ny = he_ring_next(self.m, y)
                 if ny < 0 or ny == start:
                     break
                 y = ny
-            if not self.hm.has_copies:
+            if self.welded:
+                x = self.weld_next[x]
+            elif self.hm.has_copies:
+                x = self.hm.next_copy[x]
+            else:
                 return False
-            x = self.hm.next_copy[x]
             if x < 0 or x == a:
                 return False
 
     cdef inline bint adjacent(self, int a, int b) noexcept nogil:
-        """Is there an edge between input vertices source(a) and source(b)?"""
+        """Is there an edge between the groups of a and b (key())?"""
         return self.ring_has(a, b, -1)
 
     cdef inline bint face_exists(self, int a, int b, int c) noexcept nogil:
-        """Is there a live face on input vertices {source(a), source(b), source(c)}?"""
+        """Is there a live face on the groups of a, b and c (key())?"""
         return self.ring_has(a, b, c)
 
     cdef int topology_ok(self) noexcept nogil:
@@ -855,9 +886,12 @@ cdef class VertexRemover:
         return 0
 
     cdef int run_c(self, int target_faces, int max_steps) noexcept nogil:
-        cdef int v, st, steps = 0
+        cdef int v, st, steps = 0, n_iter = 0
         cdef double key
         while self.hm.n_alive_faces > target_faces:
+            n_iter += 1
+            if n_iter % INTERRUPT_EVERY == 0 and signal_pending():
+                return common.RUN_INTERRUPTED
             if self.gated:
                 self.sync_median()
             if steps >= max_steps:
@@ -918,6 +952,8 @@ cdef class VertexRemover:
             with nogil:
                 status = self.run_c(target_faces, left)
             left -= self.n_collapses - before
+            if status == common.RUN_INTERRUPTED:
+                raise_pending()
             if status != common.RUN_GROW:
                 return status
             self._alloc_records(2 * self.rec.cap + 64)

@@ -54,12 +54,16 @@ def run(work: Work, compiled, settings: dict, *, target: int, max_error: float, 
     """Remove vertices down to ``target`` faces; ``n_collapses`` counts removals."""
     metric, kernel = compiled
     hm = work.prep.hm
-    remover = vremove.VertexRemover(hm, work.positions, kernel, work.fixed,
+    # the remover reads positions only (contiguous: it would copy the strided view anyway);
+    # the quadric rows of work.vdata are not needed any more: dropped, ~90 bytes a vertex
+    positions = np.ascontiguousarray(work.positions)
+    work.vdata = None
+    remover = vremove.VertexRemover(hm, positions, kernel, work.fixed,
                                     boundary=BOUNDARY_POLICIES[settings["boundary"][0]],
                                     max_normal_angle=float(settings["max_normal_angle"][0]),
                                     min_quality=float(settings["min_quality"][0]),
                                     max_error=max_error, record=bool(record),
-                                    closed_connected=closed_connected(hm))
+                                    closed_connected=closed_connected(hm), weld=weld_groups(work))
     _raise_if_failed(remover, metric)
 
     bar = progress_bar(progress, hm, target)
@@ -80,7 +84,7 @@ def run(work: Work, compiled, settings: dict, *, target: int, max_error: float, 
     refused = remover.refusals
     return Run(
         core=remover,
-        positions=work.positions,
+        positions=positions,
         moved=None,                     # removal keeps the other vertices where they are
         attributes=work.attributes,
         max_error=remover.max_error_done,
@@ -96,6 +100,33 @@ def run(work: Work, compiled, settings: dict, *, target: int, max_error: float, 
             "operator": OPERATOR,
         },
     )
+
+
+def weld_groups(work: Work):
+    """(rep, next) over the vertex slots grouped by input position, for a mesh with
+    attribute seams (None without): the remover's manifold rules then hold for the surface
+    welded along its seams.  Without them both sides of a seam could each fill the same
+    corner with a triangle on the same three positions -- once welded, a duplicate face on
+    a non-manifold edge (docs/reliability.md, "The volume seam bug")."""
+    if work.seams is None:
+        return None
+    pos = work.src.vertices[work.prep.input_vertex] + 0.0        # -0.0 and 0.0 are one position
+    _, inverse = np.unique(pos, axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    n = inverse.shape[0]
+    order = np.argsort(inverse, kind="stable")
+    group = inverse[order]
+    start = np.r_[True, group[1:] != group[:-1]]
+    first = order[np.flatnonzero(start)]                   # each group's first slot
+    rep = np.empty(n, np.intc)
+    rep[order] = first[np.cumsum(start) - 1]
+    nxt = np.full(n, -1, np.intc)
+    last = np.r_[start[1:], True]                          # last member of its group
+    succ = np.r_[order[1:], 0]
+    succ[last] = first[np.cumsum(start) - 1][last]         # the last wraps to the first
+    alone = start & last
+    nxt[order] = np.where(alone, -1, succ)
+    return rep, nxt
 
 
 def _raise_if_failed(remover, metric) -> None:

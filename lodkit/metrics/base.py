@@ -151,6 +151,10 @@ class Metric:
             self.name = type(self).__name__
         self.params = self.validate_options(options)
 
+    def check_ready(self) -> None:
+        """Raise OptionError if the options cannot run on any mesh (a required option left
+        out); called by simplify() and compare() before any work.  The default: nothing."""
+
     @classmethod
     def all_options(cls) -> dict:
         merged: dict = {}

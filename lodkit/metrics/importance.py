@@ -21,6 +21,13 @@ class Importance(FieldMetric):
                          doc="(n_input_vertices,) importance >= 0 of each input vertex"),
     }
 
+    def check_ready(self) -> None:
+        """Before any work (simplify, compare): values= must be given."""
+        if self.params["values"] is None:
+            raise OptionError("metric 'importance' needs values=: one importance per input vertex "
+                              "(an array, e.g. ('importance', {'values': heights}); the command line "
+                              "cannot give one)")
+
     def values(self, ctx: MetricContext) -> np.ndarray:
         vals = self.params["values"]
         if vals is None:
