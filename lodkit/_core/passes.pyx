@@ -429,10 +429,12 @@ cdef class PassDriver:
         self.blk_order = np.zeros(self.kmax, dtype=np.intc)
         self.block = block
         self.bsize = block
-        self.n_blocks = 1 if self.single else max((nv + block - 1) // block, 1)
-        self.blk_start = np.zeros(self.n_blocks + 1, dtype=np.intc)
-        self.acc_i = np.zeros((self.n_blocks, 4), dtype=np.intc)
-        self.acc_x = np.zeros((self.n_blocks, 2), dtype=np.float64)
+        self.n_blocks = 1
+        # group() never makes blocks of fewer than block // 8 live vertices: at most this many
+        max_blocks = (nv + max(block // 8, 1) - 1) // max(block // 8, 1) + 1
+        self.blk_start = np.zeros(max_blocks + 1, dtype=np.intc)
+        self.acc_i = np.zeros((max_blocks, 4), dtype=np.intc)
+        self.acc_x = np.zeros((max_blocks, 2), dtype=np.float64)
 
     # ------------------------------------------------------------- named steps
     cdef void rank(self) noexcept nogil:
@@ -599,20 +601,22 @@ cdef class PassDriver:
         cdef long long nv = self.c.hm.n_vertices
         cdef long long alive = self.c.hm.n_alive_vertices
         cdef long long per = self.block
-        if not self.single:
-            # about `block` live vertices a block, whatever share of the slots is dead, but
-            # at least 16 blocks while each keeps an eighth of that (so that threads have
-            # blocks to share out as the mesh shrinks)
-            if alive // 16 < per:
-                per = max(alive // 16, self.block // 8, 1)
-            self.bsize = <int>min(nv, (per * nv + alive - 1) // max(alive, 1))
-            if self.bsize < 1:
-                self.bsize = 1
-            self.n_blocks = <int>((nv + self.bsize - 1) // self.bsize)
+        # about `block` live vertices a block, whatever share of the slots is dead, but at
+        # least 16 blocks while each keeps an eighth of that (so that threads have blocks to
+        # share out as the mesh shrinks)
+        if alive // 16 < per:
+            per = max(alive // 16, self.block // 8, 1)
+        self.bsize = <int>min(nv, (per * nv + alive - 1) // max(alive, 1))
+        if self.bsize < 1:
+            self.bsize = 1
+        self.n_blocks = <int>((nv + self.bsize - 1) // self.bsize)
+        if self.n_blocks > self.acc_i.shape[0]:
+            self.n_blocks = self.acc_i.shape[0]          # cannot happen (see __init__)
+            self.bsize = <int>((nv + self.n_blocks - 1) // self.n_blocks)
         memset(&self.blk_start[0], 0, (self.n_blocks + 1) * sizeof(int))
         for i in range(n_sel):
             e = self.keyed_buf[i].edge
-            b = 0 if self.single else self.m.corner[self.m.edge_he[e]] // self.bsize
+            b = self.m.corner[self.m.edge_he[e]] // self.bsize
             self.cblock[i] = b
             self.cflag[i] = 0
             self.blk_start[b + 1] += 1
@@ -633,7 +637,7 @@ cdef class PassDriver:
         return 0
 
     cdef inline bint in_block(self, int v, int b) noexcept nogil:
-        return self.single or v // self.bsize == b
+        return v // self.bsize == b
 
     cdef bint inside(self, int u, int v, int b) noexcept nogil:
         """Is everything a collapse of edge u-v reads or writes in block b: the ends, their
@@ -741,6 +745,7 @@ cdef class PassDriver:
         Stage 2: the candidates that reached out of their block (and seam pairs), in cost
         order, on the state stage 1 left, with the same rules."""
         cdef int i, b, e, h, r, k, hs, rs, ks, st, stamp, row, faces_left, n1 = 0
+        cdef double vol
         cdef double dv2[2]
         cdef double* x
         cdef bint to_target
@@ -775,8 +780,11 @@ cdef class PassDriver:
                 if signal_pending():
                     return RUN_INTERRUPTED
         if self.single:
+            vol = self.c.closed_volume           # summed in block order, as reduce() does
+            for b in range(self.n_blocks):
+                vol += self.acc_x[b, 0]
             if self.c.closed_volume != 0.0:
-                self.c.closed_volume += self.acc_x[0, 0]
+                self.c.closed_volume = vol
         else:
             n1 = self.reduce(not to_target)
         # ---- stage 2
