@@ -169,15 +169,17 @@ def test_real_meshes_keep_their_topology_and_boundaries(name):
 @pytest.mark.parametrize("name", ["bunny.ply", "fandisk.obj"])
 def test_quality_close_to_the_greedy_driver(name):
     """The pass driver's error stays near the greedy reference (docs/benchmarks.md has the
-    Metro figures; this is the guard rail: within 25% on the collapse error)."""
+    Metro figures over the shared meshes; this is a guard rail against a gross regression:
+    mean within 10%, Hausdorff -- one worst point, which moves by 10-25% between block sizes
+    and sample seeds on bunny -- within 40%)."""
     mesh = lodkit.load(shared_mesh(name))
     p = lodkit.simplify(mesh, target_ratio=0.05, driver="pass")
     g = lodkit.simplify(mesh, target_ratio=0.05, driver="greedy")
     assert p.mesh.n_faces == g.mesh.n_faces or abs(p.mesh.n_faces - g.mesh.n_faces) <= 1
     ev_p = lodkit.evaluate(mesh, p.mesh, samples=20000, seed=1)
     ev_g = lodkit.evaluate(mesh, g.mesh, samples=20000, seed=1)
-    assert ev_p.distance.mean <= 1.25 * ev_g.distance.mean
-    assert ev_p.distance.hausdorff <= 1.25 * ev_g.distance.hausdorff
+    assert ev_p.distance.mean <= 1.10 * ev_g.distance.mean
+    assert ev_p.distance.hausdorff <= 1.40 * ev_g.distance.hausdorff
 
 
 def test_every_metric_kind_runs_on_the_pass_driver():
