@@ -6,10 +6,11 @@
 """
 from . import metrics
 from .api import SimplifyResult, simplify
+from .batch import BatchResult, batch
 from .cluster import ClusterResult, cluster
 from .compare import Comparison, compare
 from .curvature import point_curvature
-from .errors import LodkitError, MeshError, MeshIOError, MetricError, OptionError, UnknownMetricError
+from .errors import DependencyError, LodkitError, MeshError, MeshIOError, MetricError, OptionError, UnknownMetricError
 from .evaluate import Evaluation, Evaluator, evaluate
 from .io import load, save
 from .mesh import Mesh
@@ -18,6 +19,8 @@ from .topology import TopologyReport, topology
 from .version import __version__ as __version__
 
 __all__ = [
+    "BatchResult",
+    "DependencyError",
     "ClusterResult",
     "Comparison",
     "Evaluation",
@@ -32,6 +35,7 @@ __all__ = [
     "SimplifyResult",
     "TopologyReport",
     "UnknownMetricError",
+    "batch",
     "cluster",
     "compare",
     "evaluate",

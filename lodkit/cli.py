@@ -1,5 +1,5 @@
-"""The ``lodkit`` command: ``simplify``, ``info``, ``metrics``, ``demo``, ``evaluate``, ``compare``, ``lods``
-and ``cluster``.
+"""The ``lodkit`` command: ``simplify``, ``info``, ``metrics``, ``demo``, ``evaluate``, ``compare``, ``lods``,
+``cluster`` and ``batch``.
 
 Every failure the user can cause (a missing or unreadable file, a bad option, a mesh
 lodkit cannot use) prints one line ``lodkit: error: ...`` on standard error and exits
@@ -23,6 +23,7 @@ __all__ = ["main"]
 PROG = "lodkit"
 EXIT_OK = 0
 EXIT_USAGE = 2          # argparse's own code for usage errors; used for every user error
+EXIT_FAILED = 1         # lodkit batch: some inputs failed (the others were written)
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, what shells report for Ctrl-C
 
 
@@ -190,6 +191,33 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("--absolute", action="store_true", help="--cell-size and the reported error are in model units")
     p.add_argument("--quiet", "-q", action="store_true", help="no summary line")
     p.set_defaults(run=_run_cluster)
+
+    p = sub.add_parser("batch", help="write LOD chains for many mesh files, on Dask, resumably",
+                       description="Simplify every mesh in IN... (files, folders searched recursively, "
+                                   "globs) to each ratio and write DIR/<name>_lod<i>.<format>, with "
+                                   "manifest.json and manifest.csv (hash, settings, status, faces and "
+                                   "error per level, time, worker). A re-run skips what the manifest "
+                                   "says is done; a file that fails is a 'failed' row and the others go "
+                                   "on. Runs on a Dask LocalCluster by default (pip install "
+                                   "'lodkit[dask]'); docs/scale.md.")
+    p.add_argument("inputs", nargs="+", metavar="IN", help="mesh file, folder or glob pattern")
+    p.add_argument("--out-dir", required=True, metavar="DIR", help="output directory (made if missing)")
+    p.add_argument("--ratios", type=_ratio_list, default=[0.5, 0.1, 0.02], metavar="R1,R2,...",
+                   help="fractions of the faces to keep, one level each (default: 0.5,0.1,0.02)")
+    p.add_argument("--format", choices=("ply", "obj", "glb"), default="ply",
+                   help="file format of the levels (default: ply)")
+    _add_collapse_options(p, "cost metric, as for 'lodkit simplify' (repeat to combine; default: qem)")
+    engine = p.add_mutually_exclusive_group()
+    engine.add_argument("--workers", type=_count, metavar="N",
+                        help="worker processes of the local Dask cluster (default: one per core), "
+                             "or threads with --scheduler threads")
+    engine.add_argument("--scheduler", metavar="ADDRESS",
+                        help="a running Dask scheduler (e.g. tcp://10.0.0.5:8786), or 'threads' / "
+                             "'sync' to run in this process without Dask")
+    p.add_argument("--threads", type=_count, metavar="N", help="with --scheduler threads: N threads")
+    p.add_argument("--force", action="store_true", help="redo every input, even those the manifest says are done")
+    p.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no summary line")
+    p.set_defaults(run=_run_batch)
     return parser
 
 
@@ -491,6 +519,33 @@ def _run_lods(args) -> int:
         for r in rows:
             print(f"  lod{r['level']}: ratio {r['ratio']:g}, {r['faces']} faces, {r['vertices']} vertices, "
                   f"error {r['error']:.3g} -> {os.path.join(args.out_dir, r['file'])}")
+    return EXIT_OK
+
+
+def _run_batch(args) -> int:
+    from .batch import batch
+
+    metric = _metric_spec(args.metric)
+    options = {"metric": metric, "placement": args.placement, "boundary": args.boundary}
+    options = {k: v for k, v in options.items() if v is not None}
+    workers = args.workers
+    if args.threads is not None:
+        if args.scheduler != "threads":
+            raise _UsageError("--threads goes with --scheduler threads (see 'lodkit batch --help')")
+        workers = args.threads
+    result = batch(args.inputs, args.out_dir, ratios=args.ratios, format=args.format, scheduler=args.scheduler,
+                   workers=workers, resume=not args.force, progress=not args.quiet and _is_tty(sys.stderr),
+                   **options)
+    if not args.quiet:
+        print(f"{len(result.rows)} inputs: {result.n_ok} done, {result.n_skipped} skipped (already done), "
+              f"{result.n_failed} failed, {result.elapsed:.1f} s -> {result.manifest['csv']}")
+    if result.n_failed:
+        for row in result.rows:
+            if row["status"] == "failed":
+                print(f"{PROG}: failed: {row['input']}: {row['error']}", file=sys.stderr)
+        print(f"{PROG}: error: {result.n_failed} of {len(result.rows)} inputs failed (see {result.manifest['csv']})",
+              file=sys.stderr)
+        return EXIT_FAILED
     return EXIT_OK
 
 

@@ -33,3 +33,8 @@ class RenderError(LodkitError, RuntimeError):
 
 class ImageIOError(LodkitError, OSError):
     """An image file could not be written."""
+
+
+class DependencyError(LodkitError, ImportError):
+    """A feature was asked for whose optional dependency is not installed; the message says
+    what to install (e.g. ``pip install 'lodkit[dask]'``)."""
