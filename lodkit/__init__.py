@@ -13,6 +13,7 @@ from .curvature import point_curvature
 from .errors import DependencyError, LodkitError, MeshError, MeshIOError, MetricError, OptionError, UnknownMetricError
 from .evaluate import Evaluation, Evaluator, evaluate
 from .io import load, save
+from .large import LargeResult, simplify_large
 from .mesh import Mesh
 from .progressive import ProgressiveMesh, progressive
 from .topology import TopologyReport, topology
@@ -25,6 +26,7 @@ __all__ = [
     "Comparison",
     "Evaluation",
     "Evaluator",
+    "LargeResult",
     "LodkitError",
     "Mesh",
     "MeshError",
@@ -45,5 +47,6 @@ __all__ = [
     "progressive",
     "save",
     "simplify",
+    "simplify_large",
     "topology",
 ]

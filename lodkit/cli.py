@@ -99,6 +99,15 @@ def _build_parser() -> argparse.ArgumentParser:
                    help="pair contraction: first merge vertices closer than T that share no edge, "
                         "joining parts and closing gaps (a fraction of the bbox diagonal, model "
                         "units with --absolute; off by default)")
+    tiles = p.add_argument_group("meshes too large for one process (docs/scale.md)")
+    tiles.add_argument("--tiles", action="store_true",
+                       help="simplify in spatial tiles on Dask workers (lodkit.simplify_large): positions only")
+    tiles.add_argument("--tile-faces", type=_count, default=250_000, metavar="N",
+                       help="faces per tile (default: 250000)")
+    tiles.add_argument("--workers", type=_count, metavar="N",
+                       help="worker processes of the local Dask cluster (default: one per core)")
+    tiles.add_argument("--scheduler", metavar="ADDRESS",
+                       help="a running Dask scheduler, or 'threads' / 'sync' to run in this process")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no summary line")
     p.set_defaults(run=_run_simplify)
 
@@ -343,6 +352,10 @@ def _run_simplify(args) -> int:
     if args.ratio is None and args.faces is None and args.max_error is None:
         raise _UsageError("simplify needs a target: --ratio, --faces or --max-error (see 'lodkit simplify --help')")
     _check_output(args.output)     # before the work, not after it
+    if args.tiles:
+        return _run_simplify_large(args)
+    if args.workers is not None or args.scheduler is not None:
+        raise _UsageError("--workers and --scheduler go with --tiles (see 'lodkit simplify --help')")
     metric = _metric_spec(args.metric)
     options = {
         "target_ratio": args.ratio,
@@ -370,6 +383,30 @@ def _run_simplify(args) -> int:
         unit = "model units" if args.absolute else "of bbox diagonal"
         print(f"{args.input}: {_reduction(mesh, out)}, error {result.error:.3g} {unit}, "
               f"stop: {result.stop_reason}, {seconds:.2f} s -> {args.output}")
+    return EXIT_OK
+
+
+def _run_simplify_large(args) -> int:
+    from .large import simplify_large
+
+    unsupported = [name for name, value in (("--placement", args.placement), ("--boundary", args.boundary),
+                                            ("--max-normal-angle", args.max_normal_angle),
+                                            ("--min-quality", args.min_quality),
+                                            ("--pair-threshold", args.pair_threshold)) if value is not None]
+    if unsupported or (args.metric and len(args.metric) > 1):
+        what = ", ".join(unsupported) or "several metrics"
+        raise _UsageError(f"--tiles takes one --metric and the targets; not {what}")
+    metric = _metric_spec(args.metric) or "qem"
+    result = simplify_large(args.input, args.output, target_ratio=args.ratio, target_faces=args.faces,
+                            max_error=args.max_error, absolute=args.absolute, tile_faces=args.tile_faces,
+                            scheduler=args.scheduler, workers=args.workers, metric=metric,
+                            progress=not args.quiet and _is_tty(sys.stderr))
+    if not args.quiet:
+        unit = "model units" if args.absolute else "of bbox diagonal"
+        tiled = [r for r in result.rounds if r["kind"] == "tiles"]
+        print(f"{args.input}: {result.report['input_faces']} -> {result.mesh.n_faces} faces, "
+              f"{len(tiled)} tiled round(s) ({', '.join(str(r['tiles']) + ' tiles' for r in tiled) or 'none'}), "
+              f"error {result.error:.3g} {unit}, {result.elapsed:.2f} s -> {args.output}")
     return EXIT_OK
 
 
