@@ -117,6 +117,10 @@ def simplify_large(in_path, out_path, *, target_faces: int | None = None, target
             # leave the last quarter to the in-core step, which frees the locked borders;
             # a target above in_core_faces is reached by a second, shifted round instead
             goal = max(target, (3 * in_core_faces) // 4)
+            if k == 0 and goal == target:
+                # the target is reached without the in-core step: keep a fifth of the work
+                # for the shifted round, which frees this round's borders
+                goal = min(n_before, (5 * target) // 4)
             cell = math.sqrt(area * tile_faces / n_before)
             shift = (0.5 * cell) * (k % 2)
             t_round = time.perf_counter()
@@ -128,7 +132,7 @@ def simplify_large(in_path, out_path, *, target_faces: int | None = None, target
                            "seconds": time.perf_counter() - t_round, **info})
             k += 1
             if k >= 2 and (source.n_faces <= target or source.n_faces > n_before * (1.0 - MIN_ROUND_GAIN)):
-                break          # the borders of round 1 were interior in this one: done
+                break          # the borders of the round before were interior in this one: done
         vertices, faces = source.arrays()
         if origin is None:
             origin = np.arange(len(vertices), dtype=np.int64)
@@ -181,7 +185,10 @@ def _tiled_round(source, origin, cell, goal, error_limit, options, engine, direc
         jobs.append((str(part), str(directory / f"pm{key}.npz"), floor, error_limit, options))
     source.close_after_round()
     curves = engine.map(run_part, jobs)
-    level_error = _error_for(curves, goal)
+    # never push every tile to its floor: the locked borders cannot go in this round, and
+    # a goal below what the tiles can reach would take the largest error everywhere
+    reachable = sum(int(c["faces"][-1]) for c in curves)
+    level_error = _error_for(curves, max(goal, 2 * reachable))
     if error_limit is not None:
         level_error = min(level_error, error_limit)
     jobs = [(job[0], job[1], str(directory / f"out{key}.npz"), level_error) for key, job in zip(tiles, jobs)]

@@ -50,19 +50,20 @@ def check_vertex_map(mesh: lodkit.Mesh, result) -> None:
     assert gap.max() < 0.1 * mesh.bbox_diagonal()
 
 
-@pytest.mark.parametrize("ratio, rounds", [(0.1, ["tiles", "in-core"]), (0.6, ["tiles", "tiles"])])
-def test_closed_torus_stays_closed(tmp_path, ratio, rounds):
+@pytest.mark.parametrize("ratio, last", [(0.1, "in-core"), (0.6, "tiles")])
+def test_closed_torus_stays_closed(tmp_path, ratio, last):
     mesh = torus()
     lodkit.save(mesh, tmp_path / "in.ply")
     result = simplify_large(tmp_path / "in.ply", tmp_path / "out.ply", target_ratio=ratio, tile_faces=1500,
                             scheduler="sync")
-    assert [r["kind"] for r in result.rounds] == rounds
+    kinds = [r["kind"] for r in result.rounds]
+    assert kinds[0] == "tiles" and kinds[-1] == last and kinds.count("tiles") >= 2
     assert result.rounds[0]["tiles"] >= 4
     out = lodkit.load(tmp_path / "out.ply")
     assert np.array_equal(out.faces, result.mesh.faces) and np.array_equal(out.vertices, result.mesh.vertices)
     check_same_shape(mesh, out)
     target = round(ratio * mesh.n_faces)
-    if rounds[-1] == "in-core":
+    if last == "in-core":
         assert out.n_faces == target
     else:  # the tiled rounds stop at a global error picked from sampled curves: near the target
         assert abs(out.n_faces - target) <= 0.05 * target
