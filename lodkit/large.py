@@ -34,12 +34,14 @@ import numpy as np
 from ._executor import open_executor
 from .errors import MeshError, MeshIOError, OptionError
 
-__all__ = ["LargeResult", "simplify_large", "open_source", "CHUNK_FACES"]
+__all__ = ["LargeResult", "simplify_large", "default_in_core_faces", "open_source", "CHUNK_FACES"]
 
 #: faces read per step of the streaming passes (about 40 MB of faces and centroids)
 CHUNK_FACES = 1 << 20
 #: a tiled round that removes less than this fraction of the faces is the last one
 MIN_ROUND_GAIN = 0.02
+#: the largest in-core finishing step chosen by default (about 300 MB of half-edge arrays)
+IN_CORE_CAP = 2_000_000
 MAX_ROUNDS = 8
 
 
@@ -74,8 +76,9 @@ def simplify_large(in_path, out_path, *, target_faces: int | None = None, target
     """Simplify the mesh file ``in_path`` into ``out_path`` in tiles of about ``tile_faces`` faces.
 
     Targets as for :func:`lodkit.simplify` (whichever is reached first).  ``in_core_faces``
-    (default ``2 * tile_faces``): once the mesh is that small, the rest is one ordinary
-    ``simplify`` in this process.  The engine as for :func:`lodkit.batch`: ``client``, or
+    (default: :func:`default_in_core_faces`, four times the target up to 2M faces, at least
+    two tiles): once the mesh is that small, the rest is one ordinary ``simplify`` in
+    this process.  The engine as for :func:`lodkit.batch`: ``client``, or
     ``scheduler`` (None: a Dask LocalCluster of ``workers`` processes; "threads"; "sync";
     a scheduler address).  ``work_dir`` holds the parts (default: a temporary folder next
     to ``out_path``); on a multi-machine cluster it must be a folder every worker sees.
@@ -90,14 +93,16 @@ def simplify_large(in_path, out_path, *, target_faces: int | None = None, target
     t0 = time.perf_counter()
     if isinstance(tile_faces, bool) or not isinstance(tile_faces, int) or tile_faces < 100:
         raise OptionError(f"tile_faces must be an integer of at least 100, got {tile_faces!r}")
-    in_core_faces = 2 * tile_faces if in_core_faces is None else in_core_faces
-    if isinstance(in_core_faces, bool) or not isinstance(in_core_faces, int) or in_core_faces < 1:
+    if in_core_faces is not None and (isinstance(in_core_faces, bool) or not isinstance(in_core_faces, int)
+                                      or in_core_faces < 1):
         raise OptionError(f"in_core_faces must be a positive integer, got {in_core_faces!r}")
     _check_output_path(out_path)
 
     source = open_source(in_path)
     n_in = source.n_faces
     target = resolve_target(n_in, target_faces, target_ratio, max_error)
+    if in_core_faces is None:
+        in_core_faces = default_in_core_faces(tile_faces, target)
     lo, hi, area = source.bounds_and_area()
     diag = float(np.linalg.norm(hi - lo))
     error_limit = None if max_error is None else (max_error if absolute else max_error * diag)
@@ -163,6 +168,17 @@ def simplify_large(in_path, out_path, *, target_faces: int | None = None, target
                        rounds=rounds, elapsed=time.perf_counter() - t0,
                        report={"input_faces": n_in, "target_faces": target, "tile_faces": tile_faces,
                                "in_core_faces": in_core_faces, "bbox_diagonal": diag})
+
+
+def default_in_core_faces(tile_faces: int, target: int) -> int:
+    """Where the tiled rounds stop and one in-core ``simplify`` takes over: at least four
+    times the target where that is at most IN_CORE_CAP faces, else twice a tile.
+
+    Measured (docs/scale.md): the error stays that of one in-core run when the in-core
+    step still removes three quarters or more of what it gets -- each round starts its
+    quadrics afresh from its input, and a short last step cannot spread the error the
+    rounds before it left behind."""
+    return max(2 * tile_faces, min(4 * target, IN_CORE_CAP))
 
 
 # ---------------------------------------------------------------------- one tiled round

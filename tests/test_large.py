@@ -55,7 +55,7 @@ def test_closed_torus_stays_closed(tmp_path, ratio, last):
     mesh = torus()
     lodkit.save(mesh, tmp_path / "in.ply")
     result = simplify_large(tmp_path / "in.ply", tmp_path / "out.ply", target_ratio=ratio, tile_faces=1500,
-                            scheduler="sync")
+                            in_core_faces=3000, scheduler="sync")
     kinds = [r["kind"] for r in result.rounds]
     assert kinds[0] == "tiles" and kinds[-1] == last and kinds.count("tiles") >= 2
     assert result.rounds[0]["tiles"] >= 4
