@@ -43,6 +43,7 @@ MIN_ROUND_GAIN = 0.02
 #: the largest in-core finishing step chosen by default (about 300 MB of half-edge arrays)
 IN_CORE_CAP = 2_000_000
 MAX_ROUNDS = 8
+_AXIS = (1 << 21) - 1      # grid cells per axis: a cell key packs three 21-bit indices
 
 
 @dataclass
@@ -130,7 +131,7 @@ def simplify_large(in_path, out_path, *, target_faces: int | None = None, target
             shift = (0.5 * cell) * (k % 2)
             t_round = time.perf_counter()
             source, ids, info = _tiled_round(source, lo - shift, cell, goal, error_limit, options, engine,
-                                             parts_dir / f"round{k}", progress)
+                                             parts_dir / f"round{k}", progress, tile_faces)
             origin = ids if origin is None else origin[ids]
             max_err = max(max_err, info["error"])
             rounds.append({"kind": "tiles", "faces_in": n_before, "faces_out": source.n_faces,
@@ -182,7 +183,8 @@ def default_in_core_faces(tile_faces: int, target: int) -> int:
 
 
 # ---------------------------------------------------------------------- one tiled round
-def _tiled_round(source, origin, cell, goal, error_limit, options, engine, directory: Path, progress):
+def _tiled_round(source, origin, cell, goal, error_limit, options, engine, directory: Path, progress,
+                 tile_faces: int):
     """Partition ``source`` on a grid of ``cell`` from ``origin``, simplify every tile on
     ``engine`` down to one global error, weld: (the new source, the old vertex id of each
     new vertex, info).
@@ -197,8 +199,9 @@ def _tiled_round(source, origin, cell, goal, error_limit, options, engine, direc
     floor = 0.25 * goal / source.n_faces
     jobs = []
     for key in tiles:
-        part = _write_part(source, shared, directory, key)
-        jobs.append((str(part), str(directory / f"pm{key}.npz"), floor, error_limit, options))
+        corner = origin + cell * np.array([key >> 42, (key >> 21) & _AXIS, key & _AXIS], dtype=np.float64)
+        for part in _write_parts(source, shared, directory, key, corner, cell, 2 * tile_faces):
+            jobs.append((str(part), str(part.with_name("pm" + part.name[4:])), floor, error_limit, options))
     source.close_after_round()
     curves = engine.map(run_part, jobs)
     # never push every tile to its floor: the locked borders cannot go in this round, and
@@ -207,10 +210,11 @@ def _tiled_round(source, origin, cell, goal, error_limit, options, engine, direc
     level_error = _error_for(curves, max(goal, 2 * reachable))
     if error_limit is not None:
         level_error = min(level_error, error_limit)
-    jobs = [(job[0], job[1], str(directory / f"out{key}.npz"), level_error) for key, job in zip(tiles, jobs)]
+    jobs = [(part, pm, str(Path(part).with_name("out" + Path(part).name[4:])), level_error)
+            for part, pm, *_ in jobs]
     results = engine.map(extract_part, jobs)
     vertices, faces, ids = _weld(results)
-    info = {"tiles": len(tiles), "largest_tile": max((c["faces_in"] for c in curves), default=0),
+    info = {"tiles": len(jobs), "largest_tile": max((c["faces_in"] for c in curves), default=0),
             "error": max((r["error"] for r in results), default=0.0), "cell": cell}
     return ArraySource(vertices, faces), ids, info
 
@@ -227,7 +231,7 @@ def _partition(source, origin, cell, directory: Path):
             faces = source.faces(start, min(start + CHUNK_FACES, source.n_faces))
             centroids = source.centroids(faces)
             cells = np.floor((centroids - origin) / cell).astype(np.int64)
-            cells = np.clip(cells, 0, (1 << 21) - 1)
+            cells = np.clip(cells, 0, _AXIS)
             keys = (cells[:, 0] << 42) | (cells[:, 1] << 21) | cells[:, 2]
             order = np.argsort(keys, kind="stable")
             keys, faces = keys[order], faces[order]
@@ -249,16 +253,47 @@ def _partition(source, origin, cell, directory: Path):
     return sorted(handles), shared
 
 
-def _write_part(source, shared, directory: Path, key: int) -> Path:
-    """The compact part of one tile: positions, local faces, global ids, shared mask."""
+def _write_parts(source, shared, directory: Path, key: int, corner, size: float, limit: int) -> list:
+    """The compact parts of one grid cell (positions, local faces, global ids, shared
+    mask): one part, or -- when the surface crosses the cell in several sheets and it holds
+    more than ``limit`` faces -- one per octant that holds faces, split again as needed.
+    Vertices the octants share are shared too (locked), as those between cells are."""
     raw = directory / f"faces{key}.i32"
     faces = np.fromfile(raw, dtype=np.int32).reshape(-1, 3)
     raw.unlink()
-    used, local = np.unique(faces, return_inverse=True)
-    path = directory / f"part{key}.npz"
-    np.savez(path, vertices=source.vertices(used), faces=local.reshape(-1, 3).astype(np.int32),
-             ids=used.astype(np.int64), shared=shared[used])
-    return path
+    groups = _split_cell(source, faces, np.asarray(corner, dtype=np.float64), size, limit, depth=0)
+    extra = None
+    if len(groups) > 1:
+        used = np.concatenate([np.unique(g) for g in groups])
+        ids, counts = np.unique(used, return_counts=True)
+        extra = ids[counts > 1]
+    paths = []
+    for i, group in enumerate(groups):
+        used, local = np.unique(group, return_inverse=True)
+        mask = shared[used]
+        if extra is not None:
+            mask = mask | np.isin(used, extra)
+        path = directory / f"part{key}_{i}.npz"
+        np.savez(path, vertices=source.vertices(used), faces=local.reshape(-1, 3).astype(np.int32),
+                 ids=used.astype(np.int64), shared=mask)
+        paths.append(path)
+    return paths
+
+
+def _split_cell(source, faces, corner, size, limit, depth) -> list:
+    """``faces`` as one group, or split by the octants of the cell at ``corner``."""
+    if len(faces) <= limit or depth >= 6:
+        return [faces]
+    half = 0.5 * size
+    octant = np.clip(np.floor((source.centroids(faces.astype(np.int64)) - corner) / half), 0, 1).astype(np.int64)
+    code = octant[:, 0] * 4 + octant[:, 1] * 2 + octant[:, 2]
+    out = []
+    for k in range(8):
+        sel = code == k
+        if sel.any():
+            sub = corner + half * np.array([k >> 2, (k >> 1) & 1, k & 1], dtype=np.float64)
+            out += _split_cell(source, faces[sel], sub, half, limit, depth + 1)
+    return out
 
 
 #: points of a tile's error curve sent back to the driver (enough to place the error)

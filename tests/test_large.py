@@ -59,6 +59,8 @@ def test_closed_torus_stays_closed(tmp_path, ratio, last):
     kinds = [r["kind"] for r in result.rounds]
     assert kinds[0] == "tiles" and kinds[-1] == last and kinds.count("tiles") >= 2
     assert result.rounds[0]["tiles"] >= 4
+    # a grid cell holding more than two tiles' worth (the tube folds through it) is split
+    assert all(r["largest_tile"] <= 2 * 1500 for r in result.rounds if r["kind"] == "tiles")
     out = lodkit.load(tmp_path / "out.ply")
     assert np.array_equal(out.faces, result.mesh.faces) and np.array_equal(out.vertices, result.mesh.vertices)
     check_same_shape(mesh, out)
