@@ -9,12 +9,23 @@ from ._signals import import_guard
 with import_guard():     # Ctrl-C while the `lodkit` command starts: one line, exit 130
     from . import metrics
     from .api import SimplifyResult, simplify
+    from .batch import BatchResult, batch
     from .cluster import ClusterResult, cluster
     from .compare import Comparison, compare
     from .curvature import point_curvature
-    from .errors import Cancelled, LodkitError, MeshError, MeshIOError, MetricError, OptionError, UnknownMetricError
+    from .errors import (
+        Cancelled,
+        DependencyError,
+        LodkitError,
+        MeshError,
+        MeshIOError,
+        MetricError,
+        OptionError,
+        UnknownMetricError,
+    )
     from .evaluate import Evaluation, Evaluator, evaluate
     from .io import load, save
+    from .large import LargeResult, simplify_large
     from .mesh import Mesh
     from .optimize import OptimizeResult, optimize
     from .progressive import ProgressiveMesh, progressive
@@ -23,11 +34,14 @@ with import_guard():     # Ctrl-C while the `lodkit` command starts: one line, e
     from .version import __version__ as __version__
 
 __all__ = [
+    "BatchResult",
     "Cancelled",
+    "DependencyError",
     "ClusterResult",
     "Comparison",
     "Evaluation",
     "Evaluator",
+    "LargeResult",
     "LodkitError",
     "Mesh",
     "MeshError",
@@ -40,6 +54,7 @@ __all__ = [
     "SimplifyResult",
     "TopologyReport",
     "UnknownMetricError",
+    "batch",
     "cluster",
     "compare",
     "evaluate",
@@ -51,5 +66,6 @@ __all__ = [
     "retile",
     "save",
     "simplify",
+    "simplify_large",
     "topology",
 ]

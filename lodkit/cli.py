@@ -1,5 +1,5 @@
 """The ``lodkit`` command: ``simplify``, ``info``, ``metrics``, ``demo``, ``evaluate``, ``compare``, ``lods``,
-``cluster``, ``retile`` and ``optimize``.
+``cluster``, ``retile``, ``optimize`` and ``batch``.
 
 Every failure the user can cause (a missing or unreadable file, a bad option, a mesh
 lodkit cannot use) prints one line ``lodkit: error: ...`` on standard error and exits
@@ -27,6 +27,7 @@ __all__ = ["main"]
 PROG = "lodkit"
 EXIT_OK = 0
 EXIT_USAGE = 2          # argparse's own code for usage errors; used for every user error
+EXIT_FAILED = 1         # lodkit batch: some inputs failed (the others were written)
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, what shells report for Ctrl-C
 
 
@@ -120,6 +121,15 @@ def _build_parser() -> argparse.ArgumentParser:
                    help="pair contraction: first merge vertices closer than T that share no edge, "
                         "joining parts and closing gaps (a fraction of the bbox diagonal, model "
                         "units with --absolute; off by default)")
+    tiles = p.add_argument_group("meshes too large for one process (docs/scale.md)")
+    tiles.add_argument("--tiles", action="store_true",
+                       help="simplify in spatial tiles on Dask workers (lodkit.simplify_large): positions only")
+    tiles.add_argument("--tile-faces", type=_count, default=250_000, metavar="N",
+                       help="faces per tile (default: 250000)")
+    tiles.add_argument("--workers", type=_count, metavar="N",
+                       help="worker processes of the local Dask cluster (default: one per core)")
+    tiles.add_argument("--scheduler", metavar="ADDRESS",
+                       help="a running Dask scheduler, or 'threads' / 'sync' to run in this process")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no summary line")
     p.set_defaults(run=_run_simplify)
 
@@ -256,6 +266,33 @@ def _build_parser() -> argparse.ArgumentParser:
     p.set_defaults(run=_run_optimize)
 
     parser.set_defaults(subcommands=sub.choices)
+
+    p = sub.add_parser("batch", help="write LOD chains for many mesh files, on Dask, resumably",
+                       description="Simplify every mesh in IN... (files, folders searched recursively, "
+                                   "globs) to each ratio and write DIR/<name>_lod<i>.<format>, with "
+                                   "manifest.json and manifest.csv (hash, settings, status, faces and "
+                                   "error per level, time, worker). A re-run skips what the manifest "
+                                   "says is done; a file that fails is a 'failed' row and the others go "
+                                   "on. Runs on a Dask LocalCluster by default (pip install "
+                                   "'lodkit[dask]'); docs/scale.md.")
+    p.add_argument("inputs", nargs="+", metavar="IN", help="mesh file, folder or glob pattern")
+    p.add_argument("--out-dir", required=True, metavar="DIR", help="output directory (made if missing)")
+    p.add_argument("--ratios", type=_ratio_list, default=[0.5, 0.1, 0.02], metavar="R1,R2,...",
+                   help="fractions of the faces to keep, one level each (default: 0.5,0.1,0.02)")
+    p.add_argument("--format", choices=("ply", "obj", "glb"), default="ply",
+                   help="file format of the levels (default: ply)")
+    _add_collapse_options(p, "cost metric, as for 'lodkit simplify' (repeat to combine; default: qem)")
+    engine = p.add_mutually_exclusive_group()
+    engine.add_argument("--workers", type=_count, metavar="N",
+                        help="worker processes of the local Dask cluster (default: one per core), "
+                             "or threads with --scheduler threads")
+    engine.add_argument("--scheduler", metavar="ADDRESS",
+                        help="a running Dask scheduler (e.g. tcp://10.0.0.5:8786), or 'threads' / "
+                             "'sync' to run in this process without Dask")
+    p.add_argument("--threads", type=_count, metavar="N", help="with --scheduler threads: N threads")
+    p.add_argument("--force", action="store_true", help="redo every input, even those the manifest says are done")
+    p.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no summary line")
+    p.set_defaults(run=_run_batch)
     return parser
 
 
@@ -413,6 +450,10 @@ def _run_simplify(args) -> int:
     if args.ratio is None and args.faces is None and args.max_error is None:
         raise _UsageError("simplify needs a target: --ratio, --faces or --max-error (see 'lodkit simplify --help')")
     _check_output(args.output)     # before the work, not after it
+    if args.tiles:
+        return _run_simplify_large(args)
+    if args.workers is not None or args.scheduler is not None:
+        raise _UsageError("--workers and --scheduler go with --tiles (see 'lodkit simplify --help')")
     metric = _metric_spec(args.metric)
     options = {
         "target_ratio": args.ratio,
@@ -440,6 +481,30 @@ def _run_simplify(args) -> int:
         unit = "model units" if args.absolute else "of bbox diagonal"
         print(f"{args.input}: {_reduction(mesh, out)}, error {result.error:.3g} {unit}, "
               f"stop: {result.stop_reason}, {seconds:.2f} s -> {args.output}")
+    return EXIT_OK
+
+
+def _run_simplify_large(args) -> int:
+    from .large import simplify_large
+
+    unsupported = [name for name, value in (("--placement", args.placement), ("--boundary", args.boundary),
+                                            ("--max-normal-angle", args.max_normal_angle),
+                                            ("--min-quality", args.min_quality),
+                                            ("--pair-threshold", args.pair_threshold)) if value is not None]
+    if unsupported or (args.metric and len(args.metric) > 1):
+        what = ", ".join(unsupported) or "several metrics"
+        raise _UsageError(f"--tiles takes one --metric and the targets; not {what}")
+    metric = _metric_spec(args.metric) or "qem"
+    result = simplify_large(args.input, args.output, target_ratio=args.ratio, target_faces=args.faces,
+                            max_error=args.max_error, absolute=args.absolute, tile_faces=args.tile_faces,
+                            scheduler=args.scheduler, workers=args.workers, metric=metric,
+                            progress=not args.quiet and _is_tty(sys.stderr))
+    if not args.quiet:
+        unit = "model units" if args.absolute else "of bbox diagonal"
+        tiled = [r for r in result.rounds if r["kind"] == "tiles"]
+        print(f"{args.input}: {result.report['input_faces']} -> {result.mesh.n_faces} faces, "
+              f"{len(tiled)} tiled round(s) ({', '.join(str(r['tiles']) + ' tiles' for r in tiled) or 'none'}), "
+              f"error {result.error:.3g} {unit}, {result.elapsed:.2f} s -> {args.output}")
     return EXIT_OK
 
 
@@ -630,6 +695,33 @@ def _run_lods(args) -> int:
         for r in rows:
             print(f"  lod{r['level']}: ratio {r['ratio']:g}, {r['faces']} faces, {r['vertices']} vertices, "
                   f"error {r['error']:.3g} -> {os.path.join(args.out_dir, r['file'])}")
+    return EXIT_OK
+
+
+def _run_batch(args) -> int:
+    from .batch import batch
+
+    metric = _metric_spec(args.metric)
+    options = {"metric": metric, "placement": args.placement, "boundary": args.boundary}
+    options = {k: v for k, v in options.items() if v is not None}
+    workers = args.workers
+    if args.threads is not None:
+        if args.scheduler != "threads":
+            raise _UsageError("--threads goes with --scheduler threads (see 'lodkit batch --help')")
+        workers = args.threads
+    result = batch(args.inputs, args.out_dir, ratios=args.ratios, format=args.format, scheduler=args.scheduler,
+                   workers=workers, resume=not args.force, progress=not args.quiet and _is_tty(sys.stderr),
+                   **options)
+    if not args.quiet:
+        print(f"{len(result.rows)} inputs: {result.n_ok} done, {result.n_skipped} skipped (already done), "
+              f"{result.n_failed} failed, {result.elapsed:.1f} s -> {result.manifest['csv']}")
+    if result.n_failed:
+        for row in result.rows:
+            if row["status"] == "failed":
+                print(f"{PROG}: failed: {row['input']}: {row['error']}", file=sys.stderr)
+        print(f"{PROG}: error: {result.n_failed} of {len(result.rows)} inputs failed (see {result.manifest['csv']})",
+              file=sys.stderr)
+        return EXIT_FAILED
     return EXIT_OK
 
 

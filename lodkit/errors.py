@@ -36,8 +36,9 @@ class ImageIOError(LodkitError, OSError):
 
 
 class DependencyError(LodkitError, ImportError):
-    """A library lodkit needs cannot be imported: not installed, or (Open3D) a system library
-    it links against is missing.  The message says what to install."""
+    """A library lodkit needs cannot be imported: not installed (an optional extra, e.g.
+    ``pip install 'lodkit[dask]'``), or (Open3D) a system library it links against is
+    missing.  The message says what to install."""
 
 
 class Cancelled(LodkitError):
