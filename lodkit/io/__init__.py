@@ -171,7 +171,7 @@ def load(path: PathLike) -> Mesh:
     try:
         got = read_file(data, fmt, str(p.parent))
     except FileFormatError as exc:
-        raise _io_error("load", p, f"{exc} (not a valid {fmt.upper()} file)") from None
+        raise _io_error("load", p, f"{exc} (truncated or corrupt {fmt.upper()} file)") from None
     except MemoryError:
         raise _io_error("load", p, "not enough memory to read it") from None
     except (ValueError, IndexError, KeyError, TypeError, OverflowError, struct.error) as exc:

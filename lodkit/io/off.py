@@ -126,11 +126,12 @@ def read(data: bytes) -> MeshData:
     return MeshData(vertices, faces, normals, colors, uvs, notes)
 
 
-def write(vertices, faces, normals=None, colors=None) -> bytes:
-    """``[C][N]OFF``; 9 significant digits (float32 exact, what the reader keeps); colours
+def write(vertices, faces, normals=None, colors=None, uvs=None) -> bytes:
+    """``[ST][C][N]OFF``; 9 significant digits (float32 exact, what the reader keeps); colours
     as floats in [0, 1] (RGBA when the mesh has alpha), read back as written."""
-    key = ("C" if colors is not None else "") + ("N" if normals is not None else "") + "OFF"
-    cols = [vertices] + ([normals] if normals is not None else []) + ([colors] if colors is not None else [])
+    key = (("ST" if uvs is not None else "") + ("C" if colors is not None else "")
+           + ("N" if normals is not None else "") + "OFF")
+    cols = [vertices] + [a for a in (normals, colors, uvs) if a is not None]
     rows = [" ".join(f"{x:.9g}" for x in r) for r in np.concatenate(cols, axis=1).tolist()]
     out = [key, f"{vertices.shape[0]} {faces.shape[0]} 0"] + rows + [f"3 {a} {b} {c}" for a, b, c in faces.tolist()]
     return ("\n".join(out) + "\n").encode("ascii")
