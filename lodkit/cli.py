@@ -8,11 +8,13 @@ with status 2; an interrupt exits with 130. Tracebacks are kept for real bugs.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
 import sys
 import time
+import warnings
 
 from .errors import LodkitError, MeshIOError
 from .geometry import weld_positions
@@ -49,7 +51,8 @@ def main(argv=None) -> int:
         if args.command is None:
             parser.print_help(sys.stderr)
             return EXIT_USAGE
-        return args.run(args)
+        with _warnings_as_lines():
+            return args.run(args)
     except _UsageError as exc:
         return _fail(str(exc))
     except KeyboardInterrupt:
@@ -63,6 +66,17 @@ def main(argv=None) -> int:
         return _fail(str(exc))
     except OSError as exc:
         return _fail(_describe_os_error(exc))
+
+
+@contextlib.contextmanager
+def _warnings_as_lines():
+    """lodkit's warnings (e.g. DataLossWarning: the output format cannot hold an attribute)
+    printed as one ``lodkit: warning: ...`` line each, not Python's two-line format."""
+    with warnings.catch_warnings():
+        def show(message, category, filename, lineno, file=None, line=None):
+            print(f"{PROG}: warning: {message}", file=sys.stderr)
+        warnings.showwarning = show
+        yield
 
 
 # ---------------------------------------------------------------------- the parser
