@@ -48,6 +48,14 @@ def openmp_flags():
 
 _omp = openmp_flags() if OPENMP_MODULES & set(MODULES) else []
 
+# LODKIT_DEBUG_BUILD=1: a sanitizer build for testing (docs/reliability.md, "Sanitizer build"):
+# Cython's bounds, wraparound and initialisation checks on, AddressSanitizer and
+# UndefinedBehaviorSanitizer compiled in, no -O3. Run the tests with the ASan runtime
+# preloaded: LD_PRELOAD=$(gcc -print-file-name=libasan.so) ASAN_OPTIONS=detect_leaks=0 pytest
+DEBUG_BUILD = os.environ.get("LODKIT_DEBUG_BUILD", "0") not in ("", "0")
+_SANITIZE = ["-fsanitize=address,undefined", "-fno-omit-frame-pointer", "-fno-sanitize-recover=undefined"]
+_opt = ["-O1", "-g"] + _SANITIZE if DEBUG_BUILD else ["-O3"]
+
 extensions = [
     Extension(
         f"{package}.{name}",
@@ -55,8 +63,8 @@ extensions = [
         include_dirs=[numpy.get_include()],
         define_macros=[("NPY_NO_DEPRECATED_API", "NPY_1_7_API_VERSION")],
         # -fno-math-errno: sqrt compiles to one instruction (nothing here reads errno)
-        extra_compile_args=["-O3", "-fno-math-errno"] + (_omp if name in OPENMP_MODULES else []),
-        extra_link_args=_omp if name in OPENMP_MODULES else [],
+        extra_compile_args=_opt + ["-fno-math-errno"] + (_omp if name in OPENMP_MODULES else []),
+        extra_link_args=(_omp if name in OPENMP_MODULES else []) + (_SANITIZE if DEBUG_BUILD else []),
     )
     for package, names in (("lodkit", PUBLIC_MODULES), ("lodkit._core", MODULES))
     for name in names
@@ -67,11 +75,13 @@ setup(
         extensions,
         language_level=3,
         compiler_directives={
-            "boundscheck": False,
-            "wraparound": False,
+            "boundscheck": DEBUG_BUILD,
+            "wraparound": False,            # negative indices stay C semantics (checked by boundscheck)
             "cdivision": True,
-            "initializedcheck": False,
+            "initializedcheck": DEBUG_BUILD,
             "nonecheck": False,
         },
+        # a debug build gets its own C files: the checks change the generated code
+        build_dir="build/debug" if DEBUG_BUILD else None,
     ),
 )

@@ -35,7 +35,8 @@ def read(data: bytes) -> MeshData:
     n = _binary_count(data)
     if n is not None:
         tris = np.frombuffer(data, dtype=_TRI, count=n, offset=84)
-        corners = tris["v"].reshape(-1, 3).astype(np.float64)
+        with np.errstate(invalid="ignore"):
+            corners = tris["v"].reshape(-1, 3).astype(np.float64)
     else:
         if not data.lstrip().startswith(b"solid"):
             if len(data) >= 84:
