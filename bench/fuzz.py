@@ -25,7 +25,6 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-import os
 import re
 import struct
 import subprocess
@@ -198,7 +197,8 @@ def seeds(target: str) -> list[bytes]:
             out.append(b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nvn 0 0 1\nf 1/1/1 2/1/1 3/1/1 4/1/1\n"
                        b"f -1 -2 -3\ng x\nusemtl m\nf 1//1 2//1 5//1\n")
         if target == "off":
-            out.append(b"COFF\n4 2 0\n0 0 0 255 0 0\n1 0 0 0 255 0\n1 1 0 0 0 255\n0 1 0 9 9 9\n4 0 1 2 3\n3 0 1 2 1 1 1\n")
+            out.append(b"COFF\n4 2 0\n0 0 0 255 0 0\n1 0 0 0 255 0\n1 1 0 0 0 255\n0 1 0 9 9 9\n"
+                       b"4 0 1 2 3\n3 0 1 2 1 1 1\n")
     else:
         for i in range(8):
             out.append(hashlib.sha256(str(i).encode()).digest() * 4)
@@ -216,8 +216,9 @@ def corpus_files(target: str) -> list[Path]:
 # ------------------------------------------------------------------ engines
 def run_atheris_child(target: str, seconds: int, timeout: int) -> dict:
     """This process fuzzes one target with atheris (called through --child)."""
-    import atheris
     import tempfile
+
+    import atheris
 
     with atheris.instrument_imports():
         import lodkit.io  # noqa: F401
@@ -228,8 +229,8 @@ def run_atheris_child(target: str, seconds: int, timeout: int) -> dict:
         import lodkit.io.stl  # noqa: F401
         import lodkit.mesh  # noqa: F401
         if target == "simplify":
-            import lodkit.api  # noqa: F401
             import lodkit._pipeline  # noqa: F401
+            import lodkit.api  # noqa: F401
 
     def one(data: bytes) -> None:
         try:
@@ -284,7 +285,8 @@ def run_mutate(target: str, seconds: float, timeout: int, keep_to: Path | None =
             if op == 0 and base:
                 base[rng.randrange(len(base))] = rng.randrange(256)
             elif op == 1:
-                base[rng.randint(0, len(base)):rng.randint(0, len(base))] = bytes(rng.randrange(256) for _ in range(rng.randint(0, 8)))
+                junk = bytes(rng.randrange(256) for _ in range(rng.randint(0, 8)))
+                base[rng.randint(0, len(base)):rng.randint(0, len(base))] = junk
             elif op == 2 and base:
                 del base[rng.randrange(len(base)): rng.randrange(len(base) + 1)]
             else:

@@ -74,7 +74,7 @@ def test_save_over_an_existing_ply_under_a_file_size_limit(tmp_path):
     before = (tmp_path / "old.ply").read_bytes()
     np.save(tmp_path / "v.npy", big_mesh().vertices)
     np.save(tmp_path / "f.npy", big_mesh().faces)
-    proc = run_python(f"""
+    proc = run_python("""
         import numpy as np, lodkit
         from lodkit.errors import MeshIOError
         m = lodkit.Mesh(np.load("v.npy"), np.load("f.npy"))

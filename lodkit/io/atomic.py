@@ -27,8 +27,8 @@ import os
 import re
 import secrets
 import stat
+from collections.abc import Callable
 from pathlib import Path
-from typing import Callable
 
 from ..errors import LodkitError, MeshIOError
 

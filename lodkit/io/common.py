@@ -88,7 +88,8 @@ def parse_reals_obj(tokens: list[bytes]) -> np.ndarray:
     length = width - pad.sum(axis=1)
     # plain: [sign] digits [. digits], at most 18 digits on either side, no padding inside
     body = (col[None, :] >= start[:, None]) & (col[None, :] < length[:, None])
-    plain = (np.all(~body | digit | dot, axis=1) & (ndots <= 1) & np.all(pad == (col[None, :] >= length[:, None]), axis=1))
+    plain = (np.all(~body | digit | dot, axis=1) & (ndots <= 1)
+             & np.all(pad == (col[None, :] >= length[:, None]), axis=1))
     dot_at = np.where(ndots == 1, np.argmax(dot, axis=1), length)
     n_int = dot_at - start
     n_frac = np.where(ndots == 1, length - dot_at - 1, 0)

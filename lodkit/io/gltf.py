@@ -262,6 +262,15 @@ def counts(data: bytes) -> tuple[int, int]:
     return nv, nf
 
 
+def _attribute(doc, buffers, attrs, what, n, key, widths, normalize=False):
+    if key not in attrs:
+        return None
+    arr = _accessor(doc, buffers, attrs[key], f"{what} {key}", normalize)
+    if arr.shape[0] != n or arr.shape[1] not in widths:
+        raise FileFormatError(f"{what}: {key} has {arr.shape[0]} x {arr.shape[1]} values for {n} vertices")
+    return arr
+
+
 def read(data: bytes, base_dir: str | None = None) -> MeshData:
     doc, binary = _document(data, base_dir)
     buffers = _buffers(doc, binary, base_dir)
@@ -295,16 +304,9 @@ def read(data: bytes, base_dir: str | None = None) -> MeshData:
                 raise FileFormatError(f"{what}: POSITION is not VEC3")
             n = pos.shape[0]
 
-            def attribute(key, widths, normalize=False):
-                if key not in attrs:
-                    return None
-                arr = _accessor(doc, buffers, attrs[key], f"{what} {key}", normalize)
-                if arr.shape[0] != n or arr.shape[1] not in widths:
-                    raise FileFormatError(f"{what}: {key} has {arr.shape[0]} x {arr.shape[1]} values for {n} vertices")
-                return arr
-            nrm = attribute("NORMAL", (3,))
-            col = attribute("COLOR_0", (3, 4), normalize=True)
-            uv = attribute("TEXCOORD_0", (2,), normalize=True)
+            nrm = _attribute(doc, buffers, attrs, what, n, "NORMAL", (3,))
+            col = _attribute(doc, buffers, attrs, what, n, "COLOR_0", (3, 4), normalize=True)
+            uv = _attribute(doc, buffers, attrs, what, n, "TEXCOORD_0", (2,), normalize=True)
             skipped |= set(attrs) - {"POSITION", "NORMAL", "COLOR_0", "TEXCOORD_0"}
             if "indices" in prim:
                 idx = _accessor(doc, buffers, prim["indices"], f"{what} indices")

@@ -156,7 +156,7 @@ def read(data: bytes) -> MeshData:
     # faces: corners -> (v, vt, vn) triples
     n_corners = np.empty(len(f_rows), dtype=np.int64)
     corner_tokens: list[bytes] = []
-    for i, (number, rest) in enumerate(f_rows):
+    for i, (_line, rest) in enumerate(f_rows):
         toks = rest.split()
         n_corners[i] = len(toks)
         corner_tokens.extend(toks)

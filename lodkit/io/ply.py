@@ -139,7 +139,7 @@ def _read_binary_element(el: _Element, buf: memoryview, pos: int, order: str):
         rows = np.frombuffer(buf, dtype=dt, count=el.count, offset=pos)
         if all(np.all(rows[name + "#n"] == c) for name, c in lengths):
             out = {}
-            for name, t, item in el.props:
+            for name, _t, item in el.props:
                 if item is None:
                     out[name] = rows[name]
                 else:
@@ -225,7 +225,7 @@ def _read_ascii(elements, body: bytes):
                             result[el.name] = out
                             continue
         for _ in range(el.count):
-            for name, t, item in el.props:
+            for name, _t, item in el.props:
                 if pos >= values.size:
                     raise FileFormatError(f"element '{el.name}' runs past the end of the data (truncated "
                                           f"file, or the header overstates the count)")
@@ -242,7 +242,7 @@ def _read_ascii(elements, body: bytes):
                 cols[name].append(values[pos: pos + c])
                 lens[name].append(c)
                 pos += c
-        for name, t, item in el.props:
+        for name, _t, item in el.props:
             if item is None:
                 out[name] = np.array(cols[name], dtype=np.float64)
             else:
