@@ -403,6 +403,8 @@ def _run_info(args) -> int:
         "uv_seam_split_vertices": mesh.n_vertices - welded.n_vertices,
         "topology": report.as_dict(),
     }
+    if mesh.metadata.get("load_notes"):
+        info["load_notes"] = list(mesh.metadata["load_notes"])   # polygons triangulated, data not read
     if args.json:
         print(json.dumps(info, indent=2))
         return EXIT_OK
@@ -422,7 +424,7 @@ def _run_info(args) -> int:
         ("genus", "-" if report.genus is None else str(report.genus)),
         ("bbox diagonal", f"{info['bbox_diagonal']:.6g}"),
         ("attributes", ", ".join(info["attributes"]) or "none"),
-    ]
+    ] + [("load note", note) for note in info.get("load_notes", [])]
     width = max(len(name) for name, _ in rows)
     for name, value in rows:
         print(f"{name:<{width}}  {value}")

@@ -253,3 +253,12 @@ def test_bad_files_print_nothing(tmp_path, capfd):
             load(tmp_path / name)
     out, err = capfd.readouterr()
     assert out + err == ""
+
+
+def test_cli_info_shows_the_load_notes(tmp_path, capsys):
+    from lodkit.cli import main
+
+    (tmp_path / "q.obj").write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nf 1 2 3 4\nf 1 2 5\n")
+    assert main(["info", str(tmp_path / "q.obj")]) == 0
+    out = capsys.readouterr().out
+    assert "load note" in out and "fan-triangulated into 2 triangles" in out

@@ -108,7 +108,10 @@ def parse_reals_obj(tokens: list[bytes]) -> np.ndarray:
     value = np.where(neg, -value, value)
     fast = plain & (fp < 1 << 24) & (ip < 1 << 24)
     out[fast] = value[fast].astype(np.float64)
-    for i in np.flatnonzero(~fast):
+    long = plain & ~fast                   # more digits than float32 holds: correctly rounded
+    if long.any():
+        out[long] = arr[long].astype(np.float64)
+    for i in np.flatnonzero(~plain):       # exponents, nan, inf: one by one (rare)
         out[i] = _parse_real_slow(arr[i])
     return out
 

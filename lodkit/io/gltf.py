@@ -252,7 +252,17 @@ def _document(data: bytes, base_dir: str | None):
 
 
 def counts(data: bytes) -> tuple[int, int]:
-    doc, _ = _document(data, None)
+    """(vertices, faces) the JSON declares; ``data`` may be only the start of a GLB, as long
+    as it holds the JSON chunk."""
+    if data[:4] == b"glTF":
+        if len(data) < 20:
+            raise FileFormatError("not a GLB file (too short)")
+        clen, ctype = struct.unpack_from("<II", data, 12)
+        if ctype != _JSON or 20 + clen > len(data):
+            raise FileFormatError("the GLB's JSON chunk is missing or longer than what was read")
+        doc = _json(data[20: 20 + clen])
+    else:
+        doc = _json(data)
     acc = _list(doc, "accessors")
     nv = nf = 0
     for mesh in _list(doc, "meshes"):
