@@ -147,10 +147,10 @@ def _accessor(doc: dict, buffers: list[bytes], index, what: str, normalize: bool
     if "sparse" in a:
         raise FileFormatError(f"{name} is sparse, which lodkit does not read")
     ctype = a.get("componentType")
-    if ctype not in _COMPONENT:
+    if not isinstance(ctype, int) or ctype not in _COMPONENT:
         raise FileFormatError(f"{name}: unknown componentType {ctype!r}")
     kind = a.get("type")
-    if kind not in _WIDTH:
+    if not isinstance(kind, str) or kind not in _WIDTH:
         raise FileFormatError(f"{name}: unknown type {kind!r}")
     count = _int(a, "count", name, lo=1)
     if "bufferView" not in a:
@@ -188,6 +188,13 @@ def _accessor(doc: dict, buffers: list[bytes], index, what: str, normalize: bool
 
 
 def _node_matrix(node: dict, what: str) -> np.ndarray:
+    try:
+        return _node_matrix_unchecked(node, what)
+    except OverflowError:
+        raise FileFormatError(f"{what}: a transform value is too large") from None
+
+
+def _node_matrix_unchecked(node: dict, what: str) -> np.ndarray:
     if "matrix" in node:
         m = node["matrix"]
         if not isinstance(m, list) or len(m) != 16 or not all(isinstance(x, (int, float)) for x in m):
