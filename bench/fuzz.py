@@ -137,6 +137,9 @@ KNOWN_OPEN = [
     (TypeError, r"float\(\) argument must be"),
     (TypeError, r"int\(\) argument must be"),
     (OverflowError, r"too large to convert|int too large|Python int too large"),
+    # pair_threshold with coordinates near 1e300: scipy's KD-tree overflows (lodkit/pairs.py);
+    # found by atheris, tests/fuzz_corpus/simplify/known-pairs-overflow-*
+    (ValueError, r"Encountering floating point overflow"),
 ]
 
 
