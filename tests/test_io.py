@@ -709,3 +709,23 @@ def test_atomic_write_replaces_whole_or_leaves_the_target(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] == ["out.txt"]  # no temporary left behind
     atomic_write(target, lambda fh: fh.write(b"\x00bytes"), binary=True)
     assert target.read_bytes() == b"\x00bytes"
+
+
+def test_big_endian_ply_with_polygons_and_extra_elements(tmp_path):
+    head = (b"ply\nformat binary_big_endian 1.0\ncomment x\nelement vertex 4\nproperty double x\n"
+            b"property double y\nproperty double z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n"
+            b"element face 1\nproperty list uchar uint vertex_indices\nproperty float quality\n"
+            b"element edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n")
+    v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    rows = np.zeros(4, dtype=[("p", ">f8", (3,)), ("c", "u1", (3,))])
+    rows["p"] = v
+    rows["c"] = [[255, 0, 0], [0, 255, 0], [0, 0, 255], [255, 255, 255]]
+    face = bytes([4]) + np.array([0, 1, 2, 3], ">u4").tobytes() + np.array([0.5], ">f4").tobytes()
+    edge = np.array([0, 1], ">i4").tobytes()
+    (tmp_path / "be.ply").write_bytes(head + rows.tobytes() + face + edge)
+    mesh = load(tmp_path / "be.ply")
+    np.testing.assert_array_equal(mesh.vertices, v)
+    np.testing.assert_array_equal(mesh.faces, [[0, 1, 2], [0, 2, 3]])
+    np.testing.assert_array_equal(mesh.colors[2], [0, 0, 1])
+    notes = " ".join(mesh.metadata["load_notes"])
+    assert "fan-triangulated" in notes and "quality" in notes and "'edge'" in notes
