@@ -49,9 +49,9 @@ def openmp_flags():
 _omp = openmp_flags() if OPENMP_MODULES & set(MODULES) else []
 
 # LODKIT_DEBUG_BUILD=1: a sanitizer build for testing (docs/reliability.md, "Sanitizer build"):
-# Cython's bounds, wraparound and initialisation checks on, AddressSanitizer and
+# Cython's bounds and initialisation checks on, AddressSanitizer and
 # UndefinedBehaviorSanitizer compiled in, no -O3. Run the tests with the ASan runtime
-# preloaded: LD_PRELOAD=$(gcc -print-file-name=libasan.so) ASAN_OPTIONS=detect_leaks=0 pytest
+# (and libstdc++, for Open3D) preloaded, as docs/reliability.md shows.
 DEBUG_BUILD = os.environ.get("LODKIT_DEBUG_BUILD", "0") not in ("", "0")
 _SANITIZE = ["-fsanitize=address,undefined", "-fno-omit-frame-pointer", "-fno-sanitize-recover=undefined"]
 _opt = ["-O1", "-g"] + _SANITIZE if DEBUG_BUILD else ["-O3"]
