@@ -217,10 +217,8 @@ def corpus_files(target: str) -> list[Path]:
 
 
 # ------------------------------------------------------------------ engines
-def run_atheris_child(target: str, seconds: int, timeout: int) -> dict:
+def run_atheris_child(target: str, seconds: int, timeout: int, work: Path) -> dict:
     """This process fuzzes one target with atheris (called through --child)."""
-    import tempfile
-
     import atheris
 
     with atheris.instrument_imports():
@@ -241,7 +239,6 @@ def run_atheris_child(target: str, seconds: int, timeout: int) -> dict:
         except KnownIssue:
             pass
 
-    work = Path(tempfile.mkdtemp(prefix=f"lodkit-fuzz-{target}-"))
     for i, s in enumerate(seeds(target)):
         (work / f"seed{i}").write_bytes(s)
     (CORPUS / target).mkdir(parents=True, exist_ok=True)
@@ -254,11 +251,18 @@ def run_atheris_child(target: str, seconds: int, timeout: int) -> dict:
 
 
 def run_atheris(target: str, seconds: int, timeout: int) -> dict:
+    import shutil
+    import tempfile
+
     before = set(corpus_files(target))
     t0 = time.time()
-    proc = subprocess.run([sys.executable, __file__, "--child", target, "--seconds", str(seconds),
-                           "--timeout", str(timeout)], capture_output=True, text=True,
-                          timeout=seconds + 600)
+    work = tempfile.mkdtemp(prefix=f"lodkit-fuzz-{target}-")     # libFuzzer's working corpus
+    try:
+        proc = subprocess.run([sys.executable, __file__, "--child", target, "--seconds", str(seconds),
+                               "--timeout", str(timeout), "--workdir", work], capture_output=True, text=True,
+                              timeout=seconds + 600)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
     runs = re.findall(r"stat::number_of_executed_units:\s*(\d+)", proc.stderr)
     if not runs:
         runs = re.findall(r"Done (\d+) runs", proc.stderr)
@@ -333,9 +337,10 @@ def main(argv=None) -> int:
     ap.add_argument("--json", help="write the per-target figures here")
     ap.add_argument("--child", help=argparse.SUPPRESS)
     ap.add_argument("--seconds", type=int, help=argparse.SUPPRESS)
+    ap.add_argument("--workdir", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.child:
-        run_atheris_child(args.child, args.seconds, args.timeout)
+        run_atheris_child(args.child, args.seconds, args.timeout, Path(args.workdir))
         return 0
     engine = args.engine
     if engine == "auto":
