@@ -82,6 +82,14 @@ class ParallelBuildExt(build_ext):
         if not self.parallel:
             self.parallel = _jobs()
 
+# LODKIT_DEBUG_BUILD=1: a sanitizer build for testing (docs/reliability.md, "Sanitizer build"):
+# Cython's bounds and initialisation checks on, AddressSanitizer and
+# UndefinedBehaviorSanitizer compiled in, no -O3. Run the tests with the ASan runtime
+# (and libstdc++, for Open3D) preloaded, as docs/reliability.md shows.
+DEBUG_BUILD = os.environ.get("LODKIT_DEBUG_BUILD", "0") not in ("", "0")
+_SANITIZE = ["-fsanitize=address,undefined", "-fno-omit-frame-pointer", "-fno-sanitize-recover=undefined"]
+_opt = ["-O1", "-g"] + _SANITIZE if DEBUG_BUILD else ["-O3"]
+
 extensions = [
     Extension(
         f"{package}.{name}",
@@ -89,8 +97,9 @@ extensions = [
         include_dirs=[numpy.get_include()],
         define_macros=[("NPY_NO_DEPRECATED_API", "NPY_1_7_API_VERSION")],
         # -fno-math-errno: sqrt compiles to one instruction (nothing here reads errno)
-        extra_compile_args=["-O3", "-fno-math-errno"] + _SIZE_COMPILE + (_omp if name in OPENMP_MODULES else []),
-        extra_link_args=(_omp if name in OPENMP_MODULES else []) + _SIZE_LINK,
+        extra_compile_args=_opt + ["-fno-math-errno"] + ([] if DEBUG_BUILD else _SIZE_COMPILE)
+        + (_omp if name in OPENMP_MODULES else []),
+        extra_link_args=(_omp if name in OPENMP_MODULES else []) + (_SANITIZE if DEBUG_BUILD else _SIZE_LINK),
     )
     for package, names in (("lodkit", PUBLIC_MODULES), ("lodkit._core", MODULES))
     for name in names
@@ -105,11 +114,13 @@ setup(
         nthreads=_jobs(),
         language_level=3,
         compiler_directives={
-            "boundscheck": False,
-            "wraparound": False,
+            "boundscheck": DEBUG_BUILD,
+            "wraparound": False,            # negative indices stay C semantics (checked by boundscheck)
             "cdivision": True,
-            "initializedcheck": False,
+            "initializedcheck": DEBUG_BUILD,
             "nonecheck": False,
         },
+        # a debug build gets its own C files: the checks change the generated code
+        build_dir="build/debug" if DEBUG_BUILD else None,
     ),
 )

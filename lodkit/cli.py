@@ -7,7 +7,14 @@ with status 2; an interrupt exits with 130. Tracebacks are kept for real bugs.
 """
 from __future__ import annotations
 
+import argparse
+import contextlib
+import json
+import math
+import os
 import sys
+import time
+import warnings
 
 from . import _signals
 
@@ -65,7 +72,8 @@ def _main(argv) -> int:
         if args.command is None:
             parser.print_help(sys.stderr)
             return EXIT_USAGE
-        return args.run(args)
+        with _warnings_as_lines():
+            return args.run(args)
     except _UsageError as exc:
         return _fail(str(exc))
     except KeyboardInterrupt:
@@ -86,6 +94,17 @@ def _interrupted() -> int:
     print(f"{PROG}: interrupted", file=sys.stderr)
     _signals.exit_if_command(EXIT_INTERRUPTED)      # the command ends here, status 130
     return EXIT_INTERRUPTED
+
+
+@contextlib.contextmanager
+def _warnings_as_lines():
+    """lodkit's warnings (e.g. DataLossWarning: the output format cannot hold an attribute)
+    printed as one ``lodkit: warning: ...`` line each, not Python's two-line format."""
+    with warnings.catch_warnings():
+        def show(message, category, filename, lineno, file=None, line=None):
+            print(f"{PROG}: warning: {message}", file=sys.stderr)
+        warnings.showwarning = show
+        yield
 
 
 # ---------------------------------------------------------------------- the parser
@@ -589,6 +608,8 @@ def _run_info(args) -> int:
         "uv_seam_split_vertices": mesh.n_vertices - welded.n_vertices,
         "topology": report.as_dict(),
     }
+    if mesh.metadata.get("load_notes"):
+        info["load_notes"] = list(mesh.metadata["load_notes"])   # polygons triangulated, data not read
     if args.json:
         print(json.dumps(info, indent=2))
         return EXIT_OK
@@ -608,7 +629,7 @@ def _run_info(args) -> int:
         ("genus", "-" if report.genus is None else str(report.genus)),
         ("bbox diagonal", f"{info['bbox_diagonal']:.6g}"),
         ("attributes", ", ".join(info["attributes"]) or "none"),
-    ]
+    ] + [("load note", note) for note in info.get("load_notes", [])]
     width = max(len(name) for name, _ in rows)
     for name, value in rows:
         print(f"{name:<{width}}  {value}")

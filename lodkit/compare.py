@@ -662,7 +662,7 @@ def _write_report(comparison: Comparison, original: Mesh, out: Path, contact_she
         _atomic_write(out / name, data)
         files[name] = out / name
     if contact_sheet:
-        # viz.write_png writes under a temporary name and renames, as _atomic_write does
+        # viz.write_png goes through the same atomic writer (lodkit.io.atomic.commit)
         sheet = _contact_sheet(comparison, original, width, height, backend, view)
         written = viz.write_png(out / "contact_sheet.png", sheet)
         images["contact_sheet.png"] = Path(written).read_bytes()

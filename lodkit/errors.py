@@ -17,6 +17,11 @@ class MeshIOError(LodkitError, OSError):
     """A mesh file could not be read or written."""
 
 
+class DataLossWarning(UserWarning):
+    """:func:`lodkit.save` left out something the mesh carries because the file format cannot
+    hold it (e.g. normals in STL, alpha in OBJ); the message says what."""
+
+
 class MetricError(LodkitError, RuntimeError):
     """A metric plugin could not be loaded, has the wrong shape, or failed during a run.
     The message names the metric and the package that provides it."""
