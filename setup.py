@@ -109,8 +109,9 @@ setup(
     cmdclass={"build_ext": ParallelBuildExt},
     ext_modules=cythonize(
         extensions,
-        # the generated C stays out of the package (and so out of the wheel)
-        build_dir=os.path.join("build", "cython"),
+        # the generated C stays out of the package (and so out of the wheel); a debug build
+        # gets its own C files: the checks change the generated code
+        build_dir=os.path.join("build", "debug" if DEBUG_BUILD else "cython"),
         nthreads=_jobs(),
         language_level=3,
         compiler_directives={
@@ -120,7 +121,5 @@ setup(
             "initializedcheck": DEBUG_BUILD,
             "nonecheck": False,
         },
-        # a debug build gets its own C files: the checks change the generated code
-        build_dir="build/debug" if DEBUG_BUILD else None,
     ),
 )
