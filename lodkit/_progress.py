@@ -18,7 +18,9 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable
 
-from .errors import Cancelled
+import numpy as np
+
+from .errors import Cancelled, OptionError
 
 __all__ = ["Progress", "Callback", "make"]
 
@@ -126,6 +128,9 @@ def make(progress, total: int, **options):
     """The reporter for a ``progress=`` option (see the module docstring), or None."""
     if callable(progress):
         return Callback(progress, total)
-    if not progress:
+    if progress is None or progress is False:
         return None
-    return Progress(total, enabled=True, **options)
+    if progress is True or isinstance(progress, (int, np.bool_)) and not isinstance(progress, str):
+        return Progress(total, enabled=bool(progress), **options) if progress else None
+    raise OptionError(f"progress must be True, False or a callable (done, total) -> bool | None, "
+                      f"got {progress!r}")

@@ -454,7 +454,8 @@ def test_spot_keeps_its_uv_seams(metric, ratio):
     assert res.mesh.n_faces <= round(ratio * spot.n_faces)
     seams = res.report["seams"]
     assert seams["paired_vertices"] == 518 and seams["fixed_vertices"] == 58
-    assert seams["pair_collapses"] > (20 if metric == "melod" else 100)
+    # the pass driver takes seam pairs in its second stage only: fewer than the heap order
+    assert seams["pair_collapses"] > (20 if metric == "melod" else 80)
     # seam pairs next to a seam end that stays (3+ copies) collapse into it too, so at 2% a
     # few less than 100 seam copies remain
     assert seam_intact(spot, res, closed=True) >= 90
