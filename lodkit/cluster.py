@@ -31,6 +31,7 @@ from .errors import MeshError, OptionError
 from .geometry import box_diagonal, face_vectors
 from .io import load
 from .mesh import Mesh
+from .settings import finite_number
 
 __all__ = ["ClusterResult", "cluster", "REPRESENTATIVES"]
 
@@ -162,7 +163,7 @@ def cluster(
                           (f" (got {', '.join(given)})" if given else ""))
     want = None
     if cell_size is not None:
-        size = _number("cell_size", cell_size)
+        size = finite_number("cell_size", cell_size)
         if not size > 0.0:
             raise OptionError(f"cell_size must be > 0, got {cell_size!r}")
     else:
@@ -211,16 +212,6 @@ def cluster(
 
 
 # ----------------------------------------------------------------------------- steps
-def _number(name: str, value) -> float:
-    if isinstance(value, bool):
-        raise OptionError(f"{name} must be a number, got {value!r}")
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise OptionError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(x):
-        raise OptionError(f"{name} must be finite, got {value!r}")
-    return x
 
 
 def _clean(src: Mesh) -> _Input:

@@ -41,6 +41,7 @@ from ._progress import Progress
 from .errors import MeshError, OptionError
 from .geometry import face_normals, triangle_quality
 from .mesh import Mesh, as_mesh, is_open3d
+from .settings import finite_number
 
 __all__ = ["RetileResult", "SurfaceProjector", "retile", "face_twins"]
 
@@ -145,17 +146,17 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, f
     src, was_o3d = as_mesh(mesh), is_open3d(mesh)
     n_vertices = _count("n_vertices", n_vertices, 4)
     iterations = _count("iterations", iterations, 0)
-    adapt = _number("adapt", adapt)
+    adapt = finite_number("adapt", adapt)
     if adapt < 0:
         raise OptionError(f"adapt must be >= 0, got {adapt!r}")
-    flip_angle = _number("flip_angle", flip_angle)
+    flip_angle = finite_number("flip_angle", flip_angle)
     if not 0.0 <= flip_angle < 90.0:
         raise OptionError(f"flip_angle must be in [0, 90) degrees, got {flip_angle!r}")
     if features is not None:
-        features = _number("features", features)
+        features = finite_number("features", features)
         if not 0.0 < features < 180.0:
             raise OptionError(f"features must be an angle in (0, 180) degrees, got {features!r}")
-    corner_angle = _number("corner_angle", corner_angle)
+    corner_angle = finite_number("corner_angle", corner_angle)
     if not 0.0 < corner_angle <= 180.0:
         raise OptionError(f"corner_angle must be in (0, 180] degrees, got {corner_angle!r}")
     prep = prepare(src)
@@ -388,16 +389,6 @@ def _count(name: str, value, lo: int) -> int:
     return int(value)
 
 
-def _number(name: str, value) -> float:
-    if isinstance(value, bool):
-        raise OptionError(f"{name} must be a number, got {value!r}")
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        raise OptionError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(x):
-        raise OptionError(f"{name} must be finite, got {value!r}")
-    return x
 
 
 def _sample(weights: np.ndarray, n: int, rng) -> tuple[np.ndarray, np.ndarray]:

@@ -19,7 +19,7 @@ import numpy as np
 from .errors import OptionError
 
 __all__ = ["SETTING_DEFAULTS", "PLACEMENTS", "BOUNDARY_POLICIES", "OPERATORS", "COLLAPSE_OPERATORS",
-           "EDGE_DRIVERS", "resolve_operator", "resolve_settings", "resolve_driver", "resolve_threads",
+           "EDGE_DRIVERS", "resolve_operator", "resolve_settings", "resolve_driver", "resolve_threads", "finite_number",
            "check_settings", "resolve_target", "locked_mask", "resolve_prune", "PRUNE_SIZE"]
 
 #: simplify()'s own defaults for the settings a metric may prefer other values of
@@ -121,6 +121,19 @@ def number(name: str, value) -> float:
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Real, np.integer, np.floating)):
         raise OptionError(f"{name} must be a number, got {value!r}")
     return float(value)
+
+
+def finite_number(name: str, value) -> float:
+    """:func:`number`, which must also be finite (not NaN, not infinite)."""
+    if isinstance(value, (bool, np.bool_)):
+        raise OptionError(f"{name} must be a number, got {value!r}")
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise OptionError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(x):
+        raise OptionError(f"{name} must be finite, got {value!r}")
+    return x
 
 
 def check_settings(settings: dict, max_error) -> None:
