@@ -25,6 +25,7 @@ docs/optimize.md quote it).
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import sys
 import time
@@ -32,7 +33,8 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
-sys.path.insert(0, str(REPO))
+if importlib.util.find_spec("lodkit") is None:     # a checkout without lodkit installed: its source
+    sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(HERE))
 
 from common import shared_mesh_path  # noqa: E402

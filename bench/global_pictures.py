@@ -7,12 +7,14 @@ same vertex count, wireframe, one camera per mesh.
 """
 from __future__ import annotations
 
+import importlib.util
 import sys
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
-sys.path.insert(0, str(REPO))
+if importlib.util.find_spec("lodkit") is None:     # a checkout without lodkit installed: its source
+    sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(HERE))
 
 from common import shared_mesh_path  # noqa: E402

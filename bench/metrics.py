@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import gc
+import importlib.util
 import json
 import statistics
 import sys
@@ -33,7 +34,8 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
-sys.path.insert(0, str(REPO))
+if importlib.util.find_spec("lodkit") is None:     # a checkout without lodkit installed: its source
+    sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(HERE))
 
 BEGIN = "<!-- metrics:begin -->"

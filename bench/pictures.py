@@ -22,6 +22,7 @@ them bit-for-bit reproducible. Pillow composes the panels and writes the files.
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import sys
 import time
 from dataclasses import dataclass
@@ -35,7 +36,8 @@ if TYPE_CHECKING:
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
-sys.path.insert(0, str(REPO))
+if importlib.util.find_spec("lodkit") is None:     # a checkout without lodkit installed: its source
+    sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(HERE))
 
 OUT_DIR = REPO / "docs" / "metrics" / "img"

@@ -17,6 +17,7 @@ docs/benchmarks.md (between ``<!-- progressive:begin -->`` and ``<!-- progressiv
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import statistics
 import sys
 import tempfile
@@ -27,7 +28,8 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
-sys.path.insert(0, str(REPO))
+if importlib.util.find_spec("lodkit") is None:     # a checkout without lodkit installed: its source
+    sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(HERE))
 
 BEGIN = "<!-- progressive:begin -->"
