@@ -9,4 +9,3 @@ cdef class PassCollapser(EdgeCollapser):
 cdef int collapse_pass_c(PassCollapser c, const int* E, int n_cand, const double* PO,
                          int target_faces) noexcept nogil
 cdef void mark_touched(PassCollapser c, int k, int stamp, bint two_rings) noexcept nogil
-cdef void touch_ring(PassCollapser c, int w, int stamp) noexcept nogil

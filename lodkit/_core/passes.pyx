@@ -245,11 +245,6 @@ cdef void mark_touched(PassCollapser c, int k, int stamp, bint two_rings) noexce
     mark_rings(c.m, &c.touched[0], k, stamp, two_rings)
 
 
-cdef void touch_ring(PassCollapser c, int w, int stamp) noexcept nogil:
-    """Mark w's neighbours touched in this pass (wide kernels: their costs changed)."""
-    mark_ring(c.m, &c.touched[0], w, stamp)
-
-
 cdef void mark_rings(HEArrays* m, int* marks, int k, int stamp, bint two_rings) noexcept nogil:
     """``marks[w] = stamp`` for k and its 1-ring (with ``two_rings``: its 2-ring)."""
     cdef int start = m.v_he[k]
