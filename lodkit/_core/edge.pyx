@@ -31,7 +31,7 @@ from .chain cimport chain_place, chain_commit, chain_cost_range, chain_failed
 from .chain import make_chain
 from .common cimport (QSIZE, VSTRIDE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, RUN_ERROR, BOUNDARY_LOCK,
                       BOUNDARY_PRESERVE, BOUNDARY_FREE, PLACE_OPTIMAL, PLACE_ENDPOINT)
-from .quadric cimport (AttributeQuadrics, sq, collapse_error, quadric_eval, take_if_lower, quadric_solve,
+from .quadric cimport (AttributeQuadrics, sq, collapse_error, quadric_eval, quadric_sum, take_if_lower, quadric_solve,
                        quadric_solve_truncated, within_reach)
 from .checks cimport (check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality, face_volume,
                       turns_inside_out, sides_of_a_sheet)
@@ -324,8 +324,7 @@ cdef class EdgeCollapser:
                 fv = True
         if fu and fv:
             return -1
-        for i in range(QSIZE):
-            q[i] = self.Q[VSTRIDE * u + i] + self.Q[VSTRIDE * v + i]
+        quadric_sum(&self.Q[VSTRIDE * u], &self.Q[VSTRIDE * v], q)
         if self.aq.dim > 0:
             # quadrics over attributes: place by the marginal quadric in x (the attributes
             # minimised out), keep the plain one (qg) to measure the geometric error
@@ -1013,8 +1012,7 @@ cdef class EdgeCollapser:
         self.vflags[k] |= self.vflags[r] & VERTEX_BOUNDARY
         if self.fields.n_vfields or self.fields.n_efields:
             self.fields.merge(r, k, dead, merged_into)
-        for i in range(QSIZE):
-            self.Q[VSTRIDE * k + i] += self.Q[VSTRIDE * r + i]
+        quadric_sum(&self.Q[VSTRIDE * k], &self.Q[VSTRIDE * r], &self.Q[VSTRIDE * k])
         for i in range(self.n_attr):
             self.A[self.n_attr * k + i] = (1.0 - t) * self.A[self.n_attr * r + i] + t * self.A[self.n_attr * k + i]
         if self.aq.dim > 0:

@@ -31,8 +31,8 @@ edges in that order, skipping those with an end an earlier collapse of the same 
 costs it was ranked with.  Each collapse is re-planned and checked as the heap driver's."""
 cimport cython
 from cython.parallel cimport prange
-from libc.math cimport isnan
-from libc.stdlib cimport qsort
+from libc.math cimport isnan, INFINITY
+from libc.stdlib cimport qsort, malloc, free
 from libc.string cimport memcpy, memset
 import numpy as np
 cimport numpy as cnp
@@ -344,6 +344,49 @@ cdef inline void insertion_sort(Keyed* a, int n) noexcept nogil:
         a[j + 1] = x
 
 
+cdef enum:
+    FINITE_BUCKETS = 0x7F80   # buckets below this hold positive finite costs only
+
+
+cdef inline unsigned int cost_bits(float c) noexcept nogil:
+    cdef unsigned int bits
+    memcpy(&bits, &c, sizeof(float))
+    return bits
+
+
+cdef void radix_low16(Keyed* a, int n, Keyed* tmp) noexcept nogil:
+    """Sort a bucket of keyed candidates (their costs share the upper 16 bits, positive and
+    finite, and they come in edge order) by the lower 16 bits of the cost, stably: two
+    counting passes of 8 bits, giving the (cost, edge) order compare_keyed gives."""
+    cdef int cnt[256]
+    cdef int i, acc, size
+    cdef unsigned int d
+    cdef Keyed* src = a
+    cdef Keyed* dst = tmp
+    cdef Keyed* sw
+    cdef int shift
+    for shift in range(0, 16, 8):
+        memset(cnt, 0, sizeof(cnt))
+        for i in range(n):
+            cnt[(cost_bits(src[i].cost) >> shift) & 0xFF] += 1
+        if cnt[(cost_bits(src[0].cost) >> shift) & 0xFF] == n:
+            continue                              # one digit value: already in order
+        acc = 0
+        for i in range(256):
+            size = cnt[i]
+            cnt[i] = acc
+            acc += size
+        for i in range(n):
+            d = (cost_bits(src[i].cost) >> shift) & 0xFF
+            dst[cnt[d]] = src[i]
+            cnt[d] += 1
+        sw = src
+        src = dst
+        dst = sw
+    if src != a:
+        memcpy(a, src, n * sizeof(Keyed))
+
+
 @cython.final
 cdef class PassDriver:
     """Runs a :class:`PassCollapser` (an EdgeCollapser made with ``use_heap=False``) in
@@ -457,7 +500,10 @@ cdef class PassDriver:
         cdef double p[3]
         if self.state[e] != ST_DIRTY:
             return
-        rc = self.c.plan(e, &h, &r, &hs, p, &c, &err)
+        # without an error limit the ranking needs no error (nor the provenance the core
+        # works out with it): check() plans the candidates of a pass again, in full
+        err = 0.0
+        rc = self.c.plan(e, &h, &r, &hs, p, &c, &err if self.c.opt.max_error < INFINITY else NULL)
         if rc < 0:
             self.state[e] = ST_NONE
         elif hs >= 0 and self.m.edge[h] != e:
@@ -491,8 +537,9 @@ cdef class PassDriver:
         caller uses the first k).  A counting sort by bucket (the live list is in edge
         order, so each bucket fills in edge order), then each bucket sorted by cost: the
         order is (cost, edge) whatever the buckets hold."""
-        cdef int b, last, acc = 0, i, e, n, start, size
+        cdef int b, last, acc = 0, i, e, n, start, size, big = 0
         cdef unsigned int bk
+        cdef Keyed* tmp
         for last in range(N_BUCKETS):
             acc += self.hist[last]
             if acc >= k:
@@ -514,11 +561,22 @@ cdef class PassDriver:
         start = 0
         for b in range(last + 1):             # hist[b] is now the end of bucket b
             size = self.hist[b] - start
+            if size > big:
+                big = size
+            start = self.hist[b]
+        tmp = <Keyed*>malloc(big * sizeof(Keyed)) if big > 16 else NULL
+        start = 0
+        for b in range(last + 1):
+            size = self.hist[b] - start
             if size > 16:
-                qsort(&self.keyed_buf[start], size, sizeof(Keyed), compare_keyed)
+                if tmp != NULL and b < FINITE_BUCKETS:
+                    radix_low16(&self.keyed_buf[start], size, tmp)
+                else:
+                    qsort(&self.keyed_buf[start], size, sizeof(Keyed), compare_keyed)
             elif size > 1:
                 insertion_sort(&self.keyed_buf[start], size)
             start = self.hist[b]
+        free(tmp)
         return n
 
     cdef void dirty_ring(self, int k) noexcept nogil:
@@ -631,27 +689,30 @@ cdef class PassDriver:
         memset(&self.acc_x[0, 0], 0, self.n_blocks * 2 * sizeof(double))
         return 0
 
-    cdef inline bint in_block(self, int v, int b) noexcept nogil:
-        return v // self.bsize == b
+    cdef inline bint in_block(self, int v, int lo) noexcept nogil:
+        """Is slot v in the block whose first slot is ``lo``?  (A subtraction and an
+        unsigned compare: no division in the reach test's inner loop.)"""
+        return <unsigned int>(v - lo) < <unsigned int>self.bsize
 
     cdef bint inside(self, int u, int v, int b) noexcept nogil:
         """Is everything a collapse of edge u-v reads or writes in block b: the ends, their
         neighbours and the vertices across the far edges of their fans?  A collapse writes
         only faces whose corners are all in its closed 1-rings, so two collapses inside
         different blocks never meet."""
-        return self.fan_inside(u, b) and self.fan_inside(v, b)
+        cdef int lo = b * self.bsize
+        return self.fan_inside(u, lo) and self.fan_inside(v, lo)
 
-    cdef bint fan_inside(self, int w, int b) noexcept nogil:
+    cdef bint fan_inside(self, int w, int lo) noexcept nogil:
         cdef int start, y, ny, t
-        if not self.in_block(w, b):
+        if not self.in_block(w, lo):
             return False
         start = self.m.v_he[w]
         y = start
         while True:
-            if not self.in_block(he_dest(self.m, y), b) or not self.in_block(self.m.corner[he_prev(y)], b):
+            if not self.in_block(he_dest(self.m, y), lo) or not self.in_block(self.m.corner[he_prev(y)], lo):
                 return False
             t = self.m.twin[he_next(y)]
-            if t >= 0 and not self.in_block(self.m.corner[he_prev(t)], b):
+            if t >= 0 and not self.in_block(self.m.corner[he_prev(t)], lo):
                 return False
             ny = he_ring_next(self.m, y)
             if ny < 0 or ny == start:

@@ -27,6 +27,22 @@ cdef inline double sq(double x) noexcept nogil:
     return x * x
 
 
+cdef inline void quadric_sum(const double* a, const double* b, double* out) noexcept nogil:
+    """``out = a + b`` over the QSIZE entries of a quadric, unrolled (the hottest lines of
+    planning: a loop indexed from a row number was not vectorised)."""
+    out[0] = a[0] + b[0]
+    out[1] = a[1] + b[1]
+    out[2] = a[2] + b[2]
+    out[3] = a[3] + b[3]
+    out[4] = a[4] + b[4]
+    out[5] = a[5] + b[5]
+    out[6] = a[6] + b[6]
+    out[7] = a[7] + b[7]
+    out[8] = a[8] + b[8]
+    out[9] = a[9] + b[9]
+    out[10] = a[10] + b[10]
+
+
 cdef inline double collapse_error(double value, double area, double scale) noexcept nogil:
     """The error reported for a collapse: sqrt(scale * Q(p) / area), the area-weighted RMS
     distance to the planes the vertex stands for (0 without area or below zero)."""
