@@ -660,3 +660,64 @@ def test_collapser_rejects_bad_arguments():
     collapser = EdgeCollapser(hm, vertices, q, None, fixed)
     with pytest.raises(RuntimeError, match="record"):
         collapser.records()
+
+
+# ---------------------------------------------------------------- the truncated solve
+def _quadric_row(A, b, c=0.0):
+    return np.array([A[0, 0], A[0, 1], A[0, 2], A[1, 1], A[1, 2], A[2, 2], b[0], b[1], b[2], c, 1.0])
+
+
+def _reference_truncated(A, b, x0, eps=1e-3):
+    """Lindstrom's pseudo-inverse step about x0 by numpy's eigen-decomposition."""
+    w, V = np.linalg.eigh(A)
+    r = -(A @ x0 + b)
+    p = np.array(x0, dtype=float)
+    if w.max() <= 0.0:
+        return p
+    for j in range(3):
+        if w[j] > eps * w.max():
+            p += (V[:, j] @ r) / w[j] * V[:, j]
+    return p
+
+
+@pytest.mark.parametrize("rank", [1, 2, 3])
+def test_truncated_solve_closed_form_matches_eigh(rank):
+    """The closed-form truncated solve the planners use gives numpy's eigen-decomposition
+    answer (and the Jacobi reference's) on random plane sums of rank 1 (flat), 2 (crease)
+    and 3 (corner), with a little noise in the weak directions."""
+    from lodkit._core.quadric import truncated_solve
+    rng = np.random.default_rng(rank)
+    for _ in range(300):
+        A = np.zeros((3, 3))
+        b = np.zeros(3)
+        normals = rng.normal(size=(rank, 3))
+        for n in normals:
+            n /= np.linalg.norm(n)
+            d, w = rng.normal(), rng.uniform(0.1, 2.0)
+            A += w * np.outer(n, n)
+            b += w * d * n
+        m = rng.normal(size=(3, 3))
+        A += 1e-9 * (m @ m.T)
+        x0 = rng.normal(size=3)
+        want = _reference_truncated(A, b, x0)
+        scale = 1.0 + np.linalg.norm(want - x0)
+        for method in ("closed", "jacobi"):
+            got = truncated_solve(_quadric_row(A, b), x0, method)
+            assert np.linalg.norm(got - want) <= 1e-6 * scale, (method, got, want)
+
+
+def test_truncated_solve_flat_and_diagonal_cases():
+    """A flat quadric (one plane) moves x0 onto the plane along its normal only; an
+    axis-aligned crease moves it onto the crease line; a zero quadric leaves it."""
+    from lodkit._core.quadric import truncated_solve
+    x0 = np.array([0.3, -0.2, 0.7])
+    plane = _quadric_row(np.diag([0.0, 0.0, 2.0]), np.array([0.0, 0.0, -2.0 * 0.5]))   # z = 0.5
+    assert np.allclose(truncated_solve(plane, x0), [0.3, -0.2, 0.5], atol=1e-12)
+    n = np.array([1.0, 1.0, 1.0]) / np.sqrt(3.0)                                       # n.x = 1
+    tilted = _quadric_row(np.outer(n, n), -n)
+    got = truncated_solve(tilted, x0)
+    assert abs(got @ n - 1.0) <= 1e-12
+    assert np.allclose(np.cross(got - x0, n), 0.0, atol=1e-12)
+    crease = _quadric_row(np.diag([1.0, 1.0, 0.0]), np.array([-0.1, -0.4, 0.0]))       # x=.1, y=.4
+    assert np.allclose(truncated_solve(crease, x0), [0.1, 0.4, 0.7], atol=1e-12)
+    assert np.allclose(truncated_solve(np.zeros(11), x0), x0)

@@ -21,6 +21,10 @@ def general_quadric_marginal(
     and, with ``p``, the attributes (D - 3,) that minimise it there (None without ``p`` or
     when the attribute block is singular).  For tests."""
 
+def truncated_solve(q: ArrayLike, x0: ArrayLike, method: str = ...) -> NDArray[np.float64]:
+    """The truncated quadric solve about ``x0`` for one (11,) quadric row: "closed" (the
+    closed-form eigen-solve the planners use) or "jacobi" (the reference).  For tests."""
+
 def add_boundary_planes(hm: HalfEdgeMesh, positions: ArrayLike, weight: float, out: NDArray[np.float64]) -> None:
     """Add to ``out`` (n, >= 10), for every boundary edge and to both its ends, the plane
     through the edge perpendicular to its face, weighted by ``weight * length^2``."""

@@ -5,7 +5,7 @@ collapse drivers and vertex removal; Python reaches the builders through
 ``lodkit._core.decimate`` as well."""
 import numpy as np
 cimport numpy as cnp
-from libc.math cimport sqrt, fabs
+from libc.math cimport sqrt, fabs, acos, cos, M_PI
 
 from .common cimport QSIZE
 from .halfedge cimport HalfEdgeMesh, he_next
@@ -76,10 +76,9 @@ cdef void sym3_eigen(const double* q, double* w, double* V) noexcept nogil:
         w[i] = a[i][i]
 
 
-cdef void quadric_solve_truncated(const double* q, const double* x0, double* p) noexcept nogil:
-    """Minimise the quadric in the well-determined directions only, staying at ``x0`` along
-    the others (pseudo-inverse about x0, after Lindstrom): on a crease the point slides along
-    the crease line to the spot nearest x0; in a flat region it stays at x0."""
+cdef void quadric_solve_truncated_jacobi(const double* q, const double* x0, double* p) noexcept nogil:
+    """The truncated solve through the Jacobi eigen-decomposition (the reference the
+    closed-form :func:`quadric_solve_truncated` is tested against)."""
     cdef double w[3]
     cdef double V[9]
     cdef double r[3]
@@ -104,6 +103,176 @@ cdef void quadric_solve_truncated(const double* q, const double* x0, double* p) 
             coef = (V[j] * r[0] + V[3 + j] * r[1] + V[6 + j] * r[2]) / w[j]
             for i in range(3):
                 p[i] += coef * V[3 * i + j]
+
+
+cdef void sym3_eigenvalues(const double* q, double* w) noexcept nogil:
+    """Eigenvalues of the symmetric 3x3 block of a quadric in closed form (the trigonometric
+    solution of the characteristic cubic), largest first.  Off-diagonal entries must not all
+    be zero (the caller handles a diagonal block)."""
+    cdef double a11 = q[0], a12 = q[1], a13 = q[2], a22 = q[3], a23 = q[4], a33 = q[5]
+    cdef double off = a12 * a12 + a13 * a13 + a23 * a23
+    cdef double m = (a11 + a22 + a33) / 3.0
+    cdef double b11 = a11 - m, b22 = a22 - m, b33 = a33 - m
+    cdef double s = sqrt((b11 * b11 + b22 * b22 + b33 * b33 + 2.0 * off) / 6.0)
+    cdef double det, h, phi
+    if s == 0.0:
+        w[0] = w[1] = w[2] = m
+        return
+    # det(B) / 2 with B = (A - m I) / s, in [-1, 1] up to rounding
+    det = (b11 * (b22 * b33 - a23 * a23) - a12 * (a12 * b33 - a23 * a13)
+           + a13 * (a12 * a23 - b22 * a13)) / (s * s * s)
+    h = 0.5 * det
+    if h <= -1.0:
+        phi = M_PI / 3.0
+    elif h >= 1.0:
+        phi = 0.0
+    else:
+        phi = acos(h) / 3.0
+    w[0] = m + 2.0 * s * cos(phi)
+    w[2] = m + 2.0 * s * cos(phi + 2.0 * M_PI / 3.0)
+    w[1] = 3.0 * m - w[0] - w[2]
+
+
+cdef bint sym3_eigenvector(const double* q, double lam, double* v) noexcept nogil:
+    """A unit eigenvector of the quadric's 3x3 block for the (simple) eigenvalue ``lam``:
+    the longest cross product of two rows of A - lam I.  False if all three vanish."""
+    cdef double r0[3]
+    cdef double r1[3]
+    cdef double r2[3]
+    cdef double c[3]
+    cdef double n, best
+    r0[0] = q[0] - lam
+    r0[1] = q[1]
+    r0[2] = q[2]
+    r1[0] = q[1]
+    r1[1] = q[3] - lam
+    r1[2] = q[4]
+    r2[0] = q[2]
+    r2[1] = q[4]
+    r2[2] = q[5] - lam
+    cross3(r0, r1, v)
+    best = dot3(v, v)
+    cross3(r0, r2, c)
+    n = dot3(c, c)
+    if n > best:
+        best = n
+        v[0] = c[0]
+        v[1] = c[1]
+        v[2] = c[2]
+    cross3(r1, r2, c)
+    n = dot3(c, c)
+    if n > best:
+        best = n
+        v[0] = c[0]
+        v[1] = c[1]
+        v[2] = c[2]
+    if not (best > 0.0):
+        return False
+    n = 1.0 / sqrt(best)
+    v[0] *= n
+    v[1] *= n
+    v[2] *= n
+    return True
+
+
+cdef void quadric_solve_truncated(const double* q, const double* x0, double* p) noexcept nogil:
+    """Minimise the quadric in the well-determined directions only, staying at ``x0`` along
+    the others (pseudo-inverse about x0, after Lindstrom): on a crease the point slides along
+    the crease line to the spot nearest x0; in a flat region it stays at x0.
+
+    The directions are the eigenvectors of A whose eigenvalue is above EIG_EPS times the
+    largest, found in closed form (docs/performance.md): the eigenvalues from the
+    characteristic cubic; with one such direction, its eigenvector; with two, the plane
+    normal to the remaining eigenvector, where the system is solved with that direction
+    given the largest eigenvalue (so the step stays in the plane); with three, the plain
+    solve.  The same point as the Jacobi decomposition's (``quadric_solve_truncated_jacobi``)
+    up to rounding, at a fraction of its cost."""
+    cdef double w[3]
+    cdef double v[3]
+    cdef double r[3]
+    cdef double a[QSIZE]
+    cdef double d[3]
+    cdef double wmax, lim, coef
+    cdef int i, k
+    r[0] = -(q[0] * x0[0] + q[1] * x0[1] + q[2] * x0[2] + q[6])
+    r[1] = -(q[1] * x0[0] + q[3] * x0[1] + q[4] * x0[2] + q[7])
+    r[2] = -(q[2] * x0[0] + q[4] * x0[1] + q[5] * x0[2] + q[8])
+    for i in range(3):
+        p[i] = x0[i]
+    if q[1] == 0.0 and q[2] == 0.0 and q[4] == 0.0:
+        # a diagonal block: the axes are the eigenvectors
+        w[0] = q[0]
+        w[1] = q[3]
+        w[2] = q[5]
+        wmax = max(w[0], max(w[1], w[2]))
+        if not (wmax > 0.0):
+            return
+        for i in range(3):
+            if w[i] > EIG_EPS * wmax:
+                p[i] += r[i] / w[i]
+        return
+    sym3_eigenvalues(q, w)
+    wmax = w[0]
+    if not (wmax > 0.0):
+        return
+    lim = EIG_EPS * wmax
+    k = (w[0] > lim) + (w[1] > lim) + (w[2] > lim)
+    if k == 1:
+        if not sym3_eigenvector(q, w[0], v):
+            quadric_solve_truncated_jacobi(q, x0, p)
+            return
+        coef = (v[0] * r[0] + v[1] * r[1] + v[2] * r[2]) / w[0]
+        for i in range(3):
+            p[i] += coef * v[i]
+        return
+    for i in range(6):
+        a[i] = q[i]
+    if k == 2:
+        # drop the weak direction v: solve in the plane normal to it, where A is invertible
+        if not sym3_eigenvector(q, w[2], v):
+            quadric_solve_truncated_jacobi(q, x0, p)
+            return
+        coef = v[0] * r[0] + v[1] * r[1] + v[2] * r[2]
+        for i in range(3):
+            r[i] -= coef * v[i]
+        coef = wmax - w[2]                 # A + (wmax - w3) v v^T: v gets the eigenvalue wmax
+        a[0] += coef * v[0] * v[0]
+        a[1] += coef * v[0] * v[1]
+        a[2] += coef * v[0] * v[2]
+        a[3] += coef * v[1] * v[1]
+        a[4] += coef * v[1] * v[2]
+        a[5] += coef * v[2] * v[2]
+    # solve a d = r (cofactor_solve solves A d = -b: b = -r)
+    a[6] = -r[0]
+    a[7] = -r[1]
+    a[8] = -r[2]
+    if not cofactor_solve(a, d, 0.0):
+        quadric_solve_truncated_jacobi(q, x0, p)
+        return
+    if k == 2:
+        coef = v[0] * d[0] + v[1] * d[1] + v[2] * d[2]
+        for i in range(3):
+            d[i] -= coef * v[i]
+    for i in range(3):
+        p[i] += d[i]
+
+
+def truncated_solve(q, x0, method="closed"):
+    """The truncated quadric solve about ``x0`` for a QSIZE quadric row (tests): "closed"
+    (what the drivers use) or "jacobi" (the reference)."""
+    cdef double[::1] Q = np.ascontiguousarray(q, dtype=np.float64)
+    cdef double[::1] X = np.ascontiguousarray(x0, dtype=np.float64)
+    if Q.shape[0] != QSIZE or X.shape[0] != 3:
+        raise ValueError(f"q must have {QSIZE} entries and x0 3")
+    out = np.empty(3)
+    cdef double[::1] P = out
+    if method == "closed":
+        quadric_solve_truncated(&Q[0], &X[0], &P[0])
+    elif method == "jacobi":
+        quadric_solve_truncated_jacobi(&Q[0], &X[0], &P[0])
+    else:
+        raise ValueError("method must be 'closed' or 'jacobi'")
+    return out
 
 
 cdef int cholesky(double* M, int m, double rel_eps) noexcept nogil:
