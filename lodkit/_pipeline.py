@@ -20,9 +20,9 @@ import numpy as np
 
 from . import _progress
 from ._core.decimate import vertex_quadrics
-from ._core.halfedge import build, count_face_components
+from ._core.halfedge import build, count_face_components, faces_by_first_slot, morton_permutation
 from .errors import MeshError
-from .geometry import box_diagonal, morton_order
+from .geometry import box_diagonal
 from .mesh import Mesh
 from .metrics import MetricContext
 from .pairs import contract_pairs
@@ -118,12 +118,14 @@ def prepare(mesh: Mesh, *, memory_order: bool = False) -> Prepared:
         raise MeshError(f"the bounding box is too large to measure (coordinates up to "
                         f"{np.abs(mesh.vertices[input_vertex]).max():.3g}); rescale the mesh")
     if memory_order:
-        perm = morton_order(mesh.vertices[input_vertex])
+        # (geometry.morton_order and a stable argsort of the faces' smallest slot, in
+        # the core: the same permutations, by radix and counting sorts)
+        perm = morton_permutation(mesh.vertices[input_vertex])
         slot_of = np.empty_like(perm)
         slot_of[perm] = np.arange(perm.size, dtype=np.int32)
         input_vertex = input_vertex[perm]
         compact = slot_of[compact]
-        by_first = np.argsort(compact.min(axis=1), kind="stable")
+        by_first = faces_by_first_slot(compact, int(input_vertex.size))
         compact = compact[by_first]
         input_face = input_face[by_first]
         del perm, slot_of, by_first

@@ -126,6 +126,25 @@ def test_morton_order_on_a_hand_made_set():
     assert np.all(np.diff(codes.astype(np.int64)) > 0)
 
 
+@pytest.mark.parametrize("case", ["random", "rounded", "coincident", "one", "flat"])
+def test_core_morton_permutation_is_the_numpy_one(case):
+    """The pipeline's radix-sorted Morton permutation is geometry.morton_order's exactly
+    (ties in input order), and the faces' counting sort is a stable argsort of their
+    smallest slot."""
+    from lodkit._core.halfedge import faces_by_first_slot, morton_permutation
+    rng = np.random.default_rng(7)
+    pts = {"random": rng.normal(size=(5000, 3)),
+           "rounded": np.round(rng.normal(size=(5000, 3)), 1),        # many equal codes
+           "coincident": np.zeros((9, 3)),
+           "one": np.ones((1, 3)),
+           "flat": np.c_[rng.uniform(size=(3000, 2)), np.zeros(3000)]}[case]
+    assert np.array_equal(morton_permutation(pts), morton_order(pts))
+    faces = rng.integers(0, max(len(pts), 1), size=(4 * len(pts), 3)).astype(np.int32)
+    assert np.array_equal(faces_by_first_slot(faces, len(pts)), np.argsort(faces.min(axis=1), kind="stable"))
+    with pytest.raises(ValueError, match="outside"):
+        faces_by_first_slot(np.array([[4, 5, 6], [0, 1, -1]], dtype=np.int32), 3)
+
+
 def test_output_order_does_not_depend_on_the_input_order():
     """Memory order is internal: the output lists vertices and faces in input order, and
     maps back exactly, whatever order the input came in."""

@@ -64,3 +64,10 @@ def triangulation_ok(triangles: ArrayLike, k: int, closed: bool) -> bool:
     """Is ``triangles`` an oriented triangulation of a k-gon hole (link indices)?"""
 def count_face_components(hm: HalfEdgeMesh) -> int:
     """Number of components of the live faces (joined across twin half-edges)."""
+
+def morton_permutation(points: ArrayLike) -> NDArray[np.int32]:
+    """(n,) permutation sorting (n, 3) points along their Morton curve (as
+    ``lodkit.geometry.morton_order``, by a radix sort)."""
+
+def faces_by_first_slot(faces: ArrayLike, n_vertices: int) -> NDArray[np.int32]:
+    """(m,) permutation ordering faces by their smallest vertex index, ties in input order."""

@@ -930,3 +930,136 @@ def count_face_components(HalfEdgeMesh hm):
                         stack[top] = t // 3
                         top += 1
     return n_comp
+
+
+# ------------------------------------------------------------------ memory order
+cdef inline unsigned long long spread_bits(unsigned long long x) noexcept nogil:
+    """The low 21 bits of x with two zero bits after each (an axis's share of a 3D Morton
+    code; lodkit.geometry._spread_bits in C)."""
+    x &= 0x1FFFFFULL
+    x = (x | (x << 32)) & 0x1F00000000FFFFULL
+    x = (x | (x << 16)) & 0x1F0000FF0000FFULL
+    x = (x | (x << 8)) & 0x100F00F00F00F00FULL
+    x = (x | (x << 4)) & 0x10C30C30C30C30C3ULL
+    x = (x | (x << 2)) & 0x1249249249249249ULL
+    return x
+
+
+def morton_permutation(points):
+    """(n,) int32 permutation sorting (n, 3) ``points`` along their Morton curve: the same
+    as ``lodkit.geometry.morton_order`` (21 bits per axis over the bounding box, ties in
+    input order), by one pass for the codes and a stable radix sort (16-bit digits) instead
+    of numpy's comparison sort."""
+    cdef const double[:, ::1] P = np.ascontiguousarray(points, dtype=np.float64)
+    cdef Py_ssize_t n = P.shape[0]
+    if P.ndim != 2 or (n and P.shape[1] != 3):
+        raise ValueError("points must have shape (n, 3)")
+    perm = np.arange(n, dtype=np.intc)
+    if n < 2:
+        return perm
+    codes = np.empty(n, dtype=np.uint64)
+    tmp_codes = np.empty(n, dtype=np.uint64)
+    tmp_perm = np.empty(n, dtype=np.intc)
+    counts = np.zeros(65537, dtype=np.intp)
+    cdef unsigned long long[::1] C = codes
+    cdef unsigned long long[::1] C2 = tmp_codes
+    cdef int[::1] I = perm
+    cdef int[::1] I2 = tmp_perm
+    cdef Py_ssize_t[::1] cnt = counts
+    cdef double lo[3]
+    cdef double ext[3]
+    cdef double hi, x
+    cdef double top = <double>((1 << 21) - 1)
+    cdef unsigned long long q[3]
+    cdef unsigned long long d
+    cdef Py_ssize_t i, acc, size
+    cdef int k, shift
+    cdef unsigned long long* src
+    cdef unsigned long long* dst
+    cdef int* isrc
+    cdef int* idst
+    with nogil:
+        for k in range(3):
+            lo[k] = P[0, k]
+            hi = P[0, k]
+            for i in range(1, n):
+                x = P[i, k]
+                if x < lo[k]:
+                    lo[k] = x
+                if x > hi:
+                    hi = x
+            ext[k] = hi - lo[k] if hi > lo[k] else 1.0
+        for i in range(n):
+            for k in range(3):
+                x = (P[i, k] - lo[k]) / ext[k] * top
+                if not (x >= 0.0):
+                    x = 0.0
+                elif x > top:
+                    x = top
+                q[k] = <unsigned long long>x
+            C[i] = spread_bits(q[0]) | (spread_bits(q[1]) << 1) | (spread_bits(q[2]) << 2)
+        src, dst, isrc, idst = &C[0], &C2[0], &I[0], &I2[0]
+        for shift in range(0, 64, 16):
+            for i in range(65537):
+                cnt[i] = 0
+            for i in range(n):
+                cnt[((src[i] >> shift) & 0xFFFF) + 1] += 1
+            if cnt[((src[0] >> shift) & 0xFFFF) + 1] == n:
+                continue                          # one digit value: already in order
+            acc = 0
+            for i in range(1, 65537):
+                size = cnt[i]
+                cnt[i] = acc
+                acc += size
+            for i in range(n):
+                d = ((src[i] >> shift) & 0xFFFF) + 1
+                dst[cnt[d]] = src[i]
+                idst[cnt[d]] = isrc[i]
+                cnt[d] += 1
+            src, dst = dst, src
+            isrc, idst = idst, isrc
+        if isrc != &I[0]:
+            for i in range(n):
+                I[i] = isrc[i]
+    return perm
+
+
+def faces_by_first_slot(faces, int n_vertices):
+    """(m,) int32 permutation ordering (m, 3) ``faces`` by their smallest vertex index,
+    ties in input order (``np.argsort(faces.min(axis=1), kind="stable")`` by a counting
+    sort)."""
+    cdef const int[:, ::1] F = np.ascontiguousarray(faces, dtype=np.intc)
+    cdef Py_ssize_t m = F.shape[0]
+    out = np.empty(m, dtype=np.intc)
+    start = np.zeros(n_vertices + 1, dtype=np.intp)
+    cdef int[::1] O = out
+    cdef Py_ssize_t[::1] S = start
+    cdef Py_ssize_t f, acc = 0, size, bad = -1
+    cdef int a, v
+    with nogil:
+        for f in range(m):
+            a = F[f, 0]
+            if F[f, 1] < a:
+                a = F[f, 1]
+            if F[f, 2] < a:
+                a = F[f, 2]
+            if a < 0 or a >= n_vertices:
+                bad = f
+                break
+            S[a + 1] += 1
+        if bad < 0:
+            for v in range(n_vertices):
+                size = S[v + 1]
+                S[v] = acc
+                acc += size
+        for f in range(m if bad < 0 else 0):
+            a = F[f, 0]
+            if F[f, 1] < a:
+                a = F[f, 1]
+            if F[f, 2] < a:
+                a = F[f, 2]
+            O[S[a]] = <int>f
+            S[a] += 1
+    if bad >= 0:
+        raise ValueError(f"face {bad} has an index outside 0..{n_vertices - 1}")
+    return out

@@ -16,8 +16,11 @@ Each pass
    its ends (its cost is stale: next pass) or it reaches out of its block.  Blocks never
    meet, so they run on several threads, and plain cost order gives the same result -- which
    is how a pass that may reach the face target runs, to stop exactly there;
-4. *stage 2*: the candidates that reached out of their block (and seam pairs), in cost
-   order, with the same rules.
+4. *stage 1b*: the candidates that reached out of their block, grouped again by the blocks
+   shifted by half a block (a candidate that straddled a border of stage 1's blocks lies
+   inside one of these) and taken as in stage 1, on several threads;
+5. *stage 2*: those that still reached out (and seam pairs), in cost order, with the same
+   rules, on one thread.
 
 The schedule depends on the mesh and the settings, never on the face target: a run to a
 smaller target does the same collapses in the same order, then more, so a progressive mesh
@@ -303,6 +306,8 @@ cdef enum:
 cdef enum:
     CF_DEFER = 1        # stage 1 left the candidate to stage 2 (out of its block, or a seam pair)
     CF_DONE = 2         # stage 1 collapsed it
+    CF_DONE_SHIFTED = 3  # stage 1b (the blocks shifted by half a block) collapsed it
+    CF_PENDING_B = 4    # deferred by stage 1, waiting for stage 1b
 
 cdef enum:
     N_BUCKETS = 65536   # histogram of the upper 16 bits of the float32 cost
@@ -470,9 +475,10 @@ cdef class PassDriver:
         self.n_blocks = 1
         # group() never makes blocks of fewer than block // 8 live vertices: at most this many
         max_blocks = (nv + max(block // 8, 1) - 1) // max(block // 8, 1) + 1
-        self.blk_start = np.zeros(max_blocks + 1, dtype=np.intc)
-        self.acc_i = np.zeros((max_blocks, 4), dtype=np.intc)
-        self.acc_x = np.zeros((max_blocks, 2), dtype=np.float64)
+        # (stage 1b's shifted blocks: one more than stage 1's)
+        self.blk_start = np.zeros(max_blocks + 2, dtype=np.intc)
+        self.acc_i = np.zeros((max_blocks + 1, 4), dtype=np.intc)
+        self.acc_x = np.zeros((max_blocks + 1, 2), dtype=np.float64)
 
     # ------------------------------------------------------------- named steps
     cdef void rank(self) noexcept nogil:
@@ -694,12 +700,11 @@ cdef class PassDriver:
         unsigned compare: no division in the reach test's inner loop.)"""
         return <unsigned int>(v - lo) < <unsigned int>self.bsize
 
-    cdef bint inside(self, int u, int v, int b) noexcept nogil:
+    cdef bint inside(self, int u, int v, int lo) noexcept nogil:
         """Is everything a collapse of edge u-v reads or writes in block b: the ends, their
         neighbours and the vertices across the far edges of their fans?  A collapse writes
         only faces whose corners are all in its closed 1-rings, so two collapses inside
         different blocks never meet."""
-        cdef int lo = b * self.bsize
         return self.fan_inside(u, lo) and self.fan_inside(v, lo)
 
     cdef bint fan_inside(self, int w, int lo) noexcept nogil:
@@ -719,11 +724,12 @@ cdef class PassDriver:
                 return True
             y = ny
 
-    cdef int try_inside(self, int i, int stamp, int row) noexcept nogil:
-        """Stage 1 for candidate ``i``: collapse it if it lies inside its block and passes
-        every check, keeping the tallies in its block's row (``row`` < 0: its record is
-        written after the stage).  Returns the faces it removed (0: none); candidates that
-        reach out of their block, and seam pairs, are left to stage 2."""
+    cdef int try_inside(self, int i, int stamp, int row, int shift) noexcept nogil:
+        """Stage 1 (``shift`` 0) or 1b (``shift`` half a block) for candidate ``i``:
+        collapse it if it lies inside its block (slots ``cblock[i] * bsize - shift`` on) and
+        passes every check, keeping the tallies in its block's row (``row`` < 0: its record
+        is written after the stage).  Returns the faces it removed (0: none); candidates
+        that reach out of their block, and seam pairs, are left to the next stage."""
         cdef int b = self.cblock[i]
         cdef int e = self.keyed_buf[i].edge
         cdef int h, u, v, r, k, st, faces
@@ -736,7 +742,7 @@ cdef class PassDriver:
         v = he_dest(self.m, h)
         if self.c.touched[u] == stamp or self.c.touched[v] == stamp:
             return 0                          # ranked on a state a collapse changed
-        if self.n_blocks > 1 and not self.inside(u, v, b):
+        if self.n_blocks > 1 and not self.inside(u, v, b * self.bsize - shift):
             self.cflag[i] = CF_DEFER
             return 0
         self.check(i)
@@ -776,15 +782,50 @@ cdef class PassDriver:
             self.acc_x[b, 0] += x[5]
             if x[4] > self.acc_x[b, 1]:
                 self.acc_x[b, 1] = x[4]
-        self.cflag[i] = CF_DONE
+        self.cflag[i] = CF_DONE_SHIFTED if shift else CF_DONE
         self.lock(k, stamp)
         self.dirty_ring(k)
         return faces
 
-    cdef void walk_block(self, int b, int stamp) noexcept nogil:
+    cdef void walk_block(self, int b, int stamp, int shift) noexcept nogil:
         cdef int j
         for j in range(self.blk_start[b], self.blk_start[b + 1]):
-            self.try_inside(self.blk_order[j], stamp, -1)
+            self.try_inside(self.blk_order[j], stamp, -1, shift)
+
+    cdef int group_shifted(self, int n_sel) noexcept nogil:
+        """Stage 1b's blocks: the candidates stage 1 deferred, grouped (cost order kept) by
+        the blocks shifted by half a block, so that a candidate that reached over a border
+        of stage 1's blocks lies well inside one of these; clears their tallies and marks
+        them CF_PENDING_B (try_inside makes those that still reach out CF_DEFER again).
+        Returns the number of shifted blocks."""
+        cdef int i, b, acc = 0, size
+        cdef int half = self.bsize // 2
+        cdef int nb = (self.c.hm.n_vertices + half) // self.bsize + 1
+        memset(&self.blk_start[0], 0, (nb + 1) * sizeof(int))
+        for i in range(n_sel):
+            if self.cflag[i] != CF_DEFER:
+                continue
+            b = (self.m.corner[self.m.edge_he[self.keyed_buf[i].edge]] + half) // self.bsize
+            self.cblock[i] = b
+            self.blk_start[b + 1] += 1
+        for b in range(nb):
+            size = self.blk_start[b + 1]
+            self.blk_start[b] = acc
+            acc += size
+        self.blk_start[nb] = acc
+        for i in range(n_sel):
+            if self.cflag[i] != CF_DEFER:
+                continue
+            self.cflag[i] = CF_PENDING_B
+            b = self.cblock[i]
+            self.blk_order[self.blk_start[b]] = i
+            self.blk_start[b] += 1
+        for b in range(nb - 1, 0, -1):
+            self.blk_start[b] = self.blk_start[b - 1]
+        self.blk_start[0] = 0
+        memset(&self.acc_i[0, 0], 0, nb * 4 * sizeof(int))
+        memset(&self.acc_x[0, 0], 0, nb * 2 * sizeof(double))
+        return nb
 
     cdef int walk_pass(self, int n_sel, int target_faces, int* done) noexcept nogil:
         """One pass over the K cheapest candidates (keyed_buf[:n_sel]), in two stages.
@@ -798,9 +839,12 @@ cdef class PassDriver:
         are summed in block order.  The same collapses taken in plain cost order give
         the same mesh: that is what the pass does when it may reach the face target, so
         it stops exactly there, and the records are always in that order.
-        Stage 2: the candidates that reached out of their block (and seam pairs), in cost
-        order, on the state stage 1 left, with the same rules."""
-        cdef int i, b, e, h, r, k, hs, rs, ks, st, stamp, row, faces_left, n1 = 0
+        Stage 1b: the candidates that reached out of their block, the same way in the
+        blocks shifted by half a block (plain cost order when the pass may reach the
+        target; its records follow stage 1's).
+        Stage 2: those that still reached out (and seam pairs), in cost order, on the
+        state the stages before left, with the same rules."""
+        cdef int i, b, e, h, r, k, hs, rs, ks, st, stamp, row, faces_left, nb, half, n1 = 0
         cdef double vol
         cdef double dv2[2]
         cdef double* x
@@ -818,7 +862,7 @@ cdef class PassDriver:
                     break
                 if (i & (INTERRUPT_EVERY - 1)) == INTERRUPT_EVERY - 1 and signal_pending():
                     return RUN_INTERRUPTED      # abandons the pass: the run ends with the exception
-                st = self.try_inside(i, stamp, row)
+                st = self.try_inside(i, stamp, row, 0)
                 if self.c.failed:
                     return RUN_ERROR
                 if st > 0:
@@ -827,12 +871,12 @@ cdef class PassDriver:
                     n1 += 1
         elif self.threads > 1:
             for b in prange(self.n_blocks, num_threads=self.threads, schedule="dynamic", chunksize=1):
-                self.walk_block(b, stamp)
+                self.walk_block(b, stamp, 0)
             if signal_pending():
                 return RUN_INTERRUPTED
         else:
             for b in range(self.n_blocks):
-                self.walk_block(b, stamp)
+                self.walk_block(b, stamp, 0)
                 if signal_pending():
                     return RUN_INTERRUPTED
         if self.single:
@@ -842,7 +886,38 @@ cdef class PassDriver:
             if self.c.closed_volume != 0.0:
                 self.c.closed_volume = vol
         else:
-            n1 = self.reduce(not to_target)
+            n1 = self.reduce(not to_target, CF_DONE, self.n_blocks)
+            # ---- stage 1b: the deferred candidates again, in the blocks shifted by half a
+            # block (the same rules; most of those that reached over a border of stage 1's
+            # blocks lie inside one of these), on several threads
+            if self.n_blocks > 1 and (target_faces < faces_left if to_target else True):
+                nb = self.group_shifted(n_sel)
+                half = self.bsize // 2
+                if to_target:
+                    for i in range(n_sel):
+                        if faces_left <= target_faces:
+                            break
+                        if self.cflag[i] != CF_PENDING_B:
+                            continue
+                        if (i & (INTERRUPT_EVERY - 1)) == INTERRUPT_EVERY - 1 and signal_pending():
+                            return RUN_INTERRUPTED
+                        st = self.try_inside(i, stamp, row, half)
+                        if self.c.failed:
+                            return RUN_ERROR
+                        if st > 0:
+                            faces_left -= st
+                            row += 1
+                elif self.threads > 1:
+                    for b in prange(nb, num_threads=self.threads, schedule="dynamic", chunksize=1):
+                        self.walk_block(b, stamp, half)
+                    if signal_pending():
+                        return RUN_INTERRUPTED
+                else:
+                    for b in range(nb):
+                        self.walk_block(b, stamp, half)
+                        if signal_pending():
+                            return RUN_INTERRUPTED
+                n1 += self.reduce(not to_target, CF_DONE_SHIFTED, nb)
         # ---- stage 2
         for i in range(n_sel):
             if self.c.hm.n_alive_faces <= target_faces:
@@ -904,13 +979,13 @@ cdef class PassDriver:
             return RUN_TARGET
         return RUN_CHUNK
 
-    cdef int reduce(self, bint write_records) noexcept nogil:
-        """After stage 1: the blocks' tallies into the collapser's counters, in block order;
-        with ``write_records``, the records of stage 1's collapses in cost order.  Returns
-        how many collapses stage 1 did."""
+    cdef int reduce(self, bint write_records, unsigned char flag, int n_blocks) noexcept nogil:
+        """After stage 1 (or 1b): the ``n_blocks`` blocks' tallies into the collapser's
+        counters, in block order; with ``write_records``, the records of the stage's
+        collapses (cflag ``flag``) in cost order.  Returns how many collapses the stage did."""
         cdef int b, i, j, h, k, r, row, n = 0, faces = 0
         cdef double vol = self.c.closed_volume
-        for b in range(self.n_blocks):
+        for b in range(n_blocks):
             n += self.acc_i[b, 0]
             faces += self.acc_i[b, 1]
             self.c.n_rejected_topology += self.acc_i[b, 2]
@@ -923,7 +998,7 @@ cdef class PassDriver:
             for i in range(self.kmax):
                 if row >= self.c.n_collapses + n:
                     break
-                if self.cflag[i] != CF_DONE:
+                if self.cflag[i] != flag:
                     continue
                 r = self.plan_he[i, 1]
                 h = self.plan_he[i, 0]
