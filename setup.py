@@ -14,7 +14,7 @@ from Cython.Build import cythonize
 from setuptools import Extension, setup
 from setuptools.command.build_ext import build_ext
 
-MODULES = ["heap", "halfedge", "chain", "quadric", "fields", "edge", "triangle", "passes", "decimate",
+MODULES = ["heap", "halfedge", "chain", "quadric", "fields", "bound", "edge", "triangle", "passes", "decimate",
            "qem_kernel", "melod_kernel", "curvature_kernel", "retriangulate", "vremove", "schroeder_kernel",
            "volume_kernel", "cluster", "retile"]
 # the public C interface plugins cimport: lodkit/kernel.pxd, lodkit/removal.pxd (lodkit.kernel, ...)

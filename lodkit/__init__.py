@@ -8,7 +8,7 @@ from ._signals import import_guard
 
 with import_guard():     # Ctrl-C while the `lodkit` command starts: one line, exit 130
     from . import metrics
-    from .api import SimplifyResult, simplify
+    from .api import ErrorBound, SimplifyResult, simplify
     from .batch import BatchResult, batch
     from .cluster import ClusterResult, cluster
     from .compare import Comparison, compare
@@ -38,6 +38,7 @@ __all__ = [
     "Cancelled",
     "DependencyError",
     "ClusterResult",
+    "ErrorBound",
     "Comparison",
     "Evaluation",
     "Evaluator",

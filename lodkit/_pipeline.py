@@ -423,6 +423,7 @@ class Run:
     detail: str                  # report["stop_detail"]
     seam_pair_collapses: int = 0
     counters: dict = field(default_factory=dict)   # the driver's entries of the report
+    bound: float | None = None   # error="hausdorff": the distance certified, normalised
 
 
 def extract(work: Work, run: Run):

@@ -25,6 +25,7 @@ from .settings import (
     SETTING_DEFAULTS,
     check_settings,
     resolve_driver,
+    resolve_error,
     resolve_operator,
     resolve_prune,
     resolve_settings,
@@ -32,9 +33,24 @@ from .settings import (
     resolve_threads,
 )
 
-__all__ = ["SimplifyResult", "simplify", "prepare", "Prepared", "STOP_TARGET", "STOP_MAX_ERROR",
+__all__ = ["SimplifyResult", "ErrorBound", "simplify", "prepare", "Prepared", "STOP_TARGET", "STOP_MAX_ERROR",
            "STOP_NO_COLLAPSE", "SETTING_DEFAULTS", "PLACEMENTS", "BOUNDARY_POLICIES", "OPERATORS",
            "resolve_settings"]
+
+
+@dataclass(frozen=True)
+class ErrorBound:
+    """The two-sided distance a ``simplify(error="hausdorff")`` result is guaranteed to stay
+    within: every point of the output is at most this far from the input's surface and
+    every point of the input's surface at most this far from the output's
+    (docs/error-bound.md).  It is at most the ``max_error`` asked for, often less.
+
+    absolute : in model units
+    relative : as a fraction of the input's bounding-box diagonal
+    """
+
+    absolute: float
+    relative: float
 
 
 @dataclass
@@ -47,6 +63,8 @@ class SimplifyResult:
     error       : largest collapse error, as a fraction of the bbox diagonal (or in model
                   units when ``absolute=True``): sqrt(quadric error / summed face area), the
                   area-weighted RMS distance of the new vertex to the planes it stands for
+    bound       : with ``error="hausdorff"``, the :class:`ErrorBound` the output is
+                  guaranteed to be within of the input, both ways; None otherwise
     stop_reason : "target_faces", "max_error" or "no_valid_collapse"
     n_collapses : number of edge collapses done (vertex removals for a "removal" metric)
     """
@@ -60,6 +78,7 @@ class SimplifyResult:
     elapsed: float = 0.0
     report: dict = field(default_factory=dict)
     collapses: dict | None = None
+    bound: ErrorBound | None = None
 
     def __repr__(self) -> str:
         return (f"SimplifyResult({self.mesh!r}, error={self.error:.3g}, "
@@ -87,6 +106,8 @@ def simplify(
     driver: str | None = None,
     threads: int | None = None,
     prune: bool | float = False,
+    error: str = "qem",
+    sample_spacing: float | None = None,
 ) -> SimplifyResult:
     """Simplify a triangle mesh by greedy edge collapse with quadric error metrics (or by
     triangle collapse or vertex removal: ``operator``).
@@ -96,6 +117,18 @@ def simplify(
     or a collapse error above ``max_error`` (a fraction of the bbox diagonal unless
     ``absolute=True``).  With no legal collapse left it stops and says so in
     ``stop_reason``.
+
+    error            : what ``max_error`` limits: "qem" (default: the collapse error below)
+                       or "hausdorff": a guaranteed two-sided bound -- a collapse is done only
+                       if the mesh stays within ``max_error`` of the input's surface both ways
+                       (every point of each within that distance of the other), and
+                       ``result.bound`` says the distance the output is certified for
+                       (docs/error-bound.md).  Edge collapse only (the pass and greedy
+                       drivers, any edge-collapse metric); needs ``max_error``
+    sample_spacing   : with ``error="hausdorff"``: the input is sampled on a grid per
+                       triangle whose points are at most this fraction of ``max_error`` from
+                       any point of it (default 0.25); smaller costs more memory and time
+                       and refuses fewer collapses near the bound
 
     metric           : the cost: a registered name ("qem", see ``lodkit.metrics.available()``),
                        ``(name, {options})``, a Metric instance, or a list of those to combine
@@ -175,6 +208,7 @@ def simplify(
     settings["driver"] = resolve_driver(driver)
     settings["threads"] = resolve_threads(threads)
     check_settings(settings, max_error)
+    settings.update(resolve_error(error, sample_spacing, max_error, operator, pair_threshold))
     prune_size = resolve_prune(prune)
     target = resolve_target(src.n_faces, target_faces, target_ratio, max_error)
     runner = DRIVERS[operator]
@@ -193,6 +227,8 @@ def simplify(
     out_mesh, vertex_map, face_map = _pipeline.extract(work, run)
 
     scale = work.prep.scale if absolute else 1.0
+    bound = None if run.bound is None else ErrorBound(absolute=float(run.bound * work.prep.scale),
+                                                      relative=float(run.bound))
     return SimplifyResult(
         mesh=back(out_mesh),
         vertex_map=vertex_map,
@@ -203,4 +239,5 @@ def simplify(
         elapsed=time.perf_counter() - t0,
         report=_pipeline.report(work, run, metrics, settings, target),
         collapses=runner.records(work, run, scale) if record else None,
+        bound=bound,
     )

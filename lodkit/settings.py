@@ -20,7 +20,7 @@ from .errors import OptionError
 
 __all__ = ["SETTING_DEFAULTS", "PLACEMENTS", "BOUNDARY_POLICIES", "OPERATORS", "COLLAPSE_OPERATORS",
            "EDGE_DRIVERS", "resolve_operator", "resolve_settings", "resolve_driver", "resolve_threads", "finite_number",
-           "check_settings", "resolve_target", "locked_mask", "resolve_prune", "PRUNE_SIZE"]
+           "check_settings", "resolve_target", "ERRORS", "resolve_error", "locked_mask", "resolve_prune", "PRUNE_SIZE"]
 
 #: simplify()'s own defaults for the settings a metric may prefer other values of
 SETTING_DEFAULTS = {
@@ -153,6 +153,43 @@ def check_settings(settings: dict, max_error) -> None:
         raise OptionError(f"boundary_weight must be a finite number >= 0, got {boundary_weight!r}")
     if max_error is not None and not (number("max_error", max_error) >= 0.0):
         raise OptionError(f"max_error must be >= 0, got {max_error!r}")
+
+
+#: simplify(error=): what max_error limits -- the collapse error ("qem") or a guaranteed
+#: two-sided distance to the input ("hausdorff", docs/error-bound.md)
+ERRORS = ("qem", "hausdorff")
+#: simplify(sample_spacing=)'s default: the input's sample grids cover it to a quarter of max_error
+SAMPLE_SPACING = 0.25
+
+
+def resolve_error(error, sample_spacing, max_error, operator, pair_threshold) -> dict:
+    """The settings of the error bound: {"error": ("hausdorff", ...), "sample_spacing": (...)},
+    or {} for error="qem"; OptionError when the error bound cannot run as asked."""
+    if not isinstance(error, str) or error not in ERRORS:
+        raise OptionError(f"error must be one of {', '.join(ERRORS)}, got {error!r}")
+    if error == "qem":
+        if sample_spacing is not None:
+            raise OptionError("sample_spacing applies to error='hausdorff' only")
+        return {}                    # nothing new in the settings: runs without a bound look as before
+    if max_error is None:
+        raise OptionError("error='hausdorff' needs max_error= (the distance to stay within)")
+    if operator == "triangle":
+        raise OptionError("error='hausdorff' runs with operator='edge' (triangle collapse takes "
+                          "no error bound)")
+    if operator == "vertex_removal":
+        raise OptionError("error='hausdorff' runs with edge collapse; vertex removal re-triangulates "
+                          "holes with its own checks and takes no error bound (docs/error-bound.md)")
+    if pair_threshold is not None:
+        raise OptionError("error='hausdorff' does not combine with pair_threshold: pair contraction "
+                          "changes the surface before the bound could be measured from it")
+    if sample_spacing is None:
+        spacing = (SAMPLE_SPACING, "lodkit")
+    else:
+        x = number("sample_spacing", sample_spacing)
+        if not (0.0 < x < 1.0):
+            raise OptionError(f"sample_spacing must be in (0, 1) (a fraction of max_error), got {sample_spacing!r}")
+        spacing = (x, "caller")
+    return {"error": ("hausdorff", "caller"), "sample_spacing": spacing}
 
 
 def resolve_target(n_faces: int, target_faces, target_ratio, max_error) -> int:

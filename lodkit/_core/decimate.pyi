@@ -37,6 +37,7 @@ def EdgeCollapser(
     steps: ArrayLike | None = ...,
     seam_partners: ArrayLike | None = ...,
     operator: int = ...,
+    error_bound: tuple[float, float] | None = ...,
 ) -> _EdgeCollapser:
     """The edge-collapse driver for these arguments: operator 0 with use_heap True
     :class:`lodkit._core.edge.EdgeCollapser`, with use_heap False

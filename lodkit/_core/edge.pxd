@@ -6,6 +6,7 @@ from .chain cimport KernelChain
 from .fields cimport FieldSet
 from .quadric cimport AttributeQuadrics
 from .checks cimport CheckLimits
+from .bound cimport Bound
 
 cdef enum:
     SEAM_NONE = -1       # EdgeCollapser.seam: not on an attribute seam
@@ -33,6 +34,7 @@ cdef class Records:
     cdef double[:, ::1] pos
     cdef double[::1] cost
     cdef double[::1] error
+    cdef double[::1] bound           # the distance each collapse is certified for (error bound on)
     cdef unsigned char[::1] moved
     cdef int[:, ::1] faces           # the (up to two) faces each collapse removed, -1: none
     cdef unsigned char[::1] pair_open  # 1: the first half of a pair (the pair is one step)
@@ -83,6 +85,8 @@ cdef class EdgeCollapser:
     cdef int[::1] seam
     cdef int* SP                    # &seam[0], NULL when the mesh has no seams
     cdef readonly int n_seam_pairs  # seam edges collapsed together with their partner
+    # simplify(error="hausdorff"): the two-sided error bound's state (bound.pyx), None when off
+    cdef readonly Bound bound
 
     cdef int n_candidates(self)
     cdef int plan(self, int e, int* h_out, int* r_out, int* hs_out, double* p, double* cost,

@@ -5,6 +5,7 @@ from typing import TypedDict
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .bound import Bound
 from .halfedge import HalfEdgeMesh
 from .kernel import Kernel
 
@@ -73,6 +74,7 @@ class EdgeCollapser:
         attribute_columns: ArrayLike | None = ...,
         steps: ArrayLike | None = ...,
         seam_partners: ArrayLike | None = ...,
+        error_bound: tuple[float, float] | None = ...,
     ) -> None:
         """quadric_weight: factor of the quadric in the cost (0: the quadric only places);
         error_scale: error = sqrt(error_scale * Q(p) / area); vertex_fields (n, k) and
@@ -83,7 +85,13 @@ class EdgeCollapser:
         D - 3 columns of ``attributes`` they range over (placement by their marginal);
         steps: (k, 3) rows (kind, first, end) ordering fields and kernels; seam_partners
         (n,) int: each seam vertex's partner slot, -1 off the seams, -2 a seam copy that
-        stays (see lodkit._pipeline.seam_partners)."""
+        stays (see lodkit._pipeline.seam_partners); error_bound (eps, spacing): the two-sided
+        error bound (lodkit._core.bound), None when off."""
+    bound: Bound | None
+    def count_bound_refusals(self) -> int:
+        """Live candidates that pass every check but the error bound (0 without one)."""
+    def certified_bound(self) -> float | None:
+        """The largest certificate of a live face (normalised units), None without a bound."""
     def _setup_seams(self, partners: ArrayLike | None) -> None: ...
     def run(self, target_faces: int, max_steps: int = ...) -> int:
         """0: target reached, 1: step budget used, 2: no legal collapse left, 3: a kernel failed."""

@@ -53,6 +53,7 @@ cdef class Records:
         self.pos = np.empty((nrec, 3), dtype=np.float64)
         self.cost = np.empty(nrec, dtype=np.float64)
         self.error = np.empty(nrec, dtype=np.float64)
+        self.bound = np.zeros(nrec, dtype=np.float64)
         self.moved = np.empty(nrec, dtype=np.uint8)
         self.faces = np.empty((nrec, 2), dtype=np.intc)
         self.pair_open = np.zeros(nrec, dtype=np.uint8)
@@ -66,6 +67,7 @@ cdef class Records:
             "position": np.asarray(self.pos)[:n].copy(),
             "cost": np.asarray(self.cost)[:n].copy(),
             "error": np.asarray(self.error)[:n].copy(),
+            "bound": np.asarray(self.bound)[:n].copy(),
             "moved": np.asarray(self.moved)[:n].astype(bool),
             # for progressive meshes (lodkit.progressive): the vertex slots, the faces each
             # collapse removed, pairs' first halves and the kept vertex's attributes
@@ -105,7 +107,7 @@ cdef class EdgeCollapser:
                  double quadric_weight=1.0, double error_scale=1.0,
                  vertex_fields=None, vertex_rules=None, edge_fields=None, edge_rules=None,
                  kernels=(), bint use_heap=True, attribute_quadrics=None, attribute_columns=None,
-                 steps=None, seam_partners=None):
+                 steps=None, seam_partners=None, error_bound=None):
         cdef int n = hm.n_vertices
         self.hm = hm
         # One row per vertex: the quadric (11 doubles) then the position (3), so that a
@@ -185,6 +187,11 @@ cdef class EdgeCollapser:
             for f in range(hm.n_faces):
                 if hm.face_alive[f]:
                     self.closed_volume += self.face_volume6(f)
+        # error_bound=(eps, spacing): the two-sided bound (bound.pyx); built on the input as
+        # it is now, before any collapse
+        self.bound = None
+        if error_bound is not None:
+            self.bound = Bound(hm, self.vdata, QSIZE, float(error_bound[0]), float(error_bound[1]))
         if self.opt.use_heap:
             with nogil:
                 self.rescan()
@@ -720,6 +727,8 @@ cdef class EdgeCollapser:
                 dvol -= self.face_volume6(fb)
             if turns_inside_out(self.closed_volume, dvol):
                 return False
+        if self.bound is not None and not self.bound.check(h, r, k, p):
+            return False                     # would leave the error bound (last: the costliest check)
         dvol_out[0] = dvol
         return True
 
@@ -992,8 +1001,8 @@ cdef class EdgeCollapser:
         ``row`` < 0: no record (the pass driver writes it later).  Returns the kept vertex;
         ``dead`` gets the dead edges."""
         cdef int merged_into[2]
-        cdef int k, i, j
-        cdef double t = 0.0, len2 = 0.0
+        cdef int k, i, j, chain = -1
+        cdef double t = 0.0, len2 = 0.0, bound_done = 0.0
         k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
         # where p falls along r -> k decides how the attributes mix (for a triangle collapse
         # perform_tri gives the weight: barycentric over the face)
@@ -1008,6 +1017,8 @@ cdef class EdgeCollapser:
         if self.rec.on and row >= 0:
             self.rec.faces[row, 0] = h // 3
             self.rec.faces[row, 1] = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
+        if self.bound is not None:
+            chain = self.bound.commit_begin(h, r, k)
         self.hm.collapse_uncounted(h, r, dead, merged_into)
         self.vflags[k] |= self.vflags[r] & VERTEX_BOUNDARY
         if self.fields.n_vfields or self.fields.n_efields:
@@ -1023,7 +1034,10 @@ cdef class EdgeCollapser:
             for i in range(3):
                 self.P[VSTRIDE * k + i] = p[i]
             self.moved[k] = 1
+        if self.bound is not None:
+            bound_done = self.bound.commit_end(k, chain)
         if self.rec.on and row >= 0:
+            self.rec.bound[row] = bound_done
             self.rec.removed[row] = r
             self.rec.kept[row] = k
             self.rec.pos[row, 0] = p[0]
@@ -1121,6 +1135,38 @@ cdef class EdgeCollapser:
         if status == RUN_INTERRUPTED:
             raise_pending()
         return status
+
+    def count_bound_refusals(self):
+        """The live candidate edges that pass every check but the error bound (0 without
+        one): after a run that found no collapse left, whether the bound stopped it."""
+        if self.bound is None or self.released:
+            return 0
+        cdef Bound b = self.bound
+        cdef int e, h, r, hs, k, n = 0
+        cdef double p[3]
+        cdef double cost, err, dv
+        cdef bint ok
+        for e in range(self.hm.n_edges):
+            if not self.m.edge_alive[e]:
+                continue
+            if self.plan(e, &h, &r, &hs, p, &cost, &err) != 0 or hs >= 0:
+                continue
+            k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
+            if not self.hm.link_ok(h):
+                continue
+            self.bound = None
+            ok = self.geometry_ok(h, r, k, p, -1, -1, &dv)
+            self.bound = b
+            if ok and not b.check(h, r, k, p):
+                n += 1
+        return n
+
+    def certified_bound(self):
+        """The distance (normalised units) the current mesh is certified to be within of
+        the input, both ways: the largest certificate of a live face (None without a bound)."""
+        if self.bound is None:
+            return None
+        return self.bound.bound(self.hm.alive_faces)
 
     def relax_quality(self, double min_quality):
         """Lower the quality limit (``min_quality``) and give every live candidate another

@@ -1011,6 +1011,7 @@ cdef class PassDriver:
                     self.c.rec.pos[row, j] = self.plan_x[i, j]
                 self.c.rec.cost[row] = self.plan_x[i, 3]
                 self.c.rec.error[row] = self.plan_x[i, 4]
+                self.c.rec.bound[row] = self.c.bound.last[k] if self.c.bound is not None else 0.0
                 self.c.rec.moved[row] = self.c.moved[k]
                 for j in range(self.c.n_attr):
                     self.c.rec.attr[row, j] = self.c.A[self.c.n_attr * k + j]

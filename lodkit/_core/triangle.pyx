@@ -38,6 +38,8 @@ cdef class TriangleCollapser(EdgeCollapser):
         self.tri_collapses = 0
         self.tri_refused_second = 0
         super().__init__(*args, **kwargs)
+        if self.bound is not None:
+            raise ValueError("triangle collapse does not take an error bound (use operator='edge')")
         if self.opt.has_extras or not self.opt.use_heap:
             raise ValueError("triangle collapse takes quadric metrics only: no fields, kernels "
                              "nor batch metrics (their values are defined per edge)")

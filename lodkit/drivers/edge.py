@@ -75,6 +75,12 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
     # melod, 10%); until that is understood, the heap order (docs/algorithms.md)
     passes = (work.prep.memory_order and operator == "edge" and not compiled.batch
               and not (compiled.core.get("kernels") and work.seams is not None))
+    # error="hausdorff": max_error is the distance the core's error bound keeps to
+    # (lodkit/_core/bound.pyx), not a limit on the collapse error
+    error_bound = None
+    if settings.get("error", ("qem",))[0] == "hausdorff":
+        error_bound = (max_error, float(settings["sample_spacing"][0]))
+        max_error = math.inf
     collapser = EdgeCollapser(
         hm, None, work.vdata, work.attributes, work.fixed,
         placement=PLACEMENTS[settings["placement"][0]], boundary=BOUNDARY_POLICIES[settings["boundary"][0]],
@@ -82,7 +88,7 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
         max_error=max_error, record=bool(record),
         closed_connected=closed_connected(hm),
         use_heap=not compiled.batch and not passes, seam_partners=work.seams, operator=COLLAPSE_OPERATORS[operator],
-        **compiled.core,
+        error_bound=error_bound, **compiled.core,
     )
     raise_if_failed(collapser, compiled)
     if work.seams is not None:
@@ -97,7 +103,7 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
         driver = (PassDriver(collapser, threads=int(settings["threads"][0]), fraction=PASS_FRACTION, block=PASS_BLOCK)
                   if passes else collapser)
         status = run_chunked(driver, hm, target, bar)
-        for step in quality_steps(settings) if max_error == math.inf else ():
+        for step in quality_steps(settings) if max_error == math.inf and error_bound is None else ():
             if status != RUN_EXHAUSTED:
                 break
             # the checks left no collapse: relax the quality limit a step and go on
@@ -110,14 +116,24 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
         bar.close()
     raise_if_failed(collapser, compiled)
 
+    bound_refused = collapser.count_bound_refusals() if error_bound is not None and status != RUN_TARGET else 0
     if status == RUN_TARGET:
         stop, detail = STOP_TARGET, ""
     elif rejected_error > 0:
         stop, detail = STOP_MAX_ERROR, f"{rejected_error} candidate collapses exceed max_error"
+    elif bound_refused > 0:
+        stop, detail = STOP_MAX_ERROR, (f"{bound_refused} candidate collapses would take the surface farther "
+                                        f"than max_error from the input (error='hausdorff')")
     else:
         stop, detail = STOP_NO_COLLAPSE, _no_collapse_detail(collapser)
     if relaxed is not None and detail:
         detail += f" (min_quality relaxed to {relaxed:g})"
+    bound = collapser.certified_bound()
+    counters = {}
+    if error_bound is not None:
+        counters["error_bound"] = {"max_error": error_bound[0], "certified": bound,
+                                   "sample_points": int(collapser.bound.n_points),
+                                   "sample_spacing": error_bound[1]}
     collapser.release()          # the heap and quadrics are not needed to build the output
     return Run(
         core=collapser,
@@ -137,7 +153,9 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
             "triangle_collapses": int(collapser.n_tri_collapses),
             "refused_at_second_collapse": int(collapser.n_tri_refused_second),
             "min_quality_relaxed_to": relaxed,
+            **counters,
         },
+        bound=bound,
     )
 
 
@@ -232,4 +250,10 @@ def records(work: Work, run: Run, scale: float) -> dict:
     out["position"] = np.where(moved[:, None], out["position"] * prep.scale + prep.center,
                                src.vertices[out["kept"]])
     out["error"] = out["error"] * scale
+    if run.bound is not None:
+        # the distance certified after each step (a running maximum: each collapse certifies
+        # the faces it made; the others keep theirs), in the unit of the errors
+        out["bound"] = np.maximum.accumulate(out["bound"]) * scale if out["bound"].size else out["bound"]
+    else:
+        out.pop("bound")
     return out
