@@ -127,6 +127,10 @@ def _build_parser() -> argparse.ArgumentParser:
     target.add_argument("--max-error", type=_non_negative, metavar="E",
                         help="stop before the error exceeds E (a fraction of the bounding-box "
                              "diagonal, or model units with --absolute)")
+    target.add_argument("--max-distance", type=_distance, metavar="E",
+                        help="a guaranteed bound: stop before the surface would move farther than E from "
+                             "the input, both ways (model units, or 'E%%' of the bounding-box diagonal; "
+                             "docs/error-bound.md)")
     p.add_argument("--absolute", action="store_true", help="--max-error and the reported error are in model units")
     _add_collapse_options(p, "cost metric, with options after a colon, e.g. 'qem' or "
                              "'curvature:merge=mean,weight=2' (values are read as int, float, "
@@ -415,6 +419,14 @@ def _non_negative(text: str) -> float:
     return value
 
 
+def _distance(text: str) -> tuple:
+    """``E`` (model units) or ``E%`` (percent of the bounding-box diagonal) -> (E, is_percent)."""
+    t = text.strip()
+    percent = t.endswith("%")
+    value = _non_negative(t[:-1].strip() if percent else t)
+    return value, percent
+
+
 def _metric_option(text: str):
     """``NAME[:OPT=VAL,...]`` -> ``NAME`` or ``(NAME, {OPT: VAL})``.  NAME may itself be
     ``package:name``: the options start at the first ``:`` followed by ``OPT=``."""
@@ -466,8 +478,13 @@ def _metric_spec(items):
 def _run_simplify(args) -> int:
     from . import load, save, simplify
 
-    if args.ratio is None and args.faces is None and args.max_error is None:
-        raise _UsageError("simplify needs a target: --ratio, --faces or --max-error (see 'lodkit simplify --help')")
+    if args.ratio is None and args.faces is None and args.max_error is None and args.max_distance is None:
+        raise _UsageError("simplify needs a target: --ratio, --faces, --max-error or --max-distance "
+                          "(see 'lodkit simplify --help')")
+    if args.max_distance is not None and args.max_error is not None:
+        raise _UsageError("give --max-error (the collapse error) or --max-distance (a guaranteed distance), not both")
+    if args.max_distance is not None and args.tiles:
+        raise _UsageError("--max-distance does not go with --tiles (the tiles' seams are not bounded)")
     _check_output(args.output)     # before the work, not after it
     if args.tiles:
         return _run_simplify_large(args)
@@ -491,6 +508,17 @@ def _run_simplify(args) -> int:
     options["progress"] = not args.quiet and _is_tty(sys.stderr)
 
     mesh = load(args.input)
+    if args.max_distance is not None:
+        value, percent = args.max_distance
+        options["error"] = "hausdorff"
+        # max_error in the unit --absolute says (the reported error's): convert if needed
+        if percent and not args.absolute:
+            options["max_error"] = value / 100.0
+        elif not percent and args.absolute:
+            options["max_error"] = value
+        else:
+            diagonal = _diagonal(mesh)
+            options["max_error"] = value / 100.0 * diagonal if percent else value / diagonal
     t0 = time.perf_counter()
     result = simplify(mesh, **options)
     seconds = time.perf_counter() - t0
@@ -498,9 +526,28 @@ def _run_simplify(args) -> int:
     if not args.quiet:
         out = result.mesh
         unit = "model units" if args.absolute else "of bbox diagonal"
-        print(f"{args.input}: {_reduction(mesh, out)}, error {result.error:.3g} {unit}, "
+        bound = ""
+        if result.bound is not None:
+            bound = (f", within {result.bound.absolute:.3g} model units ({100.0 * result.bound.relative:.3g} % "
+                     f"of bbox diagonal) both ways")
+        print(f"{args.input}: {_reduction(mesh, out)}, error {result.error:.3g} {unit}{bound}, "
               f"stop: {result.stop_reason}, {seconds:.2f} s -> {args.output}")
     return EXIT_OK
+
+
+def _diagonal(mesh) -> float:
+    """The bounding-box diagonal simplify() measures relative errors by: that of the
+    vertices used by faces that repeat no index."""
+    import numpy as np
+
+    from .geometry import box_diagonal
+
+    f = mesh.faces
+    ok = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
+    used = mesh.vertices[np.unique(f[ok])]
+    if used.shape[0] == 0:
+        return 1.0                       # simplify() refuses such a mesh with its own message
+    return float(box_diagonal(used.min(axis=0), used.max(axis=0)))
 
 
 def _run_simplify_large(args) -> int:

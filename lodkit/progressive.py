@@ -65,7 +65,7 @@ class Level:
 
 
 # simplify() options progressive() passes on as they are (the others it sets itself)
-_SIMPLIFY_OPTIONS = {"pair_threshold", "operator", "driver", "threads"}
+_SIMPLIFY_OPTIONS = {"pair_threshold", "operator", "driver", "threads", "error", "sample_spacing"}
 
 
 def progressive(mesh, metric="qem", *, min_faces: int = 0, max_error: float | None = None,
@@ -128,6 +128,10 @@ def progressive(mesh, metric="qem", *, min_faces: int = 0, max_error: float | No
         "n_input_faces": np.int64(src.n_faces),
         "min_faces": np.int64(min_faces),
     }
+    if "bound" in rec:
+        # error="hausdorff": the distance certified after each step, kept in the core's
+        # units (fractions of the diagonal) and scaled as the errors are on the way out
+        data["bound"] = rec["bound"] / scale
     for name, arr in src.attributes().items():
         data["input_" + name] = arr
     info = {
@@ -181,7 +185,7 @@ class ProgressiveMesh:
     collapses that close an attribute seam together) is one indivisible change: the state
     between its halves is never a stopping point, of ``at`` or of the cursor.
 
-    at(faces=N | ratio=R | error=E | step=S) -> mesh
+    at(faces=N | ratio=R | error=E | bound=D | step=S) -> mesh
     level(...)             -> Level(mesh, vertex_map, face_map, error, step)
     lods([N1, N2, ...])    -> [mesh, ...]   (ints: face counts, floats in (0, 1]: ratios)
     refine(n) / coarsen(n) / current / step : a cursor, starting at the base mesh
@@ -217,6 +221,12 @@ class ProgressiveMesh:
         #: (n_steps + 1,) the error simplify() reports after each number of collapses
         self.errors_per_step = raw * float(d["error_scale"])
         self._raw_errors = raw
+        #: (n_steps + 1,) with error="hausdorff": the distance the mesh after each number of
+        #: collapses is certified to be within of the input, both ways (None without it)
+        self.bounds_per_step = None
+        if "bound" in d:
+            self._raw_bounds = np.concatenate(([0.0], np.maximum.accumulate(d["bound"]) if S else []))
+            self.bounds_per_step = self._raw_bounds * float(d["error_scale"])
         #: (n_steps + 1,) True where a state is a stopping point (not inside a seam pair)
         self.stops = np.ones(S + 1, dtype=bool)
         self.stops[1:] = ~d["pair_open"]
@@ -279,6 +289,7 @@ class ProgressiveMesh:
             "dead_faces": np.where(dead >= 0, inf[np.maximum(dead, 0)], -1).astype(np.int64),
             "cost": d["cost"].copy(),
             "error": d["error"].copy(),
+            **({"bound": d["bound"] * float(d["error_scale"])} if "bound" in d else {}),
         }
 
     def n_faces_at(self, step: int) -> int:
@@ -296,14 +307,16 @@ class ProgressiveMesh:
                               f"use {s - 1} or {s + 1}")
         return s
 
-    def step_for(self, *, faces=None, ratio=None, error=None, step=None) -> int:
+    def step_for(self, *, faces=None, ratio=None, error=None, step=None, bound=None) -> int:
         """The step ``at`` extracts for the target given (exactly one)."""
-        given = [k for k, v in (("faces", faces), ("ratio", ratio), ("error", error), ("step", step))
-                 if v is not None]
+        given = [k for k, v in (("faces", faces), ("ratio", ratio), ("error", error), ("step", step),
+                                ("bound", bound)) if v is not None]
         if len(given) != 1:
-            raise OptionError("give exactly one of faces=, ratio=, error= or step=")
+            raise OptionError("give exactly one of faces=, ratio=, error=, bound= or step=")
         if step is not None:
             return self._check_step(step)
+        if bound is not None:
+            return self._bound_step(bound)
         if ratio is not None:
             try:
                 r = float(ratio)
@@ -340,16 +353,35 @@ class ProgressiveMesh:
             s -= 1
         return s
 
+    def _bound_step(self, bound) -> int:
+        """The last stopping state certified within ``bound`` (in the unit of the errors)."""
+        if self.bounds_per_step is None:
+            raise OptionError("bound= needs a progressive mesh built with error='hausdorff' (and max_error): "
+                              "only those certify a distance per step")
+        try:
+            b = float(bound)
+        except (TypeError, ValueError):
+            raise OptionError(f"bound must be a number >= 0, got {bound!r}") from None
+        if isinstance(bound, bool) or not b >= 0.0:
+            raise OptionError(f"bound must be a number >= 0, got {bound!r}")
+        # the certified distance never decreases along the steps (a running maximum)
+        s = int(np.searchsorted(self._raw_bounds, b / float(self._d["error_scale"]), side="right")) - 1
+        while not self.stops[s]:
+            s -= 1
+        return s
+
     # ------------------------------------------------------------------ extraction
-    def at(self, *, faces=None, ratio=None, error=None, step=None):
+    def at(self, *, faces=None, ratio=None, error=None, step=None, bound=None):
         """The mesh after the collapses the target allows: ``faces=N`` (the first state
         with at most N faces), ``ratio=R`` (N = round(R * input faces)), ``error=E`` (the
-        longest prefix whose collapses all have error <= E) or ``step=S``."""
-        return self.level(faces=faces, ratio=ratio, error=error, step=step).mesh
+        longest prefix whose collapses all have error <= E), ``bound=D`` (the last state
+        certified within D of the input, both ways: progressive meshes built with
+        ``error="hausdorff"``; D in the unit of the errors) or ``step=S``."""
+        return self.level(faces=faces, ratio=ratio, error=error, step=step, bound=bound).mesh
 
-    def level(self, *, faces=None, ratio=None, error=None, step=None) -> Level:
+    def level(self, *, faces=None, ratio=None, error=None, step=None, bound=None) -> Level:
         """Like :meth:`at`, with the vertex and face maps and the error."""
-        s = self.step_for(faces=faces, ratio=ratio, error=error, step=step)
+        s = self.step_for(faces=faces, ratio=ratio, error=error, step=step, bound=bound)
         d = self._d
         face_idx = np.flatnonzero(self._fgone > s)
         # each removed slot points at the slot it merged into, from state `s` on; pointer
@@ -599,6 +631,8 @@ def _check_arrays(a: dict) -> str:
     for k in ("kept", "pair_open", "cost", "error", "attributes"):
         if a[k].shape[0] != S:
             return f"array {k!r} has {a[k].shape[0]} rows, not {S}"
+    if "bound" in a and (a["bound"].shape != (S,) or a["bound"].dtype.kind != "f"):
+        return f"array 'bound' has shape {a['bound'].shape} and type {a['bound'].dtype}"
     if a["input_face"].shape[0] != m:
         return "input_face and corners disagree"
     width = 0

@@ -301,3 +301,79 @@ def test_target_reached_first_and_zero_bound():
     assert zero.n_collapses == 0
     assert zero.bound.absolute == pytest.approx(0.0, abs=1e-15)
     assert zero.stop_reason == "max_error"
+
+
+# ----------------------------------------------------------------- progressive meshes
+
+
+@pytest.mark.parametrize("driver", ["pass", "greedy"])
+def test_progressive_cut_at_a_guaranteed_distance(tmp_path, driver):
+    rng = np.random.default_rng(6)
+    mesh = grid(24, 0.08 * rng.uniform(size=(24, 24)))
+    eps = 0.02
+    pm = lodkit.progressive(mesh, max_error=eps, error="hausdorff", driver=driver)
+    assert pm.bounds_per_step is not None and np.all(np.diff(pm.bounds_per_step) >= 0)
+    faces = []
+    for x in (eps / 8, eps / 4, eps / 2, eps):
+        s = pm.step_for(bound=x)
+        level = pm.level(bound=x)
+        assert pm.bounds_per_step[s] <= x
+        ev = lodkit.evaluate(mesh, level.mesh, samples=30_000)
+        assert ev.distance.hausdorff <= x * (1 + REL_TOL) + EVAL_TOL
+        faces.append(level.n_faces)
+    assert faces == sorted(faces, reverse=True) and faces[0] > faces[-1]
+    # the whole run is the cut at eps
+    full = lodkit.simplify(mesh, max_error=eps, error="hausdorff", driver=driver)
+    assert pm.at(bound=eps).n_faces == full.mesh.n_faces
+    path = tmp_path / "pm.npz"
+    pm.save(path)
+    back = lodkit.ProgressiveMesh.load(path)
+    np.testing.assert_array_equal(back.bounds_per_step, pm.bounds_per_step)
+    assert back.step_for(bound=eps / 2) == pm.step_for(bound=eps / 2)
+
+
+def test_progressive_bound_needs_hausdorff():
+    pm = lodkit.progressive(grid(8, np.random.default_rng(0).uniform(size=(8, 8)) * 0.1))
+    assert pm.bounds_per_step is None
+    with pytest.raises(OptionError, match="hausdorff"):
+        pm.at(bound=0.1)
+    pmh = lodkit.progressive(grid(8), max_error=0.01, error="hausdorff")
+    with pytest.raises(OptionError, match="bound must be"):
+        pmh.at(bound=-1.0)
+    with pytest.raises(OptionError, match="exactly one"):
+        pmh.at(bound=0.1, faces=3)
+
+
+# ----------------------------------------------------------------- the command line
+
+
+@pytest.mark.parametrize("given, absolute, expect", [
+    ("0.5%", False, 0.005),          # percent of the diagonal, reported relative
+    ("0.01", True, 0.01),            # model units, reported in model units
+    ("0.5%", True, "diag"),          # percent, reported in model units: converted
+    ("0.01", False, "rel"),          # model units, reported relative: converted
+])
+def test_cli_max_distance(tmp_path, capsys, given, absolute, expect):
+    from lodkit.cli import main
+
+    mesh = grid(16, 0.1 * np.random.default_rng(7).uniform(size=(16, 16)))
+    src, out = tmp_path / "in.ply", tmp_path / "out.ply"
+    lodkit.save(mesh, src)
+    argv = ["simplify", str(src), str(out), "--max-distance", given] + (["--absolute"] if absolute else [])
+    assert main(argv) == 0
+    line = capsys.readouterr().out
+    assert "both ways" in line and "stop: max_error" in line
+    diag = float(np.linalg.norm(mesh.vertices.max(0) - mesh.vertices.min(0)))
+    limit = {0.005: 0.005 * diag, 0.01: 0.01, "diag": 0.005 * diag, "rel": 0.01}[expect]
+    ev = lodkit.evaluate(mesh, lodkit.load(out), samples=30_000)
+    assert ev.distance.hausdorff * diag <= limit * (1 + REL_TOL) + EVAL_TOL * diag
+
+
+def test_cli_max_distance_usage(tmp_path, capsys):
+    from lodkit.cli import main
+
+    src = tmp_path / "in.ply"
+    lodkit.save(grid(6), src)
+    assert main(["simplify", str(src), str(tmp_path / "o.ply"), "--max-distance", "1%", "--max-error", "0.1"]) != 0
+    assert "not both" in capsys.readouterr().err
+    assert main(["simplify", str(src), str(tmp_path / "o.ply"), "--max-distance", "x%"]) != 0

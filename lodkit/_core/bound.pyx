@@ -156,10 +156,15 @@ def triangle_covering_radius(t):
     return covering_radius(&a[0])
 
 
+#: sample points Bound takes at most (about 36 bytes each): beyond, ValueError
+MAX_POINTS = 20_000_000
+
+
 def sample_original(double[:, ::1] tris, double spacing):
     """(points (k, 3), slack (k,), triangle (k,)): the grid points of each triangle of
     ``tris`` (n, 9) at the level that brings its covering radius to ``spacing`` at most,
-    corners included; ``slack`` is the grid's covering radius."""
+    corners included; ``slack`` is the grid's covering radius.  ValueError when that takes
+    more than MAX_POINTS points."""
     cdef int n = tris.shape[0], i, lev
     cdef double h
     levels = np.empty(n, dtype=np.int64)
@@ -171,10 +176,12 @@ def sample_original(double[:, ::1] tris, double spacing):
         H[i] = h
         lev = 1
         if spacing > 0.0 and h > spacing:
-            lev = <int>ceil(h / spacing)
-            if lev > 4096:
-                lev = 4096
+            lev = <int>min(ceil(h / spacing), 1e6)
         L[i] = lev
+    total = int(((levels + 1) * (levels + 2) // 2).sum())
+    if total > MAX_POINTS:
+        raise ValueError(f"the error bound would sample the input with {total} points (at most {MAX_POINTS}): "
+                         f"max_error is small next to the input's triangles; raise max_error or sample_spacing")
     tri_np = np.asarray(tris)
     out_p, out_s, out_t = [], [], []
     for lev in np.unique(levels):

@@ -24,7 +24,7 @@ from .._pipeline import (
     progress_bar,
     run_chunked,
 )
-from ..errors import MetricError
+from ..errors import MetricError, OptionError
 from ..metrics import Batch
 from ..settings import BOUNDARY_POLICIES, COLLAPSE_OPERATORS, PLACEMENTS
 
@@ -81,15 +81,20 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
     if settings.get("error", ("qem",))[0] == "hausdorff":
         error_bound = (max_error, float(settings["sample_spacing"][0]))
         max_error = math.inf
-    collapser = EdgeCollapser(
-        hm, None, work.vdata, work.attributes, work.fixed,
-        placement=PLACEMENTS[settings["placement"][0]], boundary=BOUNDARY_POLICIES[settings["boundary"][0]],
-        max_normal_angle=float(settings["max_normal_angle"][0]), min_quality=float(settings["min_quality"][0]),
-        max_error=max_error, record=bool(record),
-        closed_connected=closed_connected(hm),
-        use_heap=not compiled.batch and not passes, seam_partners=work.seams, operator=COLLAPSE_OPERATORS[operator],
-        error_bound=error_bound, **compiled.core,
-    )
+    try:
+        collapser = EdgeCollapser(
+            hm, None, work.vdata, work.attributes, work.fixed,
+            placement=PLACEMENTS[settings["placement"][0]], boundary=BOUNDARY_POLICIES[settings["boundary"][0]],
+            max_normal_angle=float(settings["max_normal_angle"][0]), min_quality=float(settings["min_quality"][0]),
+            max_error=max_error, record=bool(record),
+            closed_connected=closed_connected(hm),
+            use_heap=not compiled.batch and not passes, seam_partners=work.seams, operator=COLLAPSE_OPERATORS[operator],
+            error_bound=error_bound, **compiled.core,
+        )
+    except ValueError as exc:
+        if error_bound is not None and str(exc).startswith("the error bound"):
+            raise OptionError(str(exc)) from None
+        raise
     raise_if_failed(collapser, compiled)
     if work.seams is not None:
         work.n_seam_fixed = collapser.n_seam_fixed      # seam ends stay too (EdgeCollapser)
