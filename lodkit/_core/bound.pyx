@@ -432,51 +432,76 @@ cdef class Bound:
     cdef double face_value(self, const double* t) noexcept nogil:
         """A certified upper bound (<= eps) on the distance of triangle ``t``'s points to
         the original, or -1 when none is found (a corner of a piece is farther than eps,
-        or the subdivision ran out of levels)."""
+        or the subdivision ran out of levels).
+
+        Each piece is accepted by one of two certificates: (a) one original triangle within
+        eps of its three corners (convexity: then of all of it; exact, tried first on the
+        face itself), (b) its corners within eps - h of the original, h its covering
+        radius (the triangle inequality).  Otherwise it splits in four at its edges'
+        midpoints.  The corners' distances go down to the pieces that share them."""
         cdef double st[9 * (3 * BOUND_MAX_DEPTH + 4)]
+        cdef double du[3 * (3 * BOUND_MAX_DEPTH + 4)]   # the corners' squared distances (see nearest2)
         cdef int dep[3 * BOUND_MAX_DEPTH + 4]
         cdef double mid[9]
+        cdef double dm[3]
+        cdef double pd[3]
         cdef double* s
         cdef double* o
+        cdef double* u
         cdef int n = 1, d, i, c
-        cdef double worst2 = 0.0, b, hs, lim2, u, mx
-        cdef bint ok
+        cdef double worst2 = 0.0, b, hs, lim2, mx, v
         for i in range(9):
             st[i] = t[i]
+        # the face's corners: the caller's p was found within eps; the others are vertices
+        # of the current mesh (certified already) -- measured all the same
+        for c in range(3):
+            du[c] = self.nearest2(&t[3 * c], 0.0)
+            if du[c] > self.eps2:
+                return -1.0
         dep[0] = 0
         while n > 0:
             n -= 1
             s = &st[9 * n]
+            u = &du[3 * n]
             d = dep[n]
-            b = self.cover2(s, self.eps2)
-            if b <= self.eps2:
-                if b > worst2:
-                    worst2 = b
-                continue
-            # the triangle inequality: corners within eps - h(t)
+            if d == 0:
+                b = self.cover2(s, self.eps2)
+                if b <= self.eps2:
+                    if b > worst2:
+                        worst2 = b
+                    continue
             hs = covering_radius(s)
-            ok = hs < self.eps
-            mx = 0.0
-            lim2 = sq(self.eps - hs) if ok else 0.0
-            for c in range(3):
-                u = self.nearest2(&s[3 * c], lim2)
-                if u > self.eps2:
-                    return -1.0                       # a point of the face is too far
-                if u > lim2:
-                    ok = False
-                if u > mx:
-                    mx = u
-            if ok:
-                u = sq(sqrt(mx) + hs)
-                if u > worst2:
-                    worst2 = u
+            mx = u[0]
+            if u[1] > mx:
+                mx = u[1]
+            if u[2] > mx:
+                mx = u[2]
+            if hs < self.eps and mx <= sq(self.eps - hs):
+                v = sq(sqrt(mx) + hs)
+                if v > worst2:
+                    worst2 = v
                 continue
+            if d > 0:
+                b = self.cover2(s, self.eps2)
+                if b <= self.eps2:
+                    if b > worst2:
+                        worst2 = b
+                    continue
             if d >= BOUND_MAX_DEPTH:
                 return -1.0
             for i in range(3):
                 mid[i] = 0.5 * (s[i] + s[3 + i])           # ab
                 mid[3 + i] = 0.5 * (s[3 + i] + s[6 + i])   # bc
                 mid[6 + i] = 0.5 * (s[6 + i] + s[i])       # ca
+            # the children's covering radius is half this one's: the distances they need
+            lim2 = sq(self.eps - 0.5 * hs) if 0.5 * hs < self.eps else 0.0
+            for c in range(3):
+                dm[c] = self.nearest2(&mid[3 * c], lim2)
+                if dm[c] > self.eps2:
+                    return -1.0                       # a point of the face is too far
+            pd[0] = u[0]
+            pd[1] = u[1]
+            pd[2] = u[2]
             # four children over slot n..n+3 (slot n is s itself: copy its corners first)
             o = &st[9 * (n + 1)]
             for i in range(3):
@@ -492,6 +517,17 @@ cdef class Bound:
             for i in range(3):                 # (a, ab, ca) in place
                 s[3 + i] = mid[i]
                 s[6 + i] = mid[6 + i]
+            u[1] = dm[0]
+            u[2] = dm[2]
+            du[3 * (n + 1)] = dm[0]
+            du[3 * (n + 1) + 1] = pd[1]
+            du[3 * (n + 1) + 2] = dm[1]
+            du[3 * (n + 2)] = dm[2]
+            du[3 * (n + 2) + 1] = dm[1]
+            du[3 * (n + 2) + 2] = pd[2]
+            du[3 * (n + 3)] = dm[0]
+            du[3 * (n + 3) + 1] = dm[1]
+            du[3 * (n + 3) + 2] = dm[2]
             for i in range(4):
                 dep[n + i] = d + 1
             n += 4
