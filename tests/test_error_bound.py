@@ -377,3 +377,20 @@ def test_cli_max_distance_usage(tmp_path, capsys):
     assert main(["simplify", str(src), str(tmp_path / "o.ply"), "--max-distance", "1%", "--max-error", "0.1"]) != 0
     assert "not both" in capsys.readouterr().err
     assert main(["simplify", str(src), str(tmp_path / "o.ply"), "--max-distance", "x%"]) != 0
+
+
+# ----------------------------------------------------------------- metrics and seams
+
+
+@pytest.mark.parametrize("metric", ["qem_native", "curvature", "appearance"])
+def test_other_metrics_and_seams(metric):
+    """Native kernels (the pass driver's one-thread mode) and attribute quadrics, on a mesh
+    with uv seams (their pairs collapse together, both checked before either is done)."""
+    from conftest import shared_mesh
+
+    mesh = lodkit.load(shared_mesh("spot_triangulated.obj"))
+    res = lodkit.simplify(mesh, max_error=0.01, error="hausdorff", metric=metric)
+    assert res.report["seams"]["pair_collapses"] > 0
+    assert res.mesh.n_faces < mesh.n_faces // 4
+    ev = lodkit.evaluate(mesh, res.mesh, samples=30_000)
+    assert ev.distance.hausdorff <= res.bound.relative * (1 + REL_TOL) + EVAL_TOL
