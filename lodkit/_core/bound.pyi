@@ -4,6 +4,9 @@ import numpy as np
 
 from .halfedge import HalfEdgeMesh
 
+#: sample points Bound takes at most (beyond, ValueError)
+MAX_POINTS: int
+
 def triangle_covering_radius(t: np.ndarray) -> float:
     """The farthest a point of triangle ``t`` (9,) is from its nearest corner."""
 
