@@ -1142,20 +1142,30 @@ cdef class EdgeCollapser:
         if self.bound is None or self.released:
             return 0
         cdef Bound b = self.bound
-        cdef int e, h, r, hs, k, n = 0
+        cdef int e, h, r, hs, k, rs, ks, n = 0
         cdef double p[3]
+        cdef double dv2[2]
         cdef double cost, err, dv
         cdef bint ok
         for e in range(self.hm.n_edges):
             if not self.m.edge_alive[e]:
                 continue
-            if self.plan(e, &h, &r, &hs, p, &cost, &err) != 0 or hs >= 0:
+            if self.plan(e, &h, &r, &hs, p, &cost, &err) != 0:
                 continue
             k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
-            if not self.hm.link_ok(h):
-                continue
             self.bound = None
-            ok = self.geometry_ok(h, r, k, p, -1, -1, &dv)
+            if hs >= 0:
+                if self.m.edge[h] != e:
+                    self.bound = b
+                    continue              # a seam pair counts once, as side a's edge
+                rs = self.SP[r]
+                ks = self.seam_kept(hs, rs)
+                ok = self.pair_ok(h, r, k, hs, rs, ks, p, dv2)
+                self.bound = b
+                if ok and (not b.check(h, r, k, p) or not b.check(hs, rs, ks, p)):
+                    n += 1
+                continue
+            ok = self.hm.link_ok(h) and self.geometry_ok(h, r, k, p, -1, -1, &dv)
             self.bound = b
             if ok and not b.check(h, r, k, p):
                 n += 1
