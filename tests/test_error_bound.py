@@ -392,5 +392,6 @@ def test_other_metrics_and_seams(metric):
     res = lodkit.simplify(mesh, max_error=0.01, error="hausdorff", metric=metric)
     assert res.report["seams"]["pair_collapses"] > 0
     assert res.mesh.n_faces < mesh.n_faces // 4
+    assert res.stop_reason == "max_error"
     ev = lodkit.evaluate(mesh, res.mesh, samples=30_000)
     assert ev.distance.hausdorff <= res.bound.relative * (1 + REL_TOL) + EVAL_TOL
