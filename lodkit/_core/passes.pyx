@@ -408,10 +408,10 @@ cdef class PassDriver:
     cdef HEArrays* m
     cdef float[::1] cost            # (n_edges,) ranked cost, float32: orders the pass only
     cdef unsigned char[::1] state   # (n_edges,) ST_*
-    cdef int[::1] live              # live edges, compacted once a pass
-    cdef int n_live
-    cdef Keyed[::1] keyed_buf
+    cdef int ne                     # edge slots (dead ones are skipped where they come up)
+    cdef Keyed[::1] keyed_buf       # (kmax,) the candidates of a pass, in (cost, edge) order
     cdef int[::1] hist
+    cdef int[::1] hist_low          # histogram of the lower 16 cost bits of select()'s last bucket
     # one row per candidate of a pass (at most ceil(live edges / fraction)): its plan and
     # checks. plan_he (kmax, 4): h, removed, seam partner half-edge (-1: none), check
     cdef int[:, ::1] plan_he
@@ -446,14 +446,10 @@ cdef class PassDriver:
         cdef int nv = collapser.hm.n_vertices
         self.cost = np.zeros(max(ne, 1), dtype=np.float32)
         self.state = np.zeros(max(ne, 1), dtype=np.uint8)
-        self.live = np.nonzero(np.asarray(collapser.hm.edge_alive, dtype=bool))[0].astype(np.intc)
-        if self.live.shape[0] == 0:
-            self.live = np.zeros(1, dtype=np.intc)
-            self.n_live = 0
-        else:
-            self.n_live = self.live.shape[0]
-        self.keyed_buf = np.zeros(max(self.n_live, 1), dtype=[("cost", np.float32), ("edge", np.intc)])
+        self.ne = ne
+        cdef int n_alive = int(np.count_nonzero(np.asarray(collapser.hm.edge_alive, dtype=bool)))
         self.hist = np.zeros(N_BUCKETS, dtype=np.intc)
+        self.hist_low = np.zeros(N_BUCKETS, dtype=np.intc)
         self.n_passes = 0
         self.n_deferred = 0
         self.n_late = 0
@@ -463,7 +459,8 @@ cdef class PassDriver:
         # rings wherever they are: those run every pass in plain cost order, on one thread
         self.single = collapser.kernel is not None or collapser.hm.has_copies
         self.threads = threads if not self.single and threads > 1 else 1
-        self.kmax = <int>((self.n_live + fraction - 1.0) / fraction) + 1
+        self.kmax = <int>((n_alive + fraction - 1.0) / fraction) + 1
+        self.keyed_buf = np.zeros(self.kmax, dtype=[("cost", np.float32), ("edge", np.intc)])
         self.plan_he = np.zeros((self.kmax, 4), dtype=np.intc)
         self.plan_x = np.zeros((self.kmax, 6), dtype=np.float64)
         self.rec_faces = np.zeros((self.kmax if collapser.rec.on else 1, 2), dtype=np.intc)
@@ -485,14 +482,14 @@ cdef class PassDriver:
         """Plan every dirty live edge: its cost, or why it may not go.  Each edge writes its
         own slots only, so the result does not depend on the number of threads."""
         cdef int i, n, b = 0
-        while b < self.n_live:               # in blocks: Ctrl-C is heard between them
-            n = min(b + 16 * INTERRUPT_EVERY, self.n_live)
+        while b < self.ne:                   # in blocks: Ctrl-C is heard between them
+            n = min(b + 16 * INTERRUPT_EVERY, self.ne)
             if self.threads > 1:
                 for i in prange(b, n, num_threads=self.threads, schedule="static"):
-                    self.rank_one(self.live[i])
+                    self.rank_one(i)
             else:
                 for i in range(b, n):
-                    self.rank_one(self.live[i])
+                    self.rank_one(i)
                     if self.c.failed:
                         return
             if signal_pending():
@@ -504,7 +501,7 @@ cdef class PassDriver:
         cdef int h, r, hs, rc
         cdef double c, err
         cdef double p[3]
-        if self.state[e] != ST_DIRTY:
+        if self.state[e] != ST_DIRTY or not self.m.edge_alive[e]:
             return
         # without an error limit the ranking needs no error (nor the provenance the core
         # works out with it): check() plans the candidates of a pass again, in full
@@ -521,49 +518,84 @@ cdef class PassDriver:
             self.cost[e] = <float>c
 
     cdef int compact(self) noexcept nogil:
-        """Drop dead edges from the live list; returns the number of valid candidates and
-        fills the cost histogram of those."""
-        cdef int i, e, n = 0, valid = 0
+        """The number of valid candidates (live edges ranked within the limit), and the
+        histogram of their costs."""
+        cdef int e, valid = 0
         memset(&self.hist[0], 0, N_BUCKETS * sizeof(int))
-        for i in range(self.n_live):
-            e = self.live[i]
-            if not self.m.edge_alive[e]:
-                continue
-            self.live[n] = e
-            n += 1
-            if self.state[e] == ST_VALID:
+        for e in range(self.ne):
+            if self.state[e] == ST_VALID and self.m.edge_alive[e]:
                 valid += 1
                 self.hist[bucket_of(self.cost[e])] += 1
-        self.n_live = n
         return valid
 
     cdef int select(self, int k) noexcept nogil:
-        """The K cheapest valid candidates, sorted by (cost, edge), into keyed_buf; returns
-        how many were gathered (>= k: the whole bucket holding the K-th is taken, and the
-        caller uses the first k).  A counting sort by bucket (the live list is in edge
-        order, so each bucket fills in edge order), then each bucket sorted by cost: the
-        order is (cost, edge) whatever the buckets hold."""
-        cdef int b, last, acc = 0, i, e, n, start, size, big = 0
-        cdef unsigned int bk
+        """The k cheapest valid candidates, sorted by (cost, edge), into keyed_buf; returns
+        how many were gathered (>= k: the whole bucket holding the k-th is taken when it
+        fits, and the caller uses the first k).  A counting sort by bucket (edges are
+        visited in edge order, so each bucket fills in edge order), then each bucket sorted
+        by cost: the order is (cost, edge) whatever the buckets hold.  When the bucket of
+        the k-th does not fit in keyed_buf (kmax rows), only its share of the k is kept,
+        through a histogram of the lower 16 cost bits within that bucket (the same bits are
+        the same cost, and those come in edge order): the same k, in the same order."""
+        cdef int b, last, acc = 0, e, n, start, size, big = 0, before, need, last2 = 0, take = 0
+        cdef unsigned int bk, lo
+        cdef bint cut = False
         cdef Keyed* tmp
         for last in range(N_BUCKETS):
             acc += self.hist[last]
             if acc >= k:
                 break
         n = acc
+        before = n - self.hist[last]
+        if n > self.keyed_buf.shape[0]:
+            if last >= FINITE_BUCKETS:
+                return self.select_wide(k, last, n)
+            # bucket `last` overflows: find the low 16 bits of the k-th within it
+            cut = True
+            need = k - before
+            memset(&self.hist_low[0], 0, N_BUCKETS * sizeof(int))
+            for e in range(self.ne):
+                if (self.state[e] == ST_VALID and self.m.edge_alive[e]
+                        and bucket_of(self.cost[e]) == <unsigned int>last):
+                    self.hist_low[cost_bits(self.cost[e]) & 0xFFFF] += 1
+            acc = 0
+            for last2 in range(N_BUCKETS):
+                if acc + self.hist_low[last2] >= need:
+                    break
+                acc += self.hist_low[last2]
+            take = need - acc                  # of the entries with exactly the k-th's cost
+            acc = before                       # hist_low: write positions within the bucket
+            for b in range(last2 + 1):
+                size = self.hist_low[b]
+                self.hist_low[b] = acc
+                acc += size
+            n = k
         acc = 0
         for b in range(last + 1):             # hist becomes each bucket's write position
             size = self.hist[b]
             self.hist[b] = acc
             acc += size
-        for i in range(self.n_live):
-            e = self.live[i]
-            if self.state[e] == ST_VALID:
-                bk = bucket_of(self.cost[e])
-                if bk <= <unsigned int>last:
-                    self.keyed_buf[self.hist[bk]].cost = self.cost[e]
-                    self.keyed_buf[self.hist[bk]].edge = e
-                    self.hist[bk] += 1
+        for e in range(self.ne):
+            if self.state[e] != ST_VALID or not self.m.edge_alive[e]:
+                continue
+            bk = bucket_of(self.cost[e])
+            if bk > <unsigned int>last:
+                continue
+            if bk < <unsigned int>last or not cut:
+                self.keyed_buf[self.hist[bk]].cost = self.cost[e]
+                self.keyed_buf[self.hist[bk]].edge = e
+                self.hist[bk] += 1
+                continue
+            lo = cost_bits(self.cost[e]) & 0xFFFF
+            if lo > <unsigned int>last2:
+                continue
+            if lo == <unsigned int>last2:
+                if take == 0:
+                    continue
+                take -= 1
+            self.keyed_buf[self.hist_low[lo]].cost = self.cost[e]
+            self.keyed_buf[self.hist_low[lo]].edge = e
+            self.hist_low[lo] += 1
         start = 0
         for b in range(last + 1):             # hist[b] is now the end of bucket b
             size = self.hist[b] - start
@@ -572,7 +604,7 @@ cdef class PassDriver:
             start = self.hist[b]
         tmp = <Keyed*>malloc(big * sizeof(Keyed)) if big > 16 else NULL
         start = 0
-        for b in range(last + 1):
+        for b in range(last if cut else last + 1):       # (a cut bucket is in order already)
             size = self.hist[b] - start
             if size > 16:
                 if tmp != NULL and b < FINITE_BUCKETS:
@@ -584,6 +616,43 @@ cdef class PassDriver:
             start = self.hist[b]
         free(tmp)
         return n
+
+    cdef int select_wide(self, int k, int last, int n) noexcept nogil:
+        """select() when the bucket of the k-th holds infinite, NaN or negative costs (a
+        kernel's) and does not fit in keyed_buf: all n gathered into a temporary buffer,
+        sorted by compare_keyed, the first k kept.  Without memory for that, the buckets
+        before and then that bucket's first entries in edge order (the same on every run)."""
+        cdef Keyed* all_ = <Keyed*>malloc(n * sizeof(Keyed))
+        cdef int e, i = 0
+        cdef unsigned int bk
+        if all_ != NULL:
+            for e in range(self.ne):
+                if self.state[e] == ST_VALID and self.m.edge_alive[e] and bucket_of(self.cost[e]) <= <unsigned int>last:
+                    all_[i].cost = self.cost[e]
+                    all_[i].edge = e
+                    i += 1
+            qsort(all_, i, sizeof(Keyed), compare_keyed)
+            memcpy(&self.keyed_buf[0], all_, k * sizeof(Keyed))
+            free(all_)
+            return k
+        for e in range(self.ne):
+            if self.state[e] != ST_VALID or not self.m.edge_alive[e]:
+                continue
+            bk = bucket_of(self.cost[e])
+            if bk < <unsigned int>last:
+                self.keyed_buf[i].cost = self.cost[e]
+                self.keyed_buf[i].edge = e
+                i += 1
+        qsort(&self.keyed_buf[0], i, sizeof(Keyed), compare_keyed)
+        for e in range(self.ne):
+            if i >= k:
+                break
+            if self.state[e] == ST_VALID and self.m.edge_alive[e] and bucket_of(self.cost[e]) == <unsigned int>last:
+                self.keyed_buf[i].cost = self.cost[e]
+                self.keyed_buf[i].edge = e
+                i += 1
+
+        return i
 
     cdef void dirty_ring(self, int k) noexcept nogil:
         """After a collapse kept k: its edges (and, for wide kernels, its neighbours' edges)
@@ -1052,14 +1121,15 @@ cdef class PassDriver:
                 # as the greedy driver does when its heap runs dry: rank every live edge
                 # again (a refusal can be lifted by a collapse two rings away, which
                 # dirtied nothing around it), and go on if that finds any
-                for i in range(self.n_live):
-                    self.state[self.live[i]] = ST_DIRTY
+                for i in range(self.ne):
+                    if self.m.edge_alive[i]:
+                        self.state[i] = ST_DIRTY
                 self.c.collapses_since_rescan = 0
                 continue
             if valid == 0:
                 over = 0
-                for i in range(self.n_live):
-                    if self.state[self.live[i]] == ST_OVER:
+                for i in range(self.ne):
+                    if self.state[i] == ST_OVER and self.m.edge_alive[i]:
                         over += 1
                 self.c.n_rejected_error = over
                 return RUN_EXHAUSTED
