@@ -413,9 +413,12 @@ cdef class PassDriver:
     cdef int[::1] hist
     cdef int[::1] hist_low          # histogram of the lower 16 cost bits of select()'s last bucket
     # one row per candidate of a pass (at most ceil(live edges / fraction)): its plan and
-    # checks. plan_he (kmax, 4): h, removed, seam partner half-edge (-1: none), check
+    # checks. plan_he (rows, 4): h, removed, seam partner half-edge (-1: none), check
     cdef int[:, ::1] plan_he
-    cdef double[:, ::1] plan_x       # (kmax, 6): position (3), cost, error, volume change
+    cdef double[:, ::1] plan_x       # (rows, 6): position (3), cost, error, volume change
+    # a row per candidate when the records are kept (reduce() writes them after stage 1,
+    # from the rows); else a row per block, used by one candidate after another
+    cdef bint keep_plans
     cdef int[:, ::1] rec_faces       # (kmax, 2): the faces a collapse of stage 1 removed
     cdef unsigned char[::1] cflag    # (kmax,) CF_*
     cdef int[::1] cblock             # (kmax,) the block of each candidate
@@ -461,8 +464,7 @@ cdef class PassDriver:
         self.threads = threads if not self.single and threads > 1 else 1
         self.kmax = <int>((n_alive + fraction - 1.0) / fraction) + 1
         self.keyed_buf = np.zeros(self.kmax, dtype=[("cost", np.float32), ("edge", np.intc)])
-        self.plan_he = np.zeros((self.kmax, 4), dtype=np.intc)
-        self.plan_x = np.zeros((self.kmax, 6), dtype=np.float64)
+        self.keep_plans = collapser.rec.on
         self.rec_faces = np.zeros((self.kmax if collapser.rec.on else 1, 2), dtype=np.intc)
         self.cflag = np.zeros(self.kmax, dtype=np.uint8)
         self.cblock = np.zeros(self.kmax, dtype=np.intc)
@@ -474,6 +476,9 @@ cdef class PassDriver:
         max_blocks = (nv + max(block // 8, 1) - 1) // max(block // 8, 1) + 1
         # (stage 1b's shifted blocks: one more than stage 1's)
         self.blk_start = np.zeros(max_blocks + 2, dtype=np.intc)
+        rows = self.kmax if self.keep_plans else max_blocks + 1
+        self.plan_he = np.zeros((rows, 4), dtype=np.intc)
+        self.plan_x = np.zeros((rows, 6), dtype=np.float64)
         self.acc_i = np.zeros((max_blocks + 1, 4), dtype=np.intc)
         self.acc_x = np.zeros((max_blocks + 1, 2), dtype=np.float64)
 
@@ -697,29 +702,29 @@ cdef class PassDriver:
                 return
             y = ny
 
-    cdef void check(self, int i) noexcept nogil:
+    cdef void check(self, int i, int pr) noexcept nogil:
         """Plan candidate ``i`` of the pass again (for its position, which ranking does not
-        keep) and run the checks on the current state; writes row i only."""
+        keep) and run the checks on the current state; writes plan row ``pr`` only."""
         cdef int e = self.keyed_buf[i].edge
         cdef int h, r, hs, k
         cdef double dvol = 0.0
-        cdef double* x = &self.plan_x[i, 0]
+        cdef double* x = &self.plan_x[pr, 0]
         if self.c.plan(e, &h, &r, &hs, x, &x[3], &x[4]) < 0:
-            self.plan_he[i, 3] = CK_NONE
+            self.plan_he[pr, 3] = CK_NONE
             return
-        self.plan_he[i, 0] = h
-        self.plan_he[i, 1] = r
-        self.plan_he[i, 2] = hs
+        self.plan_he[pr, 0] = h
+        self.plan_he[pr, 1] = r
+        self.plan_he[pr, 2] = hs
         if hs >= 0:
-            self.plan_he[i, 3] = CK_PAIR              # both sides: checked in order
+            self.plan_he[pr, 3] = CK_PAIR              # both sides: checked in order
             return
         k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
         if not self.c.hm.link_ok(h):
-            self.plan_he[i, 3] = CK_TOPOLOGY
+            self.plan_he[pr, 3] = CK_TOPOLOGY
         elif not self.c.geometry_ok(h, r, k, x, -1, -1, &dvol):
-            self.plan_he[i, 3] = CK_GEOMETRY
+            self.plan_he[pr, 3] = CK_GEOMETRY
         else:
-            self.plan_he[i, 3] = CK_OK
+            self.plan_he[pr, 3] = CK_OK
             x[5] = dvol
 
     cdef int group(self, int n_sel) noexcept nogil:
@@ -800,6 +805,7 @@ cdef class PassDriver:
         is written after the stage).  Returns the faces it removed (0: none); candidates
         that reach out of their block, and seam pairs, are left to the next stage."""
         cdef int b = self.cblock[i]
+        cdef int pr = i if self.keep_plans else b         # the plan row
         cdef int e = self.keyed_buf[i].edge
         cdef int h, u, v, r, k, st, faces
         cdef int dead[3]
@@ -814,18 +820,18 @@ cdef class PassDriver:
         if self.n_blocks > 1 and not self.inside(u, v, b * self.bsize - shift):
             self.cflag[i] = CF_DEFER
             return 0
-        self.check(i)
-        st = self.plan_he[i, 3]
+        self.check(i, pr)
+        st = self.plan_he[pr, 3]
         if st == CK_PAIR:
             self.cflag[i] = CF_DEFER
             return 0
         if st == CK_NONE:
             self.state[e] = ST_NONE
             return 0
-        h = self.plan_he[i, 0]
-        r = self.plan_he[i, 1]
+        h = self.plan_he[pr, 0]
+        r = self.plan_he[pr, 1]
         k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
-        x = &self.plan_x[i, 0]
+        x = &self.plan_x[pr, 0]
         if st == CK_TOPOLOGY:
             self.acc_i[b, 2] += 1
             self.refuse(e, r, k)
@@ -913,7 +919,7 @@ cdef class PassDriver:
         target; its records follow stage 1's).
         Stage 2: those that still reached out (and seam pairs), in cost order, on the
         state the stages before left, with the same rules."""
-        cdef int i, b, e, h, r, k, hs, rs, ks, st, stamp, row, faces_left, nb, half, n1 = 0
+        cdef int i, b, e, h, r, k, hs, rs, ks, st, stamp, row, faces_left, nb, half, pr, n1 = 0
         cdef double vol
         cdef double dv2[2]
         cdef double* x
@@ -1002,16 +1008,17 @@ cdef class PassDriver:
             h = self.m.edge_he[e]
             if self.c.touched[self.m.corner[h]] == stamp or self.c.touched[he_dest(self.m, h)] == stamp:
                 continue
-            self.check(i)
-            st = self.plan_he[i, 3]
+            pr = i if self.keep_plans else 0
+            self.check(i, pr)
+            st = self.plan_he[pr, 3]
             if st == CK_NONE:
                 self.state[e] = ST_NONE
                 continue
-            h = self.plan_he[i, 0]
-            r = self.plan_he[i, 1]
-            hs = self.plan_he[i, 2]
+            h = self.plan_he[pr, 0]
+            r = self.plan_he[pr, 1]
+            hs = self.plan_he[pr, 2]
             k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
-            x = &self.plan_x[i, 0]
+            x = &self.plan_x[pr, 0]
             if st == CK_TOPOLOGY:
                 self.c.n_rejected_topology += 1
                 self.refuse(e, r, k)
