@@ -33,7 +33,7 @@ edges in that order, skipping those with an end an earlier collapse of the same 
 (the kept vertex and its 1-ring; the 2-ring for wide kernels), so that every collapse sees the
 costs it was ranked with.  Each collapse is re-planned and checked as the heap driver's."""
 cimport cython
-from cython.parallel cimport prange
+from cython.parallel cimport prange, threadid
 from libc.math cimport isnan, INFINITY
 from libc.stdlib cimport qsort, malloc, free
 from libc.string cimport memcpy, memset
@@ -412,6 +412,7 @@ cdef class PassDriver:
     cdef Keyed[::1] keyed_buf       # (kmax,) the candidates of a pass, in (cost, edge) order
     cdef int[::1] hist
     cdef int[::1] hist_low          # histogram of the lower 16 cost bits of select()'s last bucket
+    cdef int[:, ::1] hist_t         # (threads, N_BUCKETS) rank()'s cost histograms
     # one row per candidate of a pass (at most ceil(live edges / fraction)): its plan and
     # checks. plan_he (rows, 4): h, removed, seam partner half-edge (-1: none), check
     cdef int[:, ::1] plan_he
@@ -462,6 +463,7 @@ cdef class PassDriver:
         # rings wherever they are: those run every pass in plain cost order, on one thread
         self.single = collapser.kernel is not None or collapser.hm.has_copies
         self.threads = threads if not self.single and threads > 1 else 1
+        self.hist_t = np.zeros((self.threads, N_BUCKETS), dtype=np.intc)
         self.kmax = <int>((n_alive + fraction - 1.0) / fraction) + 1
         self.keyed_buf = np.zeros(self.kmax, dtype=[("cost", np.float32), ("edge", np.intc)])
         self.keep_plans = collapser.rec.on
@@ -484,19 +486,27 @@ cdef class PassDriver:
 
     # ------------------------------------------------------------- named steps
     cdef void rank(self) noexcept nogil:
-        """Plan every dirty live edge: its cost, or why it may not go.  Each edge writes its
-        own slots only, so the result does not depend on the number of threads."""
-        cdef int i, n, b = 0
+        """Plan every dirty live edge: its cost, or why it may not go; and count the valid
+        candidates into a cost histogram per thread (``compact`` sums them).  Each edge
+        writes its own slots only, and the histograms are integer counts, so the result
+        does not depend on the number of threads."""
+        cdef int i, n, t, b = 0
+        memset(&self.hist_t[0, 0], 0, self.hist_t.shape[0] * N_BUCKETS * sizeof(int))
         while b < self.ne:                   # in blocks: Ctrl-C is heard between them
             n = min(b + 16 * INTERRUPT_EVERY, self.ne)
             if self.threads > 1:
                 for i in prange(b, n, num_threads=self.threads, schedule="static"):
                     self.rank_one(i)
+                    if self.state[i] == ST_VALID and self.m.edge_alive[i]:
+                        t = threadid()
+                        self.hist_t[t, bucket_of(self.cost[i])] += 1
             else:
                 for i in range(b, n):
                     self.rank_one(i)
                     if self.c.failed:
                         return
+                    if self.state[i] == ST_VALID and self.m.edge_alive[i]:
+                        self.hist_t[0, bucket_of(self.cost[i])] += 1
             if signal_pending():
                 self.interrupted = True
                 return
@@ -524,13 +534,14 @@ cdef class PassDriver:
 
     cdef int compact(self) noexcept nogil:
         """The number of valid candidates (live edges ranked within the limit), and the
-        histogram of their costs."""
-        cdef int e, valid = 0
-        memset(&self.hist[0], 0, N_BUCKETS * sizeof(int))
-        for e in range(self.ne):
-            if self.state[e] == ST_VALID and self.m.edge_alive[e]:
-                valid += 1
-                self.hist[bucket_of(self.cost[e])] += 1
+        histogram of their costs: the sum of rank()'s histograms."""
+        cdef int b, t, c, valid = 0
+        for b in range(N_BUCKETS):
+            c = 0
+            for t in range(self.hist_t.shape[0]):
+                c += self.hist_t[t, b]
+            self.hist[b] = c
+            valid += c
         return valid
 
     cdef int select(self, int k) noexcept nogil:
