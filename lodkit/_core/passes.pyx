@@ -312,6 +312,9 @@ cdef enum:
 cdef enum:
     N_BUCKETS = 65536   # histogram of the upper 16 bits of the float32 cost
 
+cdef enum:
+    SERIAL_TAIL = 256   # a pass that may reach the target takes its last few candidates one by one
+
 
 cdef inline unsigned int bucket_of(float c) noexcept nogil:
     cdef unsigned int bits
@@ -431,6 +434,7 @@ cdef class PassDriver:
     cdef int block                   # live vertices a block should hold
     cdef int bsize                   # vertex slots per block in this pass
     cdef int n_blocks
+    cdef int lo_i, hi_i              # the slice of the pass's candidates walk_block takes
     cdef readonly int n_passes
     cdef readonly long n_deferred    # candidates left to stage 2 (diagnostics)
     cdef readonly long n_late        # collapses done in stage 2 (diagnostics)
@@ -493,9 +497,11 @@ cdef class PassDriver:
         cdef int i, n, t, b = 0
         memset(&self.hist_t[0, 0], 0, self.hist_t.shape[0] * N_BUCKETS * sizeof(int))
         while b < self.ne:                   # in blocks: Ctrl-C is heard between them
-            n = min(b + 16 * INTERRUPT_EVERY, self.ne)
+            n = min(b + 64 * INTERRUPT_EVERY, self.ne)
             if self.threads > 1:
-                for i in prange(b, n, num_threads=self.threads, schedule="static"):
+                # dynamic chunks: a thread the system holds back delays the block's end by
+                # one chunk at most, not by its whole share (shared or loaded machines)
+                for i in prange(b, n, num_threads=self.threads, schedule="dynamic", chunksize=2048):
                     self.rank_one(i)
                     if self.state[i] == ST_VALID and self.m.edge_alive[i]:
                         t = threadid()
@@ -874,9 +880,70 @@ cdef class PassDriver:
         return faces
 
     cdef void walk_block(self, int b, int stamp, int shift) noexcept nogil:
-        cdef int j
+        """Block b's candidates numbered lo_i .. hi_i - 1, in cost order."""
+        cdef int j, i
         for j in range(self.blk_start[b], self.blk_start[b + 1]):
-            self.try_inside(self.blk_order[j], stamp, -1, shift)
+            i = self.blk_order[j]
+            if i < self.lo_i:
+                continue
+            if i >= self.hi_i:
+                break                          # a block's candidates come in cost order
+            self.try_inside(i, stamp, -1, shift)
+
+    cdef int run_stage(self, int n_sel, int stamp, int target_faces, bint to_target, int shift,
+                       unsigned char flag, int nb) noexcept nogil:
+        """Stage 1 (``shift`` 0) or 1b (half a block) over the grouped candidates, their
+        collapses flagged ``flag``.  Without a face target in reach, all blocks at once (on
+        several threads).  With one, in cost-order slices, each as long as the candidates
+        that cannot reach the target whatever they do (a collapse removes two faces at
+        most): each slice's blocks at once, since a slice taken block by block is the slice
+        taken in plain cost order; the last few candidates one by one, stopping exactly at
+        the target.  Records always come in cost order.  Returns the collapses done, or -1
+        (interrupted) or -2 (a kernel failed)."""
+        cdef int lo = 0, hi, i, b, st, row, safe, faces_left, n = 0
+        while lo < n_sel:
+            faces_left = self.c.hm.n_alive_faces
+            hi = n_sel
+            if to_target:
+                if faces_left <= target_faces:
+                    break
+                safe = (faces_left - target_faces - 1) // 2
+                if safe < SERIAL_TAIL:
+                    memset(&self.acc_i[0, 0], 0, nb * 4 * sizeof(int))
+                    memset(&self.acc_x[0, 0], 0, nb * 2 * sizeof(double))
+                    row = self.c.n_collapses
+                    for i in range(lo, n_sel):
+                        if faces_left <= target_faces:
+                            break
+                        if shift and self.cflag[i] != CF_PENDING_B:
+                            continue
+                        if (i & (INTERRUPT_EVERY - 1)) == INTERRUPT_EVERY - 1 and signal_pending():
+                            return -1           # abandons the pass: the run ends with the exception
+                        st = self.try_inside(i, stamp, row, shift)
+                        if self.c.failed:
+                            return -2
+                        if st > 0:
+                            faces_left -= st
+                            row += 1
+                    return n + self.reduce(False, flag, nb, lo, n_sel)
+                hi = min(n_sel, lo + safe)
+            memset(&self.acc_i[0, 0], 0, nb * 4 * sizeof(int))
+            memset(&self.acc_x[0, 0], 0, nb * 2 * sizeof(double))
+            self.lo_i = lo
+            self.hi_i = hi
+            if self.threads > 1:
+                for b in prange(nb, num_threads=self.threads, schedule="dynamic", chunksize=1):
+                    self.walk_block(b, stamp, shift)
+                if signal_pending():
+                    return -1
+            else:
+                for b in range(nb):
+                    self.walk_block(b, stamp, shift)
+                    if signal_pending():
+                        return -1
+            n += self.reduce(True, flag, nb, lo, hi)
+            lo = hi
+        return n
 
     cdef int group_shifted(self, int n_sel) noexcept nogil:
         """Stage 1b's blocks: the candidates stage 1 deferred, grouped (cost order kept) by
@@ -930,7 +997,7 @@ cdef class PassDriver:
         target; its records follow stage 1's).
         Stage 2: those that still reached out (and seam pairs), in cost order, on the
         state the stages before left, with the same rules."""
-        cdef int i, b, e, h, r, k, hs, rs, ks, st, stamp, row, faces_left, nb, half, pr, n1 = 0
+        cdef int i, b, e, h, r, k, hs, rs, ks, st, stamp, row, faces_left, nb, pr, n1 = 0
         cdef double vol
         cdef double dv2[2]
         cdef double* x
@@ -942,7 +1009,8 @@ cdef class PassDriver:
         faces_left = self.c.hm.n_alive_faces
         # ---- stage 1
         to_target = self.single or faces_left - 2 * n_sel <= target_faces
-        if to_target:
+        if self.single:
+            # kernels commit in order: plain cost order, the whole collapse at once
             for i in range(n_sel):
                 if faces_left <= target_faces:
                     break
@@ -955,55 +1023,25 @@ cdef class PassDriver:
                     faces_left -= st
                     row += 1
                     n1 += 1
-        elif self.threads > 1:
-            for b in prange(self.n_blocks, num_threads=self.threads, schedule="dynamic", chunksize=1):
-                self.walk_block(b, stamp, 0)
-            if signal_pending():
-                return RUN_INTERRUPTED
-        else:
-            for b in range(self.n_blocks):
-                self.walk_block(b, stamp, 0)
-                if signal_pending():
-                    return RUN_INTERRUPTED
-        if self.single:
             vol = self.c.closed_volume           # summed in block order, as reduce() does
             for b in range(self.n_blocks):
                 vol += self.acc_x[b, 0]
             if self.c.closed_volume != 0.0:
                 self.c.closed_volume = vol
         else:
-            n1 = self.reduce(not to_target, CF_DONE, self.n_blocks)
+            st = self.run_stage(n_sel, stamp, target_faces, to_target, 0, CF_DONE, self.n_blocks)
+            if st < 0:
+                return RUN_INTERRUPTED if st == -1 else RUN_ERROR
+            n1 = st
             # ---- stage 1b: the deferred candidates again, in the blocks shifted by half a
             # block (the same rules; most of those that reached over a border of stage 1's
             # blocks lie inside one of these), on several threads
-            if self.n_blocks > 1 and (target_faces < faces_left if to_target else True):
+            if self.n_blocks > 1 and self.c.hm.n_alive_faces > target_faces:
                 nb = self.group_shifted(n_sel)
-                half = self.bsize // 2
-                if to_target:
-                    for i in range(n_sel):
-                        if faces_left <= target_faces:
-                            break
-                        if self.cflag[i] != CF_PENDING_B:
-                            continue
-                        if (i & (INTERRUPT_EVERY - 1)) == INTERRUPT_EVERY - 1 and signal_pending():
-                            return RUN_INTERRUPTED
-                        st = self.try_inside(i, stamp, row, half)
-                        if self.c.failed:
-                            return RUN_ERROR
-                        if st > 0:
-                            faces_left -= st
-                            row += 1
-                elif self.threads > 1:
-                    for b in prange(nb, num_threads=self.threads, schedule="dynamic", chunksize=1):
-                        self.walk_block(b, stamp, half)
-                    if signal_pending():
-                        return RUN_INTERRUPTED
-                else:
-                    for b in range(nb):
-                        self.walk_block(b, stamp, half)
-                        if signal_pending():
-                            return RUN_INTERRUPTED
-                n1 += self.reduce(not to_target, CF_DONE_SHIFTED, nb)
+                st = self.run_stage(n_sel, stamp, target_faces, to_target, self.bsize // 2, CF_DONE_SHIFTED, nb)
+                if st < 0:
+                    return RUN_INTERRUPTED if st == -1 else RUN_ERROR
+                n1 += st
         # ---- stage 2
         for i in range(n_sel):
             if self.c.hm.n_alive_faces <= target_faces:
@@ -1066,10 +1104,11 @@ cdef class PassDriver:
             return RUN_TARGET
         return RUN_CHUNK
 
-    cdef int reduce(self, bint write_records, unsigned char flag, int n_blocks) noexcept nogil:
-        """After stage 1 (or 1b): the ``n_blocks`` blocks' tallies into the collapser's
-        counters, in block order; with ``write_records``, the records of the stage's
-        collapses (cflag ``flag``) in cost order.  Returns how many collapses the stage did."""
+    cdef int reduce(self, bint write_records, unsigned char flag, int n_blocks, int i0, int i1) noexcept nogil:
+        """After (a slice of) stage 1 or 1b: the ``n_blocks`` blocks' tallies into the
+        collapser's counters, in block order; with ``write_records``, the records of the
+        collapses of candidates i0 .. i1 - 1 (cflag ``flag``) in cost order.  Returns how many
+        collapses the tallies count."""
         cdef int b, i, j, h, k, r, row, n = 0, faces = 0
         cdef double vol = self.c.closed_volume
         for b in range(n_blocks):
@@ -1082,7 +1121,7 @@ cdef class PassDriver:
                 self.c.max_error_done = self.acc_x[b, 1]
         if write_records and self.c.rec.on:
             row = self.c.n_collapses
-            for i in range(self.kmax):
+            for i in range(i0, i1):
                 if row >= self.c.n_collapses + n:
                     break
                 if self.cflag[i] != flag:
