@@ -73,6 +73,24 @@ def test_lodkit_threads_environment(monkeypatch):
         lodkit.simplify(torus(), target_ratio=0.5, driver="pass")
 
 
+
+def test_omp_num_threads_is_the_default_after_lodkit_threads(monkeypatch):
+    """OpenMP's own variable counts (Dask's worker processes set it to 1, so a batch's
+    workers do not each start a thread per core); LODKIT_THREADS and threads= win over it,
+    and a value OpenMP would not take is ignored."""
+    monkeypatch.delenv("LODKIT_THREADS", raising=False)
+    monkeypatch.setenv("OMP_NUM_THREADS", "1")
+    r = lodkit.simplify(torus(), target_ratio=0.5, driver="pass")
+    assert r.report["settings"]["threads"] == {"value": 1, "from": "OMP_NUM_THREADS"}
+    monkeypatch.setenv("OMP_NUM_THREADS", "3,2")
+    assert lodkit.simplify(torus(), target_ratio=0.5).report["settings"]["threads"]["value"] == 3
+    monkeypatch.setenv("LODKIT_THREADS", "2")
+    assert lodkit.simplify(torus(), target_ratio=0.5).report["settings"]["threads"]["from"] == "LODKIT_THREADS"
+    assert lodkit.simplify(torus(), target_ratio=0.5, threads=4).report["settings"]["threads"]["from"] == "caller"
+    monkeypatch.delenv("LODKIT_THREADS")
+    monkeypatch.setenv("OMP_NUM_THREADS", "lots")
+    assert lodkit.simplify(torus(), target_ratio=0.5).report["settings"]["threads"]["from"] == "cores"
+
 # ------------------------------------------------------------------ determinism
 def test_same_output_for_any_thread_count():
     mesh = torus(80, 40)
