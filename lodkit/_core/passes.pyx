@@ -318,6 +318,9 @@ cdef enum:
     COARSE = 8          # stage 1c's blocks: this many of stage 1's
 
 cdef enum:
+    RANK_CHUNK = 2048   # edges a thread ranks at a time
+
+cdef enum:
     SERIAL_TAIL = 256   # a pass that may reach the target takes its last few candidates one by one
 
 
@@ -499,29 +502,41 @@ cdef class PassDriver:
         candidates into a cost histogram per thread (``compact`` sums them).  Each edge
         writes its own slots only, and the histograms are integer counts, so the result
         does not depend on the number of threads."""
-        cdef int i, n, t, b = 0
+        cdef int i, c, t, lo, hi
+        cdef int n_chunks = (self.ne + RANK_CHUNK - 1) // RANK_CHUNK
         memset(&self.hist_t[0, 0], 0, self.hist_t.shape[0] * N_BUCKETS * sizeof(int))
-        while b < self.ne:                   # in blocks: Ctrl-C is heard between them
-            n = min(b + 64 * INTERRUPT_EVERY, self.ne)
-            if self.threads > 1:
-                # dynamic chunks: a thread the system holds back delays the block's end by
-                # one chunk at most, not by its whole share (shared or loaded machines)
-                for i in prange(b, n, num_threads=self.threads, schedule="dynamic", chunksize=2048):
+        if self.threads > 1:
+            # one parallel region a pass, in dynamic chunks: a thread the system holds back
+            # (a loaded machine) delays the end by one chunk, not by its share; the calling
+            # thread (the team's thread 0) hears Ctrl-C, and then every thread skips the rest
+            for c in prange(n_chunks, num_threads=self.threads, schedule="dynamic", chunksize=1):
+                if self.interrupted:
+                    continue
+                t = threadid()
+                if t == 0 and (c & 31) == 31 and signal_pending():
+                    self.interrupted = True
+                    continue
+                lo = c * RANK_CHUNK
+                hi = min(lo + RANK_CHUNK, self.ne)
+                for i in range(lo, hi):
                     self.rank_one(i)
                     if self.state[i] == ST_VALID and self.m.edge_alive[i]:
-                        t = threadid()
                         self.hist_t[t, bucket_of(self.cost[i])] += 1
-            else:
-                for i in range(b, n):
-                    self.rank_one(i)
-                    if self.c.failed:
-                        return
-                    if self.state[i] == ST_VALID and self.m.edge_alive[i]:
-                        self.hist_t[0, bucket_of(self.cost[i])] += 1
-            if signal_pending():
+            if not self.interrupted and signal_pending():
+                self.interrupted = True
+            return
+        for c in range(n_chunks):
+            lo = c * RANK_CHUNK
+            hi = min(lo + RANK_CHUNK, self.ne)
+            for i in range(lo, hi):
+                self.rank_one(i)
+                if self.c.failed:
+                    return
+                if self.state[i] == ST_VALID and self.m.edge_alive[i]:
+                    self.hist_t[0, bucket_of(self.cost[i])] += 1
+            if (c & 31) == 31 and signal_pending():
                 self.interrupted = True
                 return
-            b = n
 
     cdef inline void rank_one(self, int e) noexcept nogil:
         cdef int h, r, hs, rc
