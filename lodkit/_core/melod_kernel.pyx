@@ -25,7 +25,7 @@ phi and the other readings of the paper.
 import numpy as np
 
 from ..metrics.base import face_vectors, vertex_sums
-from libc.math cimport sqrt, INFINITY
+from libc.math cimport sqrt, INFINITY, NAN
 
 from .halfedge cimport HEArrays, he_prev, he_dest, he_ring_next
 from .vec3 cimport sub3, cross3, dot3, norm3, same_point
@@ -71,14 +71,14 @@ cdef class MELODKernel(Kernel):
     cdef int phi_mode
     cdef bint use_importance
     cdef int accumulate
-    # key of each half-edge (o -> h) as last computed, valid while its origin is untouched:
-    # a half-edge collapse moves no vertex, so key(o -> h) changes only when o's star does
-    cdef double[::1] hkey
+    # max(surface(o -> h), acc_o) of each half-edge as last computed (NaN: not computed since
+    # its origin was last touched).  A half-edge collapse moves no vertex, so it changes only
+    # when o's star does; the key is w_o times it (w_o changes only when o is touched)
     cdef double[::1] hacc
-    cdef int[::1] hstamp
-    cdef int[::1] vstamp
-    cdef int stamp
-    cdef double[:, ::1] fn           # per face: (b - a) x (c - a) (twice the area times the normal), |.|
+    # per face slot: the corner a of its face vector (b - a) x (c - a), taken from the
+    # positions when needed (8 bits a face instead of 4 cached doubles): the corner of the
+    # kept vertex after a collapse around it, 0 before (the numbers the cache held)
+    cdef unsigned char[::1] fcorner
     cdef int ring[RING_MAX]          # neighbours of the removed end of the last placed collapse
     cdef int ring_len                # -1: too many, commit() uses the kept vertex's 1-ring
     cdef int changed_buf[RING_MAX]   # the vertices commit() names to the driver (place() reuses ring)
@@ -105,33 +105,30 @@ cdef class MELODKernel(Kernel):
         self.weight = float(options.get("weight", 1.0))
         self.acc = np.zeros(n, dtype=np.float64)
         cr = ctx.face_vectors()                       # (b - a) x (c - a) per face slot
-        fn = np.empty((cr.shape[0], 4))
-        fn[:, :3] = cr
-        fn[:, 3] = np.linalg.norm(cr, axis=1)
-        self.wv = np.ascontiguousarray(_importance(cr, fn[:, 3], ctx.faces, n), dtype=np.float64)
-        self.fn = fn
+        self.wv = np.ascontiguousarray(_importance(cr, np.linalg.norm(cr, axis=1), ctx.faces, n),
+                                       dtype=np.float64)
+        del cr
         self.cache_edge = -1
-        nh = 3 * ctx.halfedge.n_faces
-        self.hkey = np.zeros(nh, dtype=np.float64)
-        self.hacc = np.zeros(nh, dtype=np.float64)
-        self.hstamp = np.zeros(nh, dtype=np.intc)
-        self.vstamp = np.ones(n, dtype=np.intc)
-        self.stamp = 1
+        nf = ctx.halfedge.n_faces
+        self.fcorner = np.zeros(nf, dtype=np.uint8)   # numpy's face vectors are from corner 0
+        self.hacc = np.full(3 * nf, np.nan, dtype=np.float64)
 
     # ------------------------------------------------------------------ the measures
     cdef double importance(self, const KernelMesh* m, int v) noexcept nogil:
-        """w_v = 1 - |sum A_i n_i| / sum A_i over the live star of v."""
+        """w_v = 1 - |sum A_i n_i| / sum A_i over the live star of v; forgets the cached
+        costs of v's half-edges (touch() calls it when v's star changed)."""
         cdef const HEArrays* a = m.he
         cdef int start = a.v_he[v]
         cdef int y = start
-        cdef int f
+        cdef double fv[4]
         cdef double s0 = 0.0, s1 = 0.0, s2 = 0.0, total = 0.0, w
         while True:
-            f = y // 3
-            s0 += self.fn[f, 0]
-            s1 += self.fn[f, 1]
-            s2 += self.fn[f, 2]
-            total += self.fn[f, 3]
+            self.face_vector(m, y // 3, fv)
+            s0 += fv[0]
+            s1 += fv[1]
+            s2 += fv[2]
+            total += fv[3]
+            self.hacc[y] = NAN           # v's star changed: its half-edges' costs are stale
             y = he_ring_next(a, y)
             if y < 0 or y == start:
                 break
@@ -140,25 +137,28 @@ cdef class MELODKernel(Kernel):
         w = 1.0 - sqrt(s0 * s0 + s1 * s1 + s2 * s2) / total
         return w if w > 0.0 else 0.0
 
+    cdef inline void face_vector(self, const KernelMesh* m, int f, double* out) noexcept nogil:
+        """out[0:3] = (b - a) x (c - a) of face f from its corner a = fcorner[f] (b, c the
+        next corners), out[3] = its length: twice the area times the normal."""
+        cdef const int* c = &m.he.corner[3 * f]
+        cdef int i = self.fcorner[f]
+        cdef const double* P = m.positions
+        cdef int s = m.stride
+        cdef const double* p0 = &P[s * c[i]]
+        cdef double e1[3]
+        cdef double e2[3]
+        sub3(&P[s * c[(i + 1) % 3]], p0, e1)
+        sub3(&P[s * c[(i + 2) % 3]], p0, e2)
+        cross3(e1, e2, out)
+        out[3] = norm3(out)
+
     cdef void update_faces(self, const KernelMesh* m, int v) noexcept nogil:
-        """Recompute the cached (b - a) x (c - a) and its length of the faces around v."""
+        """Take the face vectors of the faces around v from v's corner from now on."""
         cdef const HEArrays* a = m.he
         cdef int start = a.v_he[v]
         cdef int y = start
-        cdef int f
-        cdef double e1[3]
-        cdef double e2[3]
-        cdef double n[3]
-        cdef const double* p0 = &m.positions[m.stride * v]
         while True:
-            f = y // 3
-            sub3(&m.positions[m.stride * he_dest(a, y)], p0, e1)
-            sub3(&m.positions[m.stride * a.corner[he_prev(y)]], p0, e2)
-            cross3(e1, e2, n)
-            self.fn[f, 0] = n[0]
-            self.fn[f, 1] = n[1]
-            self.fn[f, 2] = n[2]
-            self.fn[f, 3] = norm3(n)
+            self.fcorner[y // 3] = y % 3            # corner[y] == v
             y = he_ring_next(a, y)
             if y < 0 or y == start:
                 break
@@ -168,10 +168,11 @@ cdef class MELODKernel(Kernel):
         cdef const HEArrays* a = m.he
         cdef int start = a.v_he[o]
         cdef int y = start
-        cdef int b, c, f
+        cdef int b, c
         cdef double e1[3]
         cdef double e2[3]
         cdef double n1[3]
+        cdef double n0[4]
         cdef double A0, A1, d, total = 0.0
         cdef const double* P = m.positions
         cdef const double* pb
@@ -182,16 +183,16 @@ cdef class MELODKernel(Kernel):
             if b != h and c != h:
                 # twice the areas and the unnormalised normals of t = (o, b, c), t' = (h, b, c):
                 # both share the edge b -> c
-                # t = (o, b, c) from the face cache; t' = (h, b, c): (c - b) x (h - b)
-                f = y // 3
+                # t = (o, b, c) from its face corner; t' = (h, b, c): (c - b) x (h - b)
+                self.face_vector(m, y // 3, n0)
                 pb = &P[s * b]
                 sub3(&P[s * c], pb, e1)
                 sub3(&P[s * h], pb, e2)
                 cross3(e1, e2, n1)
-                A0 = self.fn[f, 3]
+                A0 = n0[3]
                 A1 = norm3(n1)
                 if A0 > 0.0 and A1 > 0.0:
-                    d = 1.0 - (self.fn[f, 0] * n1[0] + self.fn[f, 1] * n1[1] + self.fn[f, 2] * n1[2]) / (A0 * A1)
+                    d = 1.0 - (n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2]) / (A0 * A1)
                 else:
                     d = 1.0           # a degenerate triangle before or after: full turn
                 total += 0.25 * (A0 + A1) * d          # areas are A/2: l_t = (A0 + A1) / 4
@@ -248,11 +249,12 @@ cdef class MELODKernel(Kernel):
     cdef double key(self, const KernelMesh* m, const Candidate* c, int o, int h, double* acc_out) noexcept nogil:
         cdef int he = c.h if o == c.u else m.he.twin[c.h]      # the half-edge o -> h, if any
         cdef double surf, w, bpen = 0.0, k
-        if he >= 0 and self.hstamp[he] == self.vstamp[o]:
-            acc_out[0] = self.hacc[he]
-            return self.hkey[he]
-        surf = self.surface(m, o, h)
         w = self.wv[o] if self.use_importance else 1.0
+        if he >= 0 and self.hacc[he] == self.hacc[he]:       # not NaN: o untouched since
+            surf = self.hacc[he]
+            acc_out[0] = surf
+            return w * surf
+        surf = self.surface(m, o, h)
         if self.accumulate != ACC_OFF and self.acc[o] > surf:
             surf = self.acc[o]
         acc_out[0] = surf
@@ -262,9 +264,7 @@ cdef class MELODKernel(Kernel):
             return w * (surf + bpen) if self.scale_boundary else w * surf + bpen
         k = w * surf
         if he >= 0:
-            self.hkey[he] = k
             self.hacc[he] = surf
-            self.hstamp[he] = self.vstamp[o]
         return k
 
     # ------------------------------------------------------------------ the kernel
@@ -376,11 +376,11 @@ cdef class MELODKernel(Kernel):
         return KERNEL_OK
 
     cdef void touch(self, const KernelMesh* m, int v, double acc) noexcept nogil:
+        """v's star changed: new importance, accumulated cost, and its half-edges' cached
+        costs forgotten (importance() does that on its walk round v)."""
         self.wv[v] = self.importance(m, v)
         if self.accumulate != ACC_OFF and acc > self.acc[v]:
             self.acc[v] = acc
-        self.stamp += 1
-        self.vstamp[v] = self.stamp
 
     @property
     def importance_values(self):
