@@ -75,9 +75,10 @@ cdef class MELODKernel(Kernel):
     # its origin was last touched).  A half-edge collapse moves no vertex, so it changes only
     # when o's star does; the key is w_o times it (w_o changes only when o is touched)
     cdef double[::1] hacc
-    # per face slot: the corner a of its face vector (b - a) x (c - a), taken from the
-    # positions when needed (8 bits a face instead of 4 cached doubles): the corner of the
-    # kept vertex after a collapse around it, 0 before (the numbers the cache held)
+    # per face slot, 2 bits (four faces a byte): the corner a of its face vector
+    # (b - a) x (c - a), taken from the positions when needed instead of 4 cached doubles:
+    # the corner of the kept vertex after a collapse around it, 0 before (the numbers the
+    # cache held)
     cdef unsigned char[::1] fcorner
     cdef int ring[RING_MAX]          # neighbours of the removed end of the last placed collapse
     cdef int ring_len                # -1: too many, commit() uses the kept vertex's 1-ring
@@ -107,7 +108,7 @@ cdef class MELODKernel(Kernel):
         self.wv = _slot_importance(ctx.positions, ctx.faces, n)
         self.cache_edge = -1
         nf = ctx.halfedge.n_faces
-        self.fcorner = np.zeros(nf, dtype=np.uint8)   # numpy's face vectors are from corner 0
+        self.fcorner = np.zeros((nf + 3) // 4, dtype=np.uint8)   # numpy's are from corner 0
         self.hacc = np.full(3 * nf, np.nan, dtype=np.float64)
 
     # ------------------------------------------------------------------ the measures
@@ -138,7 +139,7 @@ cdef class MELODKernel(Kernel):
         """out[0:3] = (b - a) x (c - a) of face f from its corner a = fcorner[f] (b, c the
         next corners), out[3] = its length: twice the area times the normal."""
         cdef const int* c = &m.he.corner[3 * f]
-        cdef int i = self.fcorner[f]
+        cdef int i = (self.fcorner[f >> 2] >> (2 * (f & 3))) & 3
         cdef const double* P = m.positions
         cdef int s = m.stride
         cdef const double* p0 = &P[s * c[i]]
@@ -154,8 +155,11 @@ cdef class MELODKernel(Kernel):
         cdef const HEArrays* a = m.he
         cdef int start = a.v_he[v]
         cdef int y = start
+        cdef int f, sh
         while True:
-            self.fcorner[y // 3] = y % 3            # corner[y] == v
+            f = y // 3
+            sh = 2 * (f & 3)
+            self.fcorner[f >> 2] = (self.fcorner[f >> 2] & ~(3 << sh)) | ((y % 3) << sh)   # corner[y] == v
             y = he_ring_next(a, y)
             if y < 0 or y == start:
                 break
