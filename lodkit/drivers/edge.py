@@ -106,6 +106,7 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
             status = run_chunked(driver, hm, target, bar)
         rejected_error = collapser.n_rejected_error
         n_passes = driver.n_passes if passes else 0
+        del driver          # the pass driver's arrays go before release() copies the positions
     if bar:
         bar.close()
     raise_if_failed(collapser, compiled)
