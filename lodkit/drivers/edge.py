@@ -84,6 +84,7 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
         use_heap=not compiled.batch and not passes, seam_partners=work.seams, operator=COLLAPSE_OPERATORS[operator],
         **compiled.core,
     )
+    work.fixed = None           # the collapser's vertex flags hold it now
     raise_if_failed(collapser, compiled)
     if work.seams is not None:
         work.n_seam_fixed = collapser.n_seam_fixed      # seam ends stay too (EdgeCollapser)
