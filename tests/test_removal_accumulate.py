@@ -76,7 +76,7 @@ def test_convex_head_is_not_flattened(head, metric, ratio):
     assert h <= 8.0 * h_qem and m <= 6.0 * m_qem
     # no region shaved into a few flat faces: at 10% the worst deviation stays small (measured
     # volume 0.016, schroeder 0.006 of the diagonal)
-    if ratio == 0.1:
+    if ratio > 0.05:
         assert h < 0.035
 
 
