@@ -589,6 +589,8 @@ cdef class PassDriver:
                 break
         n = acc
         before = n - self.hist[last]
+        if self.threads > 1 and n <= self.keyed_buf.shape[0]:
+            return self.select_parallel(last, n)
         if n > self.keyed_buf.shape[0]:
             if last >= FINITE_BUCKETS:
                 return self.select_wide(k, last, n)
@@ -657,6 +659,57 @@ cdef class PassDriver:
                 insertion_sort(&self.keyed_buf[start], size)
             start = self.hist[b]
         free(tmp)
+        return n
+
+    cdef int select_parallel(self, int last, int n) noexcept nogil:
+        """select() on several threads when every candidate up to bucket ``last`` fits
+        (n of them): each thread counts, then writes, the candidates of its range of edges
+        (ranges in edge order, so each bucket still fills in edge order), and the buckets
+        are sorted on threads.  The same order as one thread's."""
+        cdef int T = self.threads
+        cdef int per = (self.ne + T - 1) // T
+        cdef int t, b, e, lo, hi, pos, c, start, end, size
+        cdef unsigned int bk
+        cdef Keyed* tmp
+        for t in prange(T, num_threads=T, schedule="static", chunksize=1):
+            memset(&self.hist_t[t, 0], 0, (last + 1) * sizeof(int))
+            lo = t * per
+            hi = min(lo + per, self.ne)
+            for e in range(lo, hi):
+                if self.state[e] == ST_VALID and self.m.edge_alive[e]:
+                    bk = bucket_of(self.cost[e])
+                    if bk <= <unsigned int>last:
+                        self.hist_t[t, bk] += 1
+        pos = 0
+        for b in range(last + 1):             # hist: bucket starts; hist_t: each range's
+            self.hist[b] = pos
+            for t in range(T):
+                c = self.hist_t[t, b]
+                self.hist_t[t, b] = pos
+                pos += c
+        for t in prange(T, num_threads=T, schedule="static", chunksize=1):
+            lo = t * per
+            hi = min(lo + per, self.ne)
+            for e in range(lo, hi):
+                if self.state[e] == ST_VALID and self.m.edge_alive[e]:
+                    bk = bucket_of(self.cost[e])
+                    if bk <= <unsigned int>last:
+                        self.keyed_buf[self.hist_t[t, bk]].cost = self.cost[e]
+                        self.keyed_buf[self.hist_t[t, bk]].edge = e
+                        self.hist_t[t, bk] += 1
+        for b in prange(last + 1, num_threads=T, schedule="dynamic", chunksize=256):
+            start = self.hist[b]
+            end = self.hist[b + 1] if b < last else n
+            size = end - start
+            if size > 16:
+                tmp = <Keyed*>malloc(size * sizeof(Keyed)) if b < FINITE_BUCKETS else NULL
+                if tmp != NULL:
+                    radix_low16(&self.keyed_buf[start], size, tmp)
+                    free(tmp)
+                else:
+                    qsort(&self.keyed_buf[start], size, sizeof(Keyed), compare_keyed)
+            elif size > 1:
+                insertion_sort(&self.keyed_buf[start], size)
         return n
 
     cdef int select_wide(self, int k, int last, int n) noexcept nogil:
@@ -911,6 +964,38 @@ cdef class PassDriver:
                 break                          # a block's candidates come in cost order
             self.try_inside(i, stamp, -1, shift, flag)
 
+    cdef int stage(self, int n_sel, int stamp, int target_faces, bint to_target, int shift,
+                   unsigned char flag, int nb) noexcept nogil:
+        """A block stage (run_stage); with native kernels or split copies (``single``), its
+        candidates in plain cost order, each collapse whole at once (kernels commit in
+        order), the volume change summed over the stage's blocks afterwards as reduce()
+        does -- the same decisions as the blocks would take.  Returns the collapses, or -1
+        (interrupted) or -2 (a kernel failed)."""
+        cdef int i, b, st, n = 0
+        cdef int faces_left = self.c.hm.n_alive_faces
+        cdef double vol
+        if not self.single:
+            return self.run_stage(n_sel, stamp, target_faces, to_target, shift, flag, nb)
+        for i in range(n_sel):
+            if faces_left <= target_faces:
+                break
+            if flag != CF_DONE and self.cflag[i] != CF_PENDING_B:
+                continue
+            if (i & (INTERRUPT_EVERY - 1)) == INTERRUPT_EVERY - 1 and signal_pending():
+                return -1                       # abandons the pass: the run ends with the exception
+            st = self.try_inside(i, stamp, self.c.n_collapses, shift, flag)
+            if self.c.failed:
+                return -2
+            if st > 0:
+                faces_left -= st
+                n += 1
+        vol = self.c.closed_volume               # summed in block order, as reduce() does
+        for b in range(nb):
+            vol += self.acc_x[b, 0]
+        if self.c.closed_volume != 0.0:
+            self.c.closed_volume = vol
+        return n
+
     cdef int run_stage(self, int n_sel, int stamp, int target_faces, bint to_target, int shift,
                        unsigned char flag, int nb) noexcept nogil:
         """Stage 1 (``shift`` 0) or 1b (half a block) over the grouped candidates, their
@@ -1017,60 +1102,38 @@ cdef class PassDriver:
         slices when the pass may reach the target; the records follow stage 1's).
         Stage 2: those that still reached out (and seam pairs), in cost order, on the
         state the stages before left, with the same rules."""
-        cdef int i, b, e, h, r, k, hs, rs, ks, st, stamp, row, faces_left, nb, pr, fine, n1 = 0
-        cdef double vol
+        cdef int i, e, h, r, k, hs, rs, ks, st, stamp, faces_left, nb, pr, fine, n1 = 0
         cdef double dv2[2]
         cdef double* x
         cdef bint to_target
         self.c.pass_counter += 1
         stamp = self.c.pass_counter
         self.group(n_sel)
-        row = self.c.n_collapses
         faces_left = self.c.hm.n_alive_faces
         # ---- stage 1
         to_target = self.single or faces_left - 2 * n_sel <= target_faces
-        if self.single:
-            # kernels commit in order: plain cost order, the whole collapse at once
-            for i in range(n_sel):
-                if faces_left <= target_faces:
-                    break
-                if (i & (INTERRUPT_EVERY - 1)) == INTERRUPT_EVERY - 1 and signal_pending():
-                    return RUN_INTERRUPTED      # abandons the pass: the run ends with the exception
-                st = self.try_inside(i, stamp, row, 0, CF_DONE)
-                if self.c.failed:
-                    return RUN_ERROR
-                if st > 0:
-                    faces_left -= st
-                    row += 1
-                    n1 += 1
-            vol = self.c.closed_volume           # summed in block order, as reduce() does
-            for b in range(self.n_blocks):
-                vol += self.acc_x[b, 0]
-            if self.c.closed_volume != 0.0:
-                self.c.closed_volume = vol
-        else:
-            st = self.run_stage(n_sel, stamp, target_faces, to_target, 0, CF_DONE, self.n_blocks)
+        st = self.stage(n_sel, stamp, target_faces, to_target, 0, CF_DONE, self.n_blocks)
+        if st < 0:
+            return RUN_INTERRUPTED if st == -1 else RUN_ERROR
+        n1 = st
+        # ---- stage 1b: the deferred candidates again, in the blocks shifted by half a block
+        # (the same rules; most of those that reached over a border of stage 1's blocks lie
+        # inside one of these), then 1c: what is left, in blocks of COARSE blocks
+        if self.n_blocks > 1 and self.c.hm.n_alive_faces > target_faces:
+            nb = self.group_shifted(n_sel, self.bsize // 2)
+            st = self.stage(n_sel, stamp, target_faces, to_target, self.bsize // 2, CF_DONE_SHIFTED, nb)
             if st < 0:
                 return RUN_INTERRUPTED if st == -1 else RUN_ERROR
-            n1 = st
-            # ---- stage 1b: the deferred candidates again, in the blocks shifted by half a
-            # block (the same rules; most of those that reached over a border of stage 1's
-            # blocks lie inside one of these), on several threads
-            if self.n_blocks > 1 and self.c.hm.n_alive_faces > target_faces:
-                nb = self.group_shifted(n_sel, self.bsize // 2)
-                st = self.run_stage(n_sel, stamp, target_faces, to_target, self.bsize // 2, CF_DONE_SHIFTED, nb)
+            n1 += st
+            if self.c.hm.n_alive_faces > target_faces and self.n_blocks >= 2 * COARSE:
+                fine = self.bsize
+                self.bsize = fine * COARSE
+                nb = self.group_shifted(n_sel, 0)
+                st = self.stage(n_sel, stamp, target_faces, to_target, 0, CF_DONE_COARSE, nb)
+                self.bsize = fine
                 if st < 0:
                     return RUN_INTERRUPTED if st == -1 else RUN_ERROR
                 n1 += st
-                if self.c.hm.n_alive_faces > target_faces and self.n_blocks >= 2 * COARSE:
-                    fine = self.bsize
-                    self.bsize = fine * COARSE
-                    nb = self.group_shifted(n_sel, 0)
-                    st = self.run_stage(n_sel, stamp, target_faces, to_target, 0, CF_DONE_COARSE, nb)
-                    self.bsize = fine
-                    if st < 0:
-                        return RUN_INTERRUPTED if st == -1 else RUN_ERROR
-                    n1 += st
         # ---- stage 2
         for i in range(n_sel):
             if self.c.hm.n_alive_faces <= target_faces:
