@@ -28,11 +28,14 @@ REPO = HERE.parent
 sys.path.insert(0, str(HERE))
 from interrupts import demo_path  # noqa: E402
 
+# a label without a driver= runs the default driver (the pass driver for edge collapse)
 DRIVERS = {
     "qem": "lodkit.simplify(mesh, target_ratio=0.01)",
+    "qem, driver=greedy": "lodkit.simplify(mesh, target_ratio=0.01, driver='greedy')",
     "qem, driver=pass": "lodkit.simplify(mesh, target_ratio=0.01, driver='pass')",
     "triangle": "lodkit.simplify(mesh, target_ratio=0.01, operator='triangle')",
     "melod": "lodkit.simplify(mesh, target_ratio=0.01, metric='melod')",
+    "melod, driver=greedy": "lodkit.simplify(mesh, target_ratio=0.01, metric='melod', driver='greedy')",
     "schroeder": "lodkit.simplify(mesh, target_ratio=0.01, metric='schroeder')",
     "volume": "lodkit.simplify(mesh, target_ratio=0.01, metric='volume')",
 }

@@ -3,8 +3,12 @@
 ``qem`` (edge collapse) and VTK's ``vtkDecimatePro`` (the Schroeder-lineage peer).
 
 Every shared mesh (bunny, cow, fandisk, boot, colored_airplane, spot_triangulated, mountain,
-igea) is simplified to 10% and 2% of its faces by each method; positions and faces only
-(attributes are not part of this comparison).  Measured:
+igea) and the generated head-like surfaces of bench/head.py (``head100k``: smooth and mostly
+convex, ~100k faces; ``head100k_noisy``: the same with a scan's noise) are simplified to 10%
+and 2% of their faces by each method; positions and faces only (attributes are not part of
+this comparison).  ``schroeder`` / ``volume`` run with their defaults (lodkit's accumulated
+distance bound), ``schroeder_pure`` / ``volume_pure`` with the papers' memory-less rule
+(``accumulate="off"``).  Measured:
 
 * faces reached and, when short of the target, lodkit's ``stop_reason`` / ``stop_detail``
   (or vtkDecimatePro's own limit);
@@ -50,8 +54,16 @@ from common import run_worker  # noqa: E402
 BEGIN = "<!-- removal:begin -->"
 END = "<!-- removal:end -->"
 
-MESHES = ["bunny", "cow", "fandisk", "boot", "colored_airplane", "spot_triangulated", "mountain", "igea"]
-METHODS = ["qem", "schroeder", "volume", "vtk_decimate_pro"]
+MESHES = ["bunny", "cow", "fandisk", "boot", "colored_airplane", "spot_triangulated", "mountain", "igea",
+          "head100k", "head100k_noisy"]
+METHODS = ["qem", "schroeder", "volume", "schroeder_pure", "volume_pure", "vtk_decimate_pro"]
+#: the metric= of each lodkit method
+METRIC = {"qem": "qem", "schroeder": "schroeder", "volume": "volume",
+          "schroeder_pure": ("schroeder", {"accumulate": "off"}), "volume_pure": ("volume", {"accumulate": "off"})}
+#: issue 17's targets for the removal metrics' defaults, as multiples of qem's error
+TARGET_H, TARGET_MEAN = 5.0, 3.0
+#: the generated meshes: name -> bench/head.py head() arguments
+GENERATED = {"head100k": {"n_faces": 100_000}, "head100k_noisy": {"n_faces": 100_000, "noise": 2e-4}}
 RATIOS = [0.1, 0.02]
 SPEED_LIMIT = 3.0
 LARGE = 20_000          # inputs with at least this many faces judge the speed claim
@@ -61,6 +73,8 @@ PARAMS = {
     "qem": "lodkit.simplify(mesh, target_faces=t)  (metric='qem', lodkit's defaults)",
     "schroeder": "lodkit.simplify(mesh, target_faces=t, metric='schroeder')",
     "volume": "lodkit.simplify(mesh, target_faces=t, metric='volume')",
+    "schroeder_pure": "lodkit.simplify(mesh, target_faces=t, metric=('schroeder', {'accumulate': 'off'}))",
+    "volume_pure": "lodkit.simplify(mesh, target_faces=t, metric=('volume', {'accumulate': 'off'}))",
     "vtk_decimate_pro": ("vtkDecimatePro: SetTargetReduction(1 - t/m), PreserveTopologyOn(), "
                          "SplittingOff(), BoundaryVertexDeletionOn(), FeatureAngle 15 (default), "
                          "MaximumError unlimited (default)"),
@@ -73,6 +87,19 @@ def _short(exc: BaseException) -> str:
 
 def _target(n_faces: int, ratio: float) -> int:
     return max(4, int(round(n_faces * ratio)))
+
+
+def load_arrays(name: str):
+    """(vertices, faces, source) of a shared mesh, or of a generated one (GENERATED)."""
+    if name in GENERATED:
+        from head import head
+
+        V, F = head(**GENERATED[name])
+        args = ", ".join(f"{k}={v!r}" for k, v in GENERATED[name].items())
+        return V, F, f"bench.head.head({args})"
+    from meshes import load_arrays as load_shared
+
+    return load_shared(name)
 
 
 # --------------------------------------------------------------------------------------
@@ -121,8 +148,6 @@ def _vtk_arrays(out):
 
 
 def worker(method: str, mesh: str, ratio: float, repeats: int, out_dir: Path) -> int:
-    from meshes import load_arrays
-
     status = {"method": method, "mesh": mesh, "ratio": ratio}
     try:
         V0, F0, _src = load_arrays(mesh)
@@ -147,10 +172,10 @@ def worker(method: str, mesh: str, ratio: float, repeats: int, out_dir: Path) ->
 
             status["version"] = lodkit.__version__
             mesh_in = lodkit.Mesh(V0, F0)
-            lodkit.simplify(mesh_in, target_faces=target, metric=method)         # warm-up, untimed
+            lodkit.simplify(mesh_in, target_faces=target, metric=METRIC[method])  # warm-up, untimed
             for r in range(repeats):
                 t0 = time.perf_counter()
-                res = lodkit.simplify(mesh_in, target_faces=target, metric=method)
+                res = lodkit.simplify(mesh_in, target_faces=target, metric=METRIC[method])
                 times.append(time.perf_counter() - t0)
                 if r == 0:
                     V, F = res.mesh.vertices, res.mesh.faces.astype(np.int64)
@@ -185,7 +210,6 @@ def run_case(method: str, mesh: str, ratio: float, repeats: int, timeout: float)
 # --------------------------------------------------------------------------------------
 
 def measure(meshes, methods, ratios, repeats, samples, timeout, log=print) -> dict:
-    from meshes import load_arrays
     from metro import Reference
 
     rows = []
@@ -247,12 +271,50 @@ def _stop(r: dict) -> str:
     return _esc(f"{r.get('stop_reason')}" + (f": {detail}" if detail else ""))[:200]
 
 
+def _ratios_to_qem(rows) -> list[str]:
+    """Issue 17's check: each removal method's Hausdorff and mean error over qem's on the same
+    case, with the faces it reached (a run that stops short keeps more faces)."""
+    methods = [m for m in ("schroeder", "schroeder_pure", "volume", "volume_pure", "vtk_decimate_pro")
+               if any(r.get("method") == m for r in rows)]
+    qem = {(r["mesh"], r["ratio"]): r for r in rows if r.get("method") == "qem" and r.get("status") == "ok"}
+    if not methods or not qem:
+        return []
+    by = {(r["mesh"], r["ratio"], r["method"]): r for r in rows if r.get("status") == "ok" and "method" in r}
+    L = [f"### Against `qem` (issue 17: the defaults within {TARGET_H:g}× its Hausdorff and "
+         f"{TARGET_MEAN:g}× its mean error)", "",
+         "Each cell: Hausdorff ×qem / mean ×qem (faces reached). `*_pure`: the papers' memory-less "
+         "rule (`accumulate=\"off\"`), i.e. lodkit before the accumulated bound.", "",
+         "| mesh | ratio | " + " | ".join(f"`{m}`" for m in methods) + " |",
+         "|---|---:|" + "---|" * len(methods)]
+    met = {m: [0, 0] for m in methods}
+    for (mesh, ratio), q in qem.items():
+        qm = q.get("metro") or {}
+        cells = []
+        for m in methods:
+            r = by.get((mesh, ratio, m))
+            rm = (r or {}).get("metro") or {}
+            if not r or not qm.get("hausdorff") or not qm.get("mean") or rm.get("hausdorff") is None:
+                cells.append("–")
+                continue
+            h, mn = rm["hausdorff"] / qm["hausdorff"], rm["mean"] / qm["mean"]
+            ok = h <= TARGET_H and mn <= TARGET_MEAN
+            met[m][0] += ok
+            met[m][1] += 1
+            cells.append(f"{h:.1f} / {mn:.1f} ({r['faces']:,})" + ("" if ok else " ✗"))
+        L.append(f"| {mesh} | {ratio:g} | " + " | ".join(cells) + " |")
+    L += ["", "Cases within both targets: " + "; ".join(f"`{m}` {a} of {n}" for m, (a, n) in met.items())
+          + " (✗: outside).", ""]
+    return L
+
+
 def render(doc: dict) -> str:
     rows = doc["rows"]
     meta = doc["meta"]
     L = [BEGIN, "## Vertex removal: `schroeder` and `volume`", "",
-         "Written by `bench/removal.py` (do not edit by hand; rerun it). Every shared mesh to 10% and "
-         "2% of its faces by lodkit's two vertex-removal metrics, lodkit's `qem` (edge collapse, "
+         "Written by `bench/removal.py` (do not edit by hand; rerun it). Every shared mesh and the "
+         "generated head-like surfaces of `bench/head.py` to 10% and "
+         "2% of their faces by lodkit's two vertex-removal metrics (with their defaults, and with the "
+         "papers' rule: `*_pure`), lodkit's `qem` (edge collapse, "
          "the default) and VTK's `vtkDecimatePro` (Schroeder et al.'s decimation as VTK ships it, "
          "the lineage peer). Positions and faces only. Errors: bench/metro.py (sampled symmetric "
          "Hausdorff, mean and RMS distance, fractions of the input's bounding-box diagonal; "
@@ -270,7 +332,7 @@ def render(doc: dict) -> str:
         L.append(f"* `{m}`: {PARAMS[m]}")
     L.append("")
     # summary per metric
-    for method in ("schroeder", "volume"):
+    for method in ("schroeder", "volume", "schroeder_pure", "volume_pure"):
         mine = [r for r in rows if r.get("method") == method]
         if not mine:
             continue
@@ -290,6 +352,7 @@ def render(doc: dict) -> str:
             line += (f"; on the inputs of ≥ {LARGE:,} faces worst {worst['vs_qem']:.2f} "
                      f"({worst['mesh']} {worst['ratio']:g}): **{verdict} {SPEED_LIMIT:g}×**")
         L += [line + ".", ""]
+    L += _ratios_to_qem(rows)
     L += ["| mesh | faces in | ratio | method | faces out | stops | Hausdorff | mean | RMS | flipped "
           "| time (s) | ×qem |",
           "|---|---:|---:|---|---:|---|---:|---:|---:|---:|---:|---:|"]

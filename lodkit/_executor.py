@@ -11,7 +11,10 @@ One small interface over three engines, so the callers read the same whatever ru
 
 ``submit(fn, *args)`` returns a future; ``completed(futures)`` yields ``(future, result,
 exception)`` as each finishes.  A task that raises, or whose worker died more often than
-Dask allows, comes out with its exception; it never stops the others.
+Dask allows, comes out with its exception; it never stops the others.  A Dask cluster left
+without any worker (workers that cannot start: lodkit missing on them, a broken
+environment) would leave the tasks waiting for ever: after ``NO_WORKER_GRACE`` seconds
+with none, ``completed`` raises a LodkitError that says so.
 """
 from __future__ import annotations
 
@@ -19,13 +22,18 @@ import concurrent.futures as cf
 import os
 import socket
 import threading
+import time
 
-from .errors import DependencyError, OptionError
+from .errors import DependencyError, LodkitError, OptionError
 
 __all__ = ["Executor", "open_executor", "default_workers", "worker_name"]
 
 #: what the caller may give as ``scheduler=``, besides a scheduler address
 LOCAL_SCHEDULERS = ("processes", "threads", "sync")
+#: seconds a Dask cluster may have no worker at all while tasks wait, before completed() gives up
+NO_WORKER_GRACE = 60.0
+#: seconds between two looks at the cluster while nothing finishes
+_POLL = 2.0
 
 
 def default_workers() -> int:
@@ -91,16 +99,49 @@ class Executor:
     def completed(self, futures):
         """Yield ``(future, result, exception)`` for each future as it finishes."""
         if self.kind == "dask":
-            distributed = import_distributed()
-            for future in distributed.as_completed(futures, loop=self.client.loop):
-                try:
-                    yield future, future.result(), None
-                except Exception as exc:  # a failed task, or a worker that died too often
-                    yield future, None, exc
+            pending = list(futures)
+            alone_since = None                 # when the cluster was first seen without workers
+            last_look = time.monotonic()
+            nap = 0.01
+            while pending:
+                done = [f for f in pending if f.done()]
+                for future in done:
+                    try:
+                        yield future, future.result(), None
+                    except Exception as exc:  # a failed task, or a worker that died too often
+                        yield future, None, exc
+                if done:
+                    finished = {id(f) for f in done}
+                    pending = [f for f in pending if id(f) not in finished]
+                    alone_since, nap = None, 0.01
+                    continue
+                time.sleep(nap)
+                nap = min(2 * nap, 0.25)
+                if time.monotonic() - last_look < _POLL:
+                    continue
+                last_look = time.monotonic()
+                if self.n_workers() > 0:
+                    alone_since = None
+                elif alone_since is None:
+                    alone_since = last_look
+                elif last_look - alone_since > NO_WORKER_GRACE:
+                    for f in pending:
+                        f.cancel()
+                    raise LodkitError(
+                        f"the Dask cluster ({self.describe()}) has had no worker for {NO_WORKER_GRACE:g} s "
+                        f"while {len(pending)} task(s) wait: its workers did not start or all died (can "
+                        "they import lodkit? see the workers' logs)")
             return
         for future in cf.as_completed(futures):
             exc = future.exception()
             yield future, (None if exc is not None else future.result()), exc
+
+    def n_workers(self) -> int:
+        """Workers the Dask scheduler knows of now."""
+        try:
+            return len(self.client.scheduler_info().get("workers", {}))
+        except Exception:  # noqa: BLE001 - a scheduler that does not answer has no worker for us
+            return 0
 
     def map(self, fn, items):
         """``[fn(*item) for item in items]``, run on the engine; the first exception is raised."""

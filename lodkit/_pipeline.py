@@ -20,7 +20,7 @@ import numpy as np
 
 from . import _progress
 from ._core.decimate import vertex_quadrics
-from ._core.halfedge import build, count_face_components, faces_by_first_slot, morton_permutation
+from ._core.halfedge import bounding_box, build, count_face_components, faces_by_first_slot, morton_permutation
 from .errors import MeshError
 from .geometry import box_diagonal
 from .mesh import Mesh
@@ -106,9 +106,7 @@ def prepare(mesh: Mesh, *, memory_order: bool = False) -> Prepared:
         remap[input_vertex] = np.arange(input_vertex.size, dtype=np.int32)
         compact = remap[faces]
         del remap
-    pts = mesh.vertices[input_vertex]
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    del pts
+    lo, hi = bounding_box(mesh.vertices, None if input_vertex.size == mesh.n_vertices else input_vertex)
     with np.errstate(over="ignore", invalid="ignore"):
         center = 0.5 * lo + 0.5 * hi
         scale = box_diagonal(lo, hi)
@@ -120,13 +118,12 @@ def prepare(mesh: Mesh, *, memory_order: bool = False) -> Prepared:
     if memory_order:
         # (geometry.morton_order and a stable argsort of the faces' smallest slot, in
         # the core: the same permutations, by radix and counting sorts)
-        perm = morton_permutation(mesh.vertices[input_vertex])
+        perm = morton_permutation(mesh.vertices, input_vertex)
         slot_of = np.empty_like(perm)
         slot_of[perm] = np.arange(perm.size, dtype=np.int32)
         input_vertex = input_vertex[perm]
         compact = slot_of[compact]
-        by_first = faces_by_first_slot(compact, int(input_vertex.size))
-        compact = compact[by_first]
+        compact, by_first = faces_by_first_slot(compact, int(input_vertex.size), True)
         input_face = input_face[by_first]
         del perm, slot_of, by_first
     hm = build(compact, int(input_vertex.size))

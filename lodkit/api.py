@@ -181,9 +181,9 @@ def simplify(
                        driver") or "greedy" (always the cheapest collapse next, from an
                        indexed heap: the reference order of the papers).
                        Triangle collapse and batch metrics run their own loops and ignore it
-    threads          : threads of the pass driver (default: ``$LODKIT_THREADS``,
-                       else the cores this process may use).  The output is the same for any
-                       number of threads
+    threads          : threads of the pass driver (default: ``$LODKIT_THREADS``, else
+                       ``$OMP_NUM_THREADS``, else the cores this process may use).  The output
+                       is the same for any number of threads
 
     prune            : drop debris before simplifying (off by default): zero-area faces (twice
                        the area at most 1e-12 times the summed squared edge lengths) and

@@ -136,10 +136,13 @@ def batch(inputs, out_dir, *, ratios=(0.5, 0.1, 0.02), format: str = "ply", sche
     last_write = time.monotonic()
     if todo:
         with open_executor(scheduler, workers=workers, client=client) as engine:
+            # the items run side by side: one core thread each (threads never change the
+            # output; Dask's worker processes get one through OMP_NUM_THREADS=1)
+            task_options = dict(options, threads=1) if engine.kind == "threads" else options
             futures = {}
             for row in todo:
                 job = {k: row[k] for k in ("key", "input", "sha256")}
-                futures[engine.submit(run_item, job, str(out), list(ratios), format, options)] = row
+                futures[engine.submit(run_item, job, str(out), list(ratios), format, task_options)] = row
             for future, result, exc in engine.completed(list(futures)):
                 row = futures[future]
                 if exc is not None:

@@ -27,7 +27,9 @@ Optional hooks (both have defaults in ``RemovalKernel``; override what applies):
 * ``star_local`` -- a class attribute (Python level, read once when the run is set up):
   True when ``evaluate`` depends on the star alone, not on state that changes elsewhere.
   The driver then keeps each candidate's triangulation and does not evaluate a popped
-  vertex again.  Default False.
+  vertex again.  Default False.  Per-vertex state that ``commit`` changes for the old
+  link's vertices only is fine (the driver evaluates exactly those again right after the
+  commit): ``volume`` and ``schroeder`` carry their accumulated bounds that way.
 * ``veto_note(self)`` -- a ``cpdef str`` method, called with the GIL after the run when the
   kernel vetoed some vertices: why, in words (appended to the run's ``stop_detail``; e.g.
   volume's "12 hyperbolic ...").  Default ``""`` (nothing appended).

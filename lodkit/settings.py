@@ -99,7 +99,9 @@ def resolve_driver(driver) -> tuple:
 
 def resolve_threads(threads) -> tuple:
     """(threads, where it came from): the caller's ``threads=``, else ``$LODKIT_THREADS``,
-    else the cores this process may run on.  The output does not depend on it."""
+    else ``$OMP_NUM_THREADS`` (its first level; Dask's worker processes, for one, set it to
+    1, so that the workers of a batch do not each start a thread per core), else the cores
+    this process may run on.  The output does not depend on it."""
     if threads is not None:
         if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
             raise OptionError(f"threads must be a positive integer, got {threads!r}")
@@ -109,6 +111,9 @@ def resolve_threads(threads) -> tuple:
         if not env.isdigit() or int(env) < 1:
             raise OptionError(f"LODKIT_THREADS must be a positive integer, got {env!r}")
         return int(env), "LODKIT_THREADS"
+    omp = os.environ.get("OMP_NUM_THREADS", "").split(",")[0].strip()
+    if omp.isdigit() and int(omp) >= 1:        # anything else: OpenMP ignores it too
+        return int(omp), "OMP_NUM_THREADS"
     try:
         return max(len(os.sched_getaffinity(0)), 1), "cores"
     except (AttributeError, OSError):        # not Linux

@@ -304,3 +304,20 @@ def test_a_worker_killed_in_the_middle(tmp_path, dask_client):
         for i in range(len(RATIOS)):
             assert lodkit.load(out / f"{path.stem}_lod{i}.ply").n_faces > 0
     dask_client.wait_for_workers(2, timeout=120)      # the nanny restarted it, for the next tests
+
+
+def test_a_cluster_without_workers_fails_instead_of_waiting(tmp_path, monkeypatch):
+    """Workers that never start (lodkit missing on them, a broken environment) used to
+    leave the batch waiting for ever; after the grace period it is one clear error."""
+    distributed = pytest.importorskip("distributed", reason="dask.distributed not installed (lodkit[dask])")
+    import lodkit._executor as executor
+
+    monkeypatch.setattr(executor, "NO_WORKER_GRACE", 1.0)
+    monkeypatch.setattr(executor, "_POLL", 0.3)
+    paths = write_meshes(tmp_path / "in", sizes=(600,))
+    with distributed.LocalCluster(n_workers=0, processes=True, host="127.0.0.1", dashboard_address=None) as cluster, \
+            distributed.Client(cluster, set_as_default=False) as client:
+        t0 = time.monotonic()
+        with pytest.raises(lodkit.LodkitError, match="no worker"):
+            lodkit.batch(paths, tmp_path / "out", ratios=RATIOS, client=client)
+        assert time.monotonic() - t0 < 30

@@ -314,3 +314,81 @@ def test_real_meshes(name):
     check_real_result(m, r, target, max_error=0.1)     # 2%: coarse on the cow
     assert np.array_equal(r.mesh.vertices, m.vertices[r.vertex_map])
     assert len(r.collapses["removed"]) == r.n_collapses
+
+
+# ---------------------------------------------------------------------- memory
+def _outputs(r):
+    return [r.mesh.faces, r.vertex_map, r.face_map, r.collapses["removed"], r.collapses["kept"],
+            r.collapses["cost"], r.collapses["error"]]
+
+
+def _run_spilling(mesh, **kw):
+    """simplify() with the kernel keeping every cost it may in its spill table (the numbers
+    come from the table instead of being computed again: they must be the same)."""
+    from lodkit._core import melod_kernel
+    melod_kernel._force_spill(True)
+    try:
+        return lodkit.simplify(mesh, **kw)
+    finally:
+        melod_kernel._force_spill(False)
+
+
+@pytest.mark.parametrize("driver", ["pass", "greedy"])
+@pytest.mark.parametrize("make", [lambda: bumpy_sphere(7, 24, 16),
+                                  lambda: lodkit.Mesh(*grid(14, 12, np.random.default_rng(3), amplitude=0.2))],
+                         ids=["sphere", "grid"])
+def test_costs_computed_again_are_the_kept_numbers(make, driver, monkeypatch):
+    """The kernel caches no cost: a cost is computed again (from the face corners its
+    vertex kept) until its vertex is touched, or kept in a spill table when a face it read
+    changed corner.  Keeping every cost in the table gives the same run, bit for bit (the
+    same code on the same machine), and the table was used."""
+    from lodkit.drivers import edge as edge_driver
+    kernels = []
+    run = edge_driver.run_collapser
+
+    def spy(work, compiled, *args, **kwargs):
+        kernels.extend(k for _, k in compiled.kernels)
+        return run(work, compiled, *args, **kwargs)
+
+    monkeypatch.setattr(edge_driver, "run_collapser", spy)
+    mesh = make()
+    kw = dict(target_ratio=0.1, metric="melod", record=True, driver=driver)
+    plain = lodkit.simplify(mesh, **kw)
+    spilled = _run_spilling(mesh, **kw)
+    for a, b in zip(_outputs(plain), _outputs(spilled)):
+        assert np.array_equal(a, b)
+    assert kernels[0].n_spilled == 0 < kernels[1].n_spilled
+
+
+@SETTINGS
+@given(manifold_meshes(), st.floats(0.05, 0.9))
+def test_spill_table_changes_nothing(case, ratio):
+    _, mesh = case
+    target = int(round(ratio * mesh.n_faces))
+    plain = lodkit.simplify(mesh, target_faces=target, metric="melod", record=True)
+    spilled = _run_spilling(mesh, target_faces=target, metric="melod", record=True)
+    for a, b in zip(_outputs(plain), _outputs(spilled)):
+        assert np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("driver", ["pass", "greedy"])
+def test_kernel_memory_is_a_few_bytes_a_vertex(driver):
+    """docs/reliability.md, "Memory": the MELOD kernel keeps 16 bytes a vertex, 2 bits a
+    face and 3 bits a half-edge (about 19 bytes a vertex) beside the edge driver's arrays:
+    its peak is the QEM run's plus little (it was about 215 bytes more)."""
+    import gc
+    import tracemalloc
+
+    from lodkit.demo import demo_mesh
+    mesh = demo_mesh(20000)
+    peaks = {}
+    for metric in ("qem", "melod"):
+        lodkit.simplify(demo_mesh(500), target_ratio=0.5, metric=metric, driver=driver)    # warm-up
+        gc.collect()
+        tracemalloc.start()
+        try:
+            lodkit.simplify(mesh, target_ratio=0.01, metric=metric, driver=driver)
+            peaks[metric] = tracemalloc.get_traced_memory()[1] / mesh.n_vertices
+        finally:
+            tracemalloc.stop()
+    assert peaks["melod"] <= peaks["qem"] + 32, peaks

@@ -146,6 +146,23 @@ def ring(k, z=0.0, r=1.0, phase=0.0):
 
 
 # ---------------------------------------------------------------------- solid angles
+def point_triangle_distance(p, a, b, c):
+    """Distance of p to the triangle abc (reference: the plane if the foot lies inside,
+    else the nearest edge segment)."""
+    n = np.cross(b - a, c - a)
+    n = n / np.linalg.norm(n)
+    q = p - np.dot(p - a, n) * n
+    inside = all(np.dot(np.cross(y - x, q - x), n) >= 0 for x, y in ((a, b), (b, c), (c, a)))
+    if inside:
+        return abs(np.dot(p - a, n))
+
+    def seg(x, y):
+        t = np.clip(np.dot(p - x, y - x) / np.dot(y - x, y - x), 0.0, 1.0)
+        return np.linalg.norm(p - (x + t * (y - x)))
+
+    return min(seg(a, b), seg(b, c), seg(c, a))
+
+
 def test_solid_angle_of_known_triangles():
     # an octant: the triangle on the three axes subtends 4 pi / 8
     assert vk.solid_angle([1, 0, 0], [0, 1, 0], [0, 0, 1]) == pytest.approx(math.pi / 2, abs=1e-15)
@@ -397,14 +414,21 @@ def test_boundary_star():
 # ---------------------------------------------------------------------- the kernel
 def test_evaluate_star_costs_and_fan():
     # the ridge star: V on the line W0 W2 (W0 nearer), W1 and W3 below: the closest line is
-    # W0 W2 (distance 0), apex W0 (index 0): fan (0,1,2), (0,2,3) -- the ridge survives
+    # W0 W2 (distance 0), apex W0 (index 0): fan (0,1,2), (0,2,3) -- the ridge survives.
+    # The paper's formulas: accumulate="off" (the default's error is checked below)
     P = np.array([[0, 0, 0], [-1, 0, 0], [0, -1, -0.5], [1.2, 0, 0], [0, 1, -0.5]], float)
-    r = vk.evaluate_star(P, 0, [1, 2, 3, 4])
+    r = vk.evaluate_star(P, 0, [1, 2, 3, 4], accumulate="off")
     assert r["status"] == "ok"
     assert r["tris"].tolist() == [[0, 1, 2], [0, 2, 3]]
     m = vk.measure(P[0], P[1:])
     assert r["gate"] == m["angle"] and r["error"] == m["height"]
     assert r["cost"] == pytest.approx(m["angle"] * m["height"] ** 3, rel=1e-15)
+    # lodkit's default: the larger of ht and V's distance to the fan (nothing carried yet)
+    b = vk.evaluate_star(P, 0, [1, 2, 3, 4])
+    fan_distance = min(point_triangle_distance(P[0], *P[1:][t]) for t in b["tris"])
+    assert b["tris"].tolist() == r["tris"].tolist() and b["gate"] == r["gate"]
+    assert b["error"] == pytest.approx(max(m["height"], fan_distance), rel=1e-12)
+    assert b["cost"] == pytest.approx(m["angle"] * b["error"] ** 3, rel=1e-12)
     # the same star, the cycle started elsewhere: apex W0 is now link index 2
     r = vk.evaluate_star(P, 0, [3, 4, 1, 2])
     assert r["tris"].tolist() == [[2, 0, 1], [2, 3, 0]]
@@ -418,8 +442,10 @@ def test_evaluate_star_costs_and_fan():
     assert vk.evaluate_star(P, 0, [1, 2, 3, 4], fixed=[0])["status"] == "veto"
     # a flat vertex: gate 2 pi, cost 0
     P = np.vstack([[0, 0, 0], ring(6)])
-    r = vk.evaluate_star(P, 0, np.arange(1, 7))
+    r = vk.evaluate_star(P, 0, np.arange(1, 7), accumulate="off")
     assert r["gate"] == pytest.approx(TAU) and r["cost"] == 0.0 and len(r["tris"]) == 4
+    r = vk.evaluate_star(P, 0, np.arange(1, 7))
+    assert r["gate"] == pytest.approx(TAU) and r["cost"] <= 1e-30 and len(r["tris"]) == 4
 
 
 @settings(max_examples=100, deadline=None)
@@ -455,7 +481,7 @@ def test_fallback_when_the_closest_line_fan_folds():
                  float)
     link = [1, 2, 3, 4]
     ref = closest_line_apex_ref(P[0], P[1:])
-    plain = vk.evaluate_star(P, 0, link, fallback=False)
+    plain = vk.evaluate_star(P, 0, link, fallback=False, accumulate="off")
     assert plain["tris"][0][0] == ref
     W = P[1:]
     N = np.array([0, 0, 1.0])
@@ -464,7 +490,7 @@ def test_fallback_when_the_closest_line_fan_folds():
         return any(np.cross(W[b] - W[a], W[c] - W[a]) @ N <= 0 for a, b, c in tris)
 
     assert ref == 1 and folds(plain["tris"])
-    fixed = vk.evaluate_star(P, 0, link)
+    fixed = vk.evaluate_star(P, 0, link, accumulate="off")
     # the other apexes by the distance of the closest line they are the nearer end of:
     # W2 (line W2 W0, 0.75), W3 (line W3 W0, 1.57), W0 (nearer end of none): the fan from W2
     # is the first that does not fold
@@ -532,7 +558,7 @@ def test_flat_grid_is_removed_down_to_its_corners():
     corners = {(0.0, 0.0), (6.0, 0.0), (0.0, 6.0), (6.0, 6.0)}
     assert {tuple(p[:2]) for p in result.mesh.vertices.tolist()} == corners
     assert np.all(result.mesh.vertices[:, 2] == 0.0)
-    assert result.error == 0.0                          # every removal was flat (ht = 0)
+    assert result.error <= 1e-12                        # every removal was flat
     # with the boundary locked only the interior goes
     result = lodkit.simplify(lodkit.Mesh(V, F), target_faces=2, metric="volume", boundary="lock")
     assert result.stop_reason == "no_valid_collapse"
@@ -625,8 +651,8 @@ def test_real_meshes(name, ratio):
     assert after.n_degenerate_faces == 0 and after.n_duplicate_faces == 0
     # output vertices are input vertices, bit for bit
     assert np.array_equal(result.mesh.vertices, mesh.vertices[result.vertex_map])
-    # ht of every removal is bounded by what the run reports
-    assert 0.0 < result.error < 0.05
+    # the run's error: the largest accumulated bound of a removal (docs/metrics/volume.md)
+    assert 0.0 < result.error < 0.5
     # faces turned over against the surface they sit on: every removal is checked against
     # its own star only (docs/algorithms.md), so a few coarse faces spanning thin parts (the
     # cow's ears and legs) end up facing the far side (measured: bunny 9 of 6945, boot 30 of

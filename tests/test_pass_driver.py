@@ -6,6 +6,8 @@ Exact comparisons here are between two runs on the same machine (never with reco
 """
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -73,6 +75,24 @@ def test_lodkit_threads_environment(monkeypatch):
         lodkit.simplify(torus(), target_ratio=0.5, driver="pass")
 
 
+
+def test_omp_num_threads_is_the_default_after_lodkit_threads(monkeypatch):
+    """OpenMP's own variable counts (Dask's worker processes set it to 1, so a batch's
+    workers do not each start a thread per core); LODKIT_THREADS and threads= win over it,
+    and a value OpenMP would not take is ignored."""
+    monkeypatch.delenv("LODKIT_THREADS", raising=False)
+    monkeypatch.setenv("OMP_NUM_THREADS", "1")
+    r = lodkit.simplify(torus(), target_ratio=0.5, driver="pass")
+    assert r.report["settings"]["threads"] == {"value": 1, "from": "OMP_NUM_THREADS"}
+    monkeypatch.setenv("OMP_NUM_THREADS", "3,2")
+    assert lodkit.simplify(torus(), target_ratio=0.5).report["settings"]["threads"]["value"] == 3
+    monkeypatch.setenv("LODKIT_THREADS", "2")
+    assert lodkit.simplify(torus(), target_ratio=0.5).report["settings"]["threads"]["from"] == "LODKIT_THREADS"
+    assert lodkit.simplify(torus(), target_ratio=0.5, threads=4).report["settings"]["threads"]["from"] == "caller"
+    monkeypatch.delenv("LODKIT_THREADS")
+    monkeypatch.setenv("OMP_NUM_THREADS", "lots")
+    assert lodkit.simplify(torus(), target_ratio=0.5).report["settings"]["threads"]["from"] == "cores"
+
 # ------------------------------------------------------------------ determinism
 def test_same_output_for_any_thread_count():
     mesh = torus(80, 40)
@@ -88,6 +108,32 @@ def test_same_output_for_any_thread_count_on_a_real_mesh():
     b = lodkit.simplify(mesh, target_ratio=0.02, threads=2, driver="pass")
     c = lodkit.simplify(mesh, target_ratio=0.02, threads=4, driver="pass")
     assert same_result(a, b) and same_result(a, c)
+
+
+def terraced_grid(n: int = 90, m: int = 70):
+    """A grid of flat terraces: most collapse costs are exactly zero, so the cheapest share
+    of a pass is cut out of one run of equal costs (select() keeps it in edge order
+    within a buffer of a pass's size, not of all edges)."""
+    xs, ys = np.meshgrid(np.arange(n + 1, dtype=float), np.arange(m + 1, dtype=float), indexing="ij")
+    V = np.c_[xs.ravel(), ys.ravel(), 0.5 * (xs.ravel() // 15)]
+    idx = np.arange((n + 1) * (m + 1)).reshape(n + 1, m + 1)
+    a, b, c, d = idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]
+    F = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)])
+    return lodkit.Mesh(V, F.astype(np.int32))
+
+
+def test_tied_costs_give_the_same_output_for_any_thread_count_and_prefixes():
+    mesh = terraced_grid()
+    runs = [lodkit.simplify(mesh, target_ratio=0.03, threads=t, record=True, driver="pass") for t in (1, 2, 4)]
+    for r in runs[1:]:
+        assert same_result(runs[0], r) and same_records(runs[0].collapses, r.collapses)
+    long = runs[0]
+    for n in (9000, 4001, 1200):
+        short = lodkit.simplify(mesh, target_faces=n, record=True, driver="pass", threads=2)
+        assert short.mesh.n_faces <= n
+        for key in short.collapses:
+            assert np.array_equal(short.collapses[key], long.collapses[key][:short.n_collapses]), key
+    assert topology(long.mesh).is_manifold
 
 
 # ------------------------------------------------------------------ prefixes
@@ -263,3 +309,18 @@ def test_blocks_keep_manifold_genus_and_orientation(small_blocks, seed, ratio):
     assert t.genus == 1
     one = lodkit.simplify(mesh, target_ratio=ratio, driver="pass", threads=1)
     assert same_result(r, one)
+
+
+def test_openmp_spin_is_short_unless_the_user_set_it():
+    """lodkit sets GNU OpenMP's spin count before its OpenMP module loads (a long spin made
+    two threads slower than one on a loaded machine), and leaves a value the user set."""
+    import subprocess
+    import sys
+
+    code = "import os, lodkit; print(os.environ['GOMP_SPINCOUNT'])"
+    env = {k: v for k, v in os.environ.items() if k != "GOMP_SPINCOUNT"}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "10000"
+    env["GOMP_SPINCOUNT"] = "123"
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "123"

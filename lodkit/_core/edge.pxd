@@ -73,8 +73,7 @@ cdef class EdgeCollapser:
     cdef Kernel kernel              # first of the chain, None if no kernels
     cdef KernelChain chain          # the kernels in order (lodkit._core.chain), None if none
     cdef Kernel wide_kernel         # the only wide kernel (it may name the vertices), or None
-    cdef int[::1] edge_stamp        # wide re-rank: edges already re-ranked for this collapse
-    cdef int recost_counter
+    cdef unsigned char[::1] walked  # wide re-rank (heap driver): vertices whose edges were re-ranked
     cdef KernelMesh kmesh
     cdef readonly int n_vetoed      # candidates refused by a kernel since the last rescan
     cdef readonly bint failed       # a kernel returned KERNEL_ERROR
@@ -115,7 +114,8 @@ cdef class EdgeCollapser:
     cdef void recost_he(self, int e, int h, int u, int v) noexcept nogil
     cdef void recost_ring(self, int v) noexcept nogil
     cdef void recost_wide(self, int v) noexcept nogil
-    cdef void recost_around(self, int w, int stamp) noexcept nogil
+    cdef void recost_around(self, int w) noexcept nogil
+    cdef void unwalk(self, int v) noexcept nogil
     cdef void retry_refused(self, int w) noexcept nogil
     cdef void rerank(self, int k) noexcept nogil
     cdef void rescan(self) noexcept nogil

@@ -268,8 +268,9 @@ cdef class EdgeCollapser:
             wide = [k for k in kernels if k.wide]
             if len(wide) == 1:
                 self.wide_kernel = wide[0]
-        self.edge_stamp = np.zeros(self.hm.n_edges if self.opt.wide_recost else 1, dtype=np.intc)
-        self.recost_counter = 0
+        # one byte a vertex, for the heap driver's wide re-rank only (the pass driver re-ranks
+        # in its own way)
+        self.walked = np.zeros(n if self.opt.wide_recost and use_heap else 1, dtype=np.uint8)
         self.kmesh.he = self.m
         self.kmesh.positions = self.P
         self.kmesh.stride = VSTRIDE
@@ -872,41 +873,61 @@ cdef class EdgeCollapser:
         cdef int start = self.m.v_he[v]
         cdef int y = start
         cdef int ny, i
-        self.recost_counter += 1
         self.refused[v] = 0
-        self.recost_around(v, self.recost_counter)
+        self.recost_around(v)
         if self.wide_kernel is not None and self.wide_kernel.n_changed >= 0:
-            # the kernel named the vertices whose stars changed
+            # the kernel named the vertices whose stars changed (re-ranking leaves the list be)
             for i in range(self.wide_kernel.n_changed):
-                self.recost_around(self.wide_kernel.changed[i], self.recost_counter)
+                self.recost_around(self.wide_kernel.changed[i])
+            self.walked[v] = 0
+            for i in range(self.wide_kernel.n_changed):
+                self.walked[self.wide_kernel.changed[i]] = 0
             return
         while True:
-            self.recost_around(he_dest(self.m, y), self.recost_counter)
+            self.recost_around(he_dest(self.m, y))
             ny = he_ring_next(self.m, y)
             if ny < 0:
-                self.recost_around(self.m.corner[he_prev(y)], self.recost_counter)
+                self.recost_around(self.m.corner[he_prev(y)])
+                break
+            if ny == start:
+                break
+            y = ny
+        self.unwalk(v)
+
+    cdef void recost_around(self, int w) noexcept nogil:
+        """Re-rank the edges around ``w`` but those to a vertex already walked round in
+        this re-rank (an edge is re-ranked once, from the first of its ends walked round)."""
+        cdef int start = self.m.v_he[w]
+        cdef int y = start
+        cdef int ny
+        self.refused[w] = 0
+        if self.walked[w]:
+            return
+        self.walked[w] = 1
+        while True:
+            if not self.walked[he_dest(self.m, y)]:
+                self.recost_he(self.m.edge[y], y, w, he_dest(self.m, y))
+            ny = he_ring_next(self.m, y)
+            if ny < 0:
+                y = he_prev(y)
+                if not self.walked[self.m.corner[y]]:
+                    self.recost_he(self.m.edge[y], y, self.m.corner[y], w)
                 return
             if ny == start:
                 return
             y = ny
 
-    cdef void recost_around(self, int w, int stamp) noexcept nogil:
-        cdef int start = self.m.v_he[w]
+    cdef void unwalk(self, int v) noexcept nogil:
+        """Clear the marks of recost_wide(v)'s walk: v and its neighbours."""
+        cdef int start = self.m.v_he[v]
         cdef int y = start
-        cdef int ny, e
-        self.refused[w] = 0
+        cdef int ny
+        self.walked[v] = 0
         while True:
-            e = self.m.edge[y]
-            if self.edge_stamp[e] != stamp:
-                self.edge_stamp[e] = stamp
-                self.recost_he(e, y, w, he_dest(self.m, y))
+            self.walked[he_dest(self.m, y)] = 0
             ny = he_ring_next(self.m, y)
             if ny < 0:
-                y = he_prev(y)
-                e = self.m.edge[y]
-                if self.edge_stamp[e] != stamp:
-                    self.edge_stamp[e] = stamp
-                    self.recost_he(e, y, self.m.corner[y], w)
+                self.walked[self.m.corner[he_prev(y)]] = 0
                 return
             if ny == start:
                 return

@@ -65,9 +65,13 @@ def triangulation_ok(triangles: ArrayLike, k: int, closed: bool) -> bool:
 def count_face_components(hm: HalfEdgeMesh) -> int:
     """Number of components of the live faces (joined across twin half-edges)."""
 
-def morton_permutation(points: ArrayLike) -> NDArray[np.int32]:
-    """(n,) permutation sorting (n, 3) points along their Morton curve (as
-    ``lodkit.geometry.morton_order``, by a radix sort)."""
+def morton_permutation(points: ArrayLike, index: ArrayLike | None = ...) -> NDArray[np.int32]:
+    """(n,) permutation sorting (n, 3) points (or points[index]) along their Morton curve
+    (as ``lodkit.geometry.morton_order``, by a radix sort)."""
 
-def faces_by_first_slot(faces: ArrayLike, n_vertices: int) -> NDArray[np.int32]:
-    """(m,) permutation ordering faces by their smallest vertex index, ties in input order."""
+def faces_by_first_slot(faces: ArrayLike, n_vertices: int, reorder: bool = ...):
+    """(m,) permutation ordering faces by their smallest vertex index, ties in input order;
+    with ``reorder``, (the faces in that order, the permutation)."""
+
+def bounding_box(points: ArrayLike, index: ArrayLike | None = ...) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(lo, hi) corners of the bounding box of points (or points[index]), without a copy."""

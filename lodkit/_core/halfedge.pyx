@@ -945,15 +945,19 @@ cdef inline unsigned long long spread_bits(unsigned long long x) noexcept nogil:
     return x
 
 
-def morton_permutation(points):
-    """(n,) int32 permutation sorting (n, 3) ``points`` along their Morton curve: the same
-    as ``lodkit.geometry.morton_order`` (21 bits per axis over the bounding box, ties in
-    input order), by one pass for the codes and a stable radix sort (16-bit digits) instead
-    of numpy's comparison sort."""
+def morton_permutation(points, index=None):
+    """(n,) int32 permutation sorting (n, 3) ``points`` (or ``points[index]``, without the
+    copy) along their Morton curve: the same as ``lodkit.geometry.morton_order`` (21 bits
+    per axis over the bounding box, ties in input order), by one pass for the codes and a
+    stable radix sort (16-bit digits) instead of numpy's comparison sort."""
     cdef const double[:, ::1] P = np.ascontiguousarray(points, dtype=np.float64)
-    cdef Py_ssize_t n = P.shape[0]
-    if P.ndim != 2 or (n and P.shape[1] != 3):
+    if P.shape[1] != 3:
         raise ValueError("points must have shape (n, 3)")
+    cdef const int[::1] X = np.ascontiguousarray(np.arange(P.shape[0]) if index is None else index,
+                                                 dtype=np.intc)
+    cdef Py_ssize_t n = X.shape[0]
+    if n and (np.min(X) < 0 or np.max(X) >= P.shape[0]):
+        raise ValueError("index out of range")
     perm = np.arange(n, dtype=np.intc)
     if n < 2:
         return perm
@@ -980,10 +984,10 @@ def morton_permutation(points):
     cdef int* idst
     with nogil:
         for k in range(3):
-            lo[k] = P[0, k]
-            hi = P[0, k]
+            lo[k] = P[X[0], k]
+            hi = P[X[0], k]
             for i in range(1, n):
-                x = P[i, k]
+                x = P[X[i], k]
                 if x < lo[k]:
                     lo[k] = x
                 if x > hi:
@@ -991,7 +995,7 @@ def morton_permutation(points):
             ext[k] = hi - lo[k] if hi > lo[k] else 1.0
         for i in range(n):
             for k in range(3):
-                x = (P[i, k] - lo[k]) / ext[k] * top
+                x = (P[X[i], k] - lo[k]) / ext[k] * top
                 if not (x >= 0.0):
                     x = 0.0
                 elif x > top:
@@ -1024,10 +1028,10 @@ def morton_permutation(points):
     return perm
 
 
-def faces_by_first_slot(faces, int n_vertices):
+def faces_by_first_slot(faces, int n_vertices, bint reorder=False):
     """(m,) int32 permutation ordering (m, 3) ``faces`` by their smallest vertex index,
     ties in input order (``np.argsort(faces.min(axis=1), kind="stable")`` by a counting
-    sort)."""
+    sort); with ``reorder``, (the faces in that order, the permutation)."""
     cdef const int[:, ::1] F = np.ascontiguousarray(faces, dtype=np.intc)
     cdef Py_ssize_t m = F.shape[0]
     out = np.empty(m, dtype=np.intc)
@@ -1062,4 +1066,47 @@ def faces_by_first_slot(faces, int n_vertices):
             S[a] += 1
     if bad >= 0:
         raise ValueError(f"face {bad} has an index outside 0..{n_vertices - 1}")
-    return out
+    if not reorder:
+        return out
+    ordered = np.empty((m, 3), dtype=np.intc)
+    cdef int[:, ::1] G = ordered
+    with nogil:
+        for f in range(m):
+            a = O[f]
+            G[f, 0] = F[a, 0]
+            G[f, 1] = F[a, 1]
+            G[f, 2] = F[a, 2]
+    return ordered, out
+
+
+def bounding_box(points, index=None):
+    """(lo, hi): the corners of the bounding box of (n, 3) ``points`` (or of
+    ``points[index]``, without the copy), n >= 1."""
+    cdef const double[:, ::1] P = np.ascontiguousarray(points, dtype=np.float64)
+    if P.shape[1] != 3:
+        raise ValueError("points must have shape (n, 3)")
+    cdef const int[::1] X = np.ascontiguousarray(np.arange(P.shape[0]) if index is None else index,
+                                                 dtype=np.intc)
+    cdef Py_ssize_t n = X.shape[0], i
+    if n == 0:
+        raise ValueError("no points")
+    if np.min(X) < 0 or np.max(X) >= P.shape[0]:
+        raise ValueError("index out of range")
+    lo_a = np.empty(3)
+    hi_a = np.empty(3)
+    cdef double[::1] lo = lo_a
+    cdef double[::1] hi = hi_a
+    cdef double x
+    cdef int k
+    with nogil:
+        for k in range(3):
+            lo[k] = P[X[0], k]
+            hi[k] = P[X[0], k]
+        for i in range(1, n):
+            for k in range(3):
+                x = P[X[i], k]
+                if x < lo[k]:
+                    lo[k] = x
+                if x > hi[k]:
+                    hi[k] = x
+    return lo_a, hi_a

@@ -11,8 +11,11 @@ class MELODKernel(Kernel):
     that each collapse changes (docs/metrics/melod.md)."""
 
     api_version: ClassVar[int]
+    n_spilled: int
+    """Costs kept in the spill table during the run (the table is rarely needed; for tests)."""
     def prepare(self, ctx: Any, options: dict[str, Any]) -> None:
-        """Visual importance, the face-normal cache and both half-edge keys of every edge."""
+        """Visual importance of every vertex slot, the per-face and per-half-edge bits (no
+        cost is computed before the driver asks)."""
     def importance_values(self) -> np.ndarray:
         """The current visual importance of every vertex slot."""
     @property

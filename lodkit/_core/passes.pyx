@@ -16,11 +16,12 @@ Each pass
    its ends (its cost is stale: next pass) or it reaches out of its block.  Blocks never
    meet, so they run on several threads, and plain cost order gives the same result -- which
    is how a pass that may reach the face target runs, to stop exactly there;
-4. *stage 1b*: the candidates that reached out of their block, grouped again by the blocks
-   shifted by half a block (a candidate that straddled a border of stage 1's blocks lies
-   inside one of these) and taken as in stage 1, on several threads;
+4. *stages 1b and 1c*: the candidates that reached out of their block, grouped again by the
+   blocks shifted by half a block (a candidate that straddled a border of stage 1's blocks
+   lies inside one of these), then those left by blocks of COARSE stage-1 blocks (when
+   there are at least two of them), and taken as in stage 1, on several threads;
 5. *stage 2*: those that still reached out (and seam pairs), in cost order, with the same
-   rules, on one thread.
+   rules, on one thread (3-5% of the collapses on the benchmark meshes).
 
 The schedule depends on the mesh and the settings, never on the face target: a run to a
 smaller target does the same collapses in the same order, then more, so a progressive mesh
@@ -33,7 +34,7 @@ edges in that order, skipping those with an end an earlier collapse of the same 
 (the kept vertex and its 1-ring; the 2-ring for wide kernels), so that every collapse sees the
 costs it was ranked with.  Each collapse is re-planned and checked as the heap driver's."""
 cimport cython
-from cython.parallel cimport prange
+from cython.parallel cimport prange, threadid
 from libc.math cimport isnan, INFINITY
 from libc.stdlib cimport qsort, malloc, free
 from libc.string cimport memcpy, memset
@@ -307,10 +308,20 @@ cdef enum:
     CF_DEFER = 1        # stage 1 left the candidate to stage 2 (out of its block, or a seam pair)
     CF_DONE = 2         # stage 1 collapsed it
     CF_DONE_SHIFTED = 3  # stage 1b (the blocks shifted by half a block) collapsed it
-    CF_PENDING_B = 4    # deferred by stage 1, waiting for stage 1b
+    CF_PENDING_B = 4    # deferred by stage 1 (1b), waiting for stage 1b (1c)
+    CF_DONE_COARSE = 5  # stage 1c (blocks of COARSE stage-1 blocks) collapsed it
 
 cdef enum:
     N_BUCKETS = 65536   # histogram of the upper 16 bits of the float32 cost
+
+cdef enum:
+    COARSE = 8          # stage 1c's blocks: this many of stage 1's
+
+cdef enum:
+    RANK_CHUNK = 2048   # edges a thread ranks at a time
+
+cdef enum:
+    SERIAL_TAIL = 256   # a pass that may reach the target takes its last few candidates one by one
 
 
 cdef inline unsigned int bucket_of(float c) noexcept nogil:
@@ -408,14 +419,18 @@ cdef class PassDriver:
     cdef HEArrays* m
     cdef float[::1] cost            # (n_edges,) ranked cost, float32: orders the pass only
     cdef unsigned char[::1] state   # (n_edges,) ST_*
-    cdef int[::1] live              # live edges, compacted once a pass
-    cdef int n_live
-    cdef Keyed[::1] keyed_buf
+    cdef int ne                     # edge slots (dead ones are skipped where they come up)
+    cdef Keyed[::1] keyed_buf       # (kmax,) the candidates of a pass, in (cost, edge) order
     cdef int[::1] hist
+    cdef int[::1] hist_low          # histogram of the lower 16 cost bits of select()'s last bucket
+    cdef int[:, ::1] hist_t         # (threads, N_BUCKETS) rank()'s cost histograms
     # one row per candidate of a pass (at most ceil(live edges / fraction)): its plan and
-    # checks. plan_he (kmax, 4): h, removed, seam partner half-edge (-1: none), check
+    # checks. plan_he (rows, 4): h, removed, seam partner half-edge (-1: none), check
     cdef int[:, ::1] plan_he
-    cdef double[:, ::1] plan_x       # (kmax, 6): position (3), cost, error, volume change
+    cdef double[:, ::1] plan_x       # (rows, 6): position (3), cost, error, volume change
+    # a row per candidate when the records are kept (reduce() writes them after stage 1,
+    # from the rows); else a row per block, used by one candidate after another
+    cdef bint keep_plans
     cdef int[:, ::1] rec_faces       # (kmax, 2): the faces a collapse of stage 1 removed
     cdef unsigned char[::1] cflag    # (kmax,) CF_*
     cdef int[::1] cblock             # (kmax,) the block of each candidate
@@ -427,6 +442,7 @@ cdef class PassDriver:
     cdef int block                   # live vertices a block should hold
     cdef int bsize                   # vertex slots per block in this pass
     cdef int n_blocks
+    cdef int lo_i, hi_i              # the slice of the pass's candidates walk_block takes
     cdef readonly int n_passes
     cdef readonly long n_deferred    # candidates left to stage 2 (diagnostics)
     cdef readonly long n_late        # collapses done in stage 2 (diagnostics)
@@ -446,14 +462,10 @@ cdef class PassDriver:
         cdef int nv = collapser.hm.n_vertices
         self.cost = np.zeros(max(ne, 1), dtype=np.float32)
         self.state = np.zeros(max(ne, 1), dtype=np.uint8)
-        self.live = np.nonzero(np.asarray(collapser.hm.edge_alive, dtype=bool))[0].astype(np.intc)
-        if self.live.shape[0] == 0:
-            self.live = np.zeros(1, dtype=np.intc)
-            self.n_live = 0
-        else:
-            self.n_live = self.live.shape[0]
-        self.keyed_buf = np.zeros(max(self.n_live, 1), dtype=[("cost", np.float32), ("edge", np.intc)])
+        self.ne = ne
+        cdef int n_alive = int(np.count_nonzero(np.asarray(collapser.hm.edge_alive, dtype=bool)))
         self.hist = np.zeros(N_BUCKETS, dtype=np.intc)
+        self.hist_low = np.zeros(N_BUCKETS, dtype=np.intc)
         self.n_passes = 0
         self.n_deferred = 0
         self.n_late = 0
@@ -463,9 +475,10 @@ cdef class PassDriver:
         # rings wherever they are: those run every pass in plain cost order, on one thread
         self.single = collapser.kernel is not None or collapser.hm.has_copies
         self.threads = threads if not self.single and threads > 1 else 1
-        self.kmax = <int>((self.n_live + fraction - 1.0) / fraction) + 1
-        self.plan_he = np.zeros((self.kmax, 4), dtype=np.intc)
-        self.plan_x = np.zeros((self.kmax, 6), dtype=np.float64)
+        self.hist_t = np.zeros((self.threads, N_BUCKETS), dtype=np.intc)
+        self.kmax = <int>((n_alive + fraction - 1.0) / fraction) + 1
+        self.keyed_buf = np.zeros(self.kmax, dtype=[("cost", np.float32), ("edge", np.intc)])
+        self.keep_plans = collapser.rec.on
         self.rec_faces = np.zeros((self.kmax if collapser.rec.on else 1, 2), dtype=np.intc)
         self.cflag = np.zeros(self.kmax, dtype=np.uint8)
         self.cblock = np.zeros(self.kmax, dtype=np.intc)
@@ -477,34 +490,59 @@ cdef class PassDriver:
         max_blocks = (nv + max(block // 8, 1) - 1) // max(block // 8, 1) + 1
         # (stage 1b's shifted blocks: one more than stage 1's)
         self.blk_start = np.zeros(max_blocks + 2, dtype=np.intc)
+        rows = self.kmax if self.keep_plans else max_blocks + 1
+        self.plan_he = np.zeros((rows, 4), dtype=np.intc)
+        self.plan_x = np.zeros((rows, 6), dtype=np.float64)
         self.acc_i = np.zeros((max_blocks + 1, 4), dtype=np.intc)
         self.acc_x = np.zeros((max_blocks + 1, 2), dtype=np.float64)
 
     # ------------------------------------------------------------- named steps
     cdef void rank(self) noexcept nogil:
-        """Plan every dirty live edge: its cost, or why it may not go.  Each edge writes its
-        own slots only, so the result does not depend on the number of threads."""
-        cdef int i, n, b = 0
-        while b < self.n_live:               # in blocks: Ctrl-C is heard between them
-            n = min(b + 16 * INTERRUPT_EVERY, self.n_live)
-            if self.threads > 1:
-                for i in prange(b, n, num_threads=self.threads, schedule="static"):
-                    self.rank_one(self.live[i])
-            else:
-                for i in range(b, n):
-                    self.rank_one(self.live[i])
-                    if self.c.failed:
-                        return
-            if signal_pending():
+        """Plan every dirty live edge: its cost, or why it may not go; and count the valid
+        candidates into a cost histogram per thread (``compact`` sums them).  Each edge
+        writes its own slots only, and the histograms are integer counts, so the result
+        does not depend on the number of threads."""
+        cdef int i, c, t, lo, hi
+        cdef int n_chunks = (self.ne + RANK_CHUNK - 1) // RANK_CHUNK
+        memset(&self.hist_t[0, 0], 0, self.hist_t.shape[0] * N_BUCKETS * sizeof(int))
+        if self.threads > 1:
+            # one parallel region a pass, in dynamic chunks: a thread the system holds back
+            # (a loaded machine) delays the end by one chunk, not by its share; the calling
+            # thread (the team's thread 0) hears Ctrl-C, and then every thread skips the rest
+            for c in prange(n_chunks, num_threads=self.threads, schedule="dynamic", chunksize=1):
+                if self.interrupted:
+                    continue
+                t = threadid()
+                if t == 0 and (c & 31) == 31 and signal_pending():
+                    self.interrupted = True
+                    continue
+                lo = c * RANK_CHUNK
+                hi = min(lo + RANK_CHUNK, self.ne)
+                for i in range(lo, hi):
+                    self.rank_one(i)
+                    if self.state[i] == ST_VALID and self.m.edge_alive[i]:
+                        self.hist_t[t, bucket_of(self.cost[i])] += 1
+            if not self.interrupted and signal_pending():
+                self.interrupted = True
+            return
+        for c in range(n_chunks):
+            lo = c * RANK_CHUNK
+            hi = min(lo + RANK_CHUNK, self.ne)
+            for i in range(lo, hi):
+                self.rank_one(i)
+                if self.c.failed:
+                    return
+                if self.state[i] == ST_VALID and self.m.edge_alive[i]:
+                    self.hist_t[0, bucket_of(self.cost[i])] += 1
+            if (c & 31) == 31 and signal_pending():
                 self.interrupted = True
                 return
-            b = n
 
     cdef inline void rank_one(self, int e) noexcept nogil:
         cdef int h, r, hs, rc
         cdef double c, err
         cdef double p[3]
-        if self.state[e] != ST_DIRTY:
+        if self.state[e] != ST_DIRTY or not self.m.edge_alive[e]:
             return
         # without an error limit the ranking needs no error (nor the provenance the core
         # works out with it): check() plans the candidates of a pass again, in full
@@ -521,49 +559,87 @@ cdef class PassDriver:
             self.cost[e] = <float>c
 
     cdef int compact(self) noexcept nogil:
-        """Drop dead edges from the live list; returns the number of valid candidates and
-        fills the cost histogram of those."""
-        cdef int i, e, n = 0, valid = 0
-        memset(&self.hist[0], 0, N_BUCKETS * sizeof(int))
-        for i in range(self.n_live):
-            e = self.live[i]
-            if not self.m.edge_alive[e]:
-                continue
-            self.live[n] = e
-            n += 1
-            if self.state[e] == ST_VALID:
-                valid += 1
-                self.hist[bucket_of(self.cost[e])] += 1
-        self.n_live = n
+        """The number of valid candidates (live edges ranked within the limit), and the
+        histogram of their costs: the sum of rank()'s histograms."""
+        cdef int b, t, c, valid = 0
+        for b in range(N_BUCKETS):
+            c = 0
+            for t in range(self.hist_t.shape[0]):
+                c += self.hist_t[t, b]
+            self.hist[b] = c
+            valid += c
         return valid
 
     cdef int select(self, int k) noexcept nogil:
-        """The K cheapest valid candidates, sorted by (cost, edge), into keyed_buf; returns
-        how many were gathered (>= k: the whole bucket holding the K-th is taken, and the
-        caller uses the first k).  A counting sort by bucket (the live list is in edge
-        order, so each bucket fills in edge order), then each bucket sorted by cost: the
-        order is (cost, edge) whatever the buckets hold."""
-        cdef int b, last, acc = 0, i, e, n, start, size, big = 0
-        cdef unsigned int bk
+        """The k cheapest valid candidates, sorted by (cost, edge), into keyed_buf; returns
+        how many were gathered (>= k: the whole bucket holding the k-th is taken when it
+        fits, and the caller uses the first k).  A counting sort by bucket (edges are
+        visited in edge order, so each bucket fills in edge order), then each bucket sorted
+        by cost: the order is (cost, edge) whatever the buckets hold.  When the bucket of
+        the k-th does not fit in keyed_buf (kmax rows), only its share of the k is kept,
+        through a histogram of the lower 16 cost bits within that bucket (the same bits are
+        the same cost, and those come in edge order): the same k, in the same order."""
+        cdef int b, last, acc = 0, e, n, start, size, big = 0, before, need, last2 = 0, take = 0
+        cdef unsigned int bk, lo
+        cdef bint cut = False
         cdef Keyed* tmp
         for last in range(N_BUCKETS):
             acc += self.hist[last]
             if acc >= k:
                 break
         n = acc
+        before = n - self.hist[last]
+        if self.threads > 1 and n <= self.keyed_buf.shape[0]:
+            return self.select_parallel(last, n)
+        if n > self.keyed_buf.shape[0]:
+            if last >= FINITE_BUCKETS:
+                return self.select_wide(k, last, n)
+            # bucket `last` overflows: find the low 16 bits of the k-th within it
+            cut = True
+            need = k - before
+            memset(&self.hist_low[0], 0, N_BUCKETS * sizeof(int))
+            for e in range(self.ne):
+                if (self.state[e] == ST_VALID and self.m.edge_alive[e]
+                        and bucket_of(self.cost[e]) == <unsigned int>last):
+                    self.hist_low[cost_bits(self.cost[e]) & 0xFFFF] += 1
+            acc = 0
+            for last2 in range(N_BUCKETS):
+                if acc + self.hist_low[last2] >= need:
+                    break
+                acc += self.hist_low[last2]
+            take = need - acc                  # of the entries with exactly the k-th's cost
+            acc = before                       # hist_low: write positions within the bucket
+            for b in range(last2 + 1):
+                size = self.hist_low[b]
+                self.hist_low[b] = acc
+                acc += size
+            n = k
         acc = 0
         for b in range(last + 1):             # hist becomes each bucket's write position
             size = self.hist[b]
             self.hist[b] = acc
             acc += size
-        for i in range(self.n_live):
-            e = self.live[i]
-            if self.state[e] == ST_VALID:
-                bk = bucket_of(self.cost[e])
-                if bk <= <unsigned int>last:
-                    self.keyed_buf[self.hist[bk]].cost = self.cost[e]
-                    self.keyed_buf[self.hist[bk]].edge = e
-                    self.hist[bk] += 1
+        for e in range(self.ne):
+            if self.state[e] != ST_VALID or not self.m.edge_alive[e]:
+                continue
+            bk = bucket_of(self.cost[e])
+            if bk > <unsigned int>last:
+                continue
+            if bk < <unsigned int>last or not cut:
+                self.keyed_buf[self.hist[bk]].cost = self.cost[e]
+                self.keyed_buf[self.hist[bk]].edge = e
+                self.hist[bk] += 1
+                continue
+            lo = cost_bits(self.cost[e]) & 0xFFFF
+            if lo > <unsigned int>last2:
+                continue
+            if lo == <unsigned int>last2:
+                if take == 0:
+                    continue
+                take -= 1
+            self.keyed_buf[self.hist_low[lo]].cost = self.cost[e]
+            self.keyed_buf[self.hist_low[lo]].edge = e
+            self.hist_low[lo] += 1
         start = 0
         for b in range(last + 1):             # hist[b] is now the end of bucket b
             size = self.hist[b] - start
@@ -572,7 +648,7 @@ cdef class PassDriver:
             start = self.hist[b]
         tmp = <Keyed*>malloc(big * sizeof(Keyed)) if big > 16 else NULL
         start = 0
-        for b in range(last + 1):
+        for b in range(last if cut else last + 1):       # (a cut bucket is in order already)
             size = self.hist[b] - start
             if size > 16:
                 if tmp != NULL and b < FINITE_BUCKETS:
@@ -584,6 +660,94 @@ cdef class PassDriver:
             start = self.hist[b]
         free(tmp)
         return n
+
+    cdef int select_parallel(self, int last, int n) noexcept nogil:
+        """select() on several threads when every candidate up to bucket ``last`` fits
+        (n of them): each thread counts, then writes, the candidates of its range of edges
+        (ranges in edge order, so each bucket still fills in edge order), and the buckets
+        are sorted on threads.  The same order as one thread's."""
+        cdef int T = self.threads
+        cdef int per = (self.ne + T - 1) // T
+        cdef int t, b, e, lo, hi, pos, c, start, end, size
+        cdef unsigned int bk
+        cdef Keyed* tmp
+        for t in prange(T, num_threads=T, schedule="static", chunksize=1):
+            memset(&self.hist_t[t, 0], 0, (last + 1) * sizeof(int))
+            lo = t * per
+            hi = min(lo + per, self.ne)
+            for e in range(lo, hi):
+                if self.state[e] == ST_VALID and self.m.edge_alive[e]:
+                    bk = bucket_of(self.cost[e])
+                    if bk <= <unsigned int>last:
+                        self.hist_t[t, bk] += 1
+        pos = 0
+        for b in range(last + 1):             # hist: bucket starts; hist_t: each range's
+            self.hist[b] = pos
+            for t in range(T):
+                c = self.hist_t[t, b]
+                self.hist_t[t, b] = pos
+                pos += c
+        for t in prange(T, num_threads=T, schedule="static", chunksize=1):
+            lo = t * per
+            hi = min(lo + per, self.ne)
+            for e in range(lo, hi):
+                if self.state[e] == ST_VALID and self.m.edge_alive[e]:
+                    bk = bucket_of(self.cost[e])
+                    if bk <= <unsigned int>last:
+                        self.keyed_buf[self.hist_t[t, bk]].cost = self.cost[e]
+                        self.keyed_buf[self.hist_t[t, bk]].edge = e
+                        self.hist_t[t, bk] += 1
+        for b in prange(last + 1, num_threads=T, schedule="dynamic", chunksize=256):
+            start = self.hist[b]
+            end = self.hist[b + 1] if b < last else n
+            size = end - start
+            if size > 16:
+                tmp = <Keyed*>malloc(size * sizeof(Keyed)) if b < FINITE_BUCKETS else NULL
+                if tmp != NULL:
+                    radix_low16(&self.keyed_buf[start], size, tmp)
+                    free(tmp)
+                else:
+                    qsort(&self.keyed_buf[start], size, sizeof(Keyed), compare_keyed)
+            elif size > 1:
+                insertion_sort(&self.keyed_buf[start], size)
+        return n
+
+    cdef int select_wide(self, int k, int last, int n) noexcept nogil:
+        """select() when the bucket of the k-th holds infinite, NaN or negative costs (a
+        kernel's) and does not fit in keyed_buf: all n gathered into a temporary buffer,
+        sorted by compare_keyed, the first k kept.  Without memory for that, the buckets
+        before and then that bucket's first entries in edge order (the same on every run)."""
+        cdef Keyed* all_ = <Keyed*>malloc(n * sizeof(Keyed))
+        cdef int e, i = 0
+        cdef unsigned int bk
+        if all_ != NULL:
+            for e in range(self.ne):
+                if self.state[e] == ST_VALID and self.m.edge_alive[e] and bucket_of(self.cost[e]) <= <unsigned int>last:
+                    all_[i].cost = self.cost[e]
+                    all_[i].edge = e
+                    i += 1
+            qsort(all_, i, sizeof(Keyed), compare_keyed)
+            memcpy(&self.keyed_buf[0], all_, k * sizeof(Keyed))
+            free(all_)
+            return k
+        for e in range(self.ne):
+            if self.state[e] != ST_VALID or not self.m.edge_alive[e]:
+                continue
+            bk = bucket_of(self.cost[e])
+            if bk < <unsigned int>last:
+                self.keyed_buf[i].cost = self.cost[e]
+                self.keyed_buf[i].edge = e
+                i += 1
+        qsort(&self.keyed_buf[0], i, sizeof(Keyed), compare_keyed)
+        for e in range(self.ne):
+            if i >= k:
+                break
+            if self.state[e] == ST_VALID and self.m.edge_alive[e] and bucket_of(self.cost[e]) == <unsigned int>last:
+                self.keyed_buf[i].cost = self.cost[e]
+                self.keyed_buf[i].edge = e
+                i += 1
+
+        return i
 
     cdef void dirty_ring(self, int k) noexcept nogil:
         """After a collapse kept k: its edges (and, for wide kernels, its neighbours' edges)
@@ -628,29 +792,29 @@ cdef class PassDriver:
                 return
             y = ny
 
-    cdef void check(self, int i) noexcept nogil:
+    cdef void check(self, int i, int pr) noexcept nogil:
         """Plan candidate ``i`` of the pass again (for its position, which ranking does not
-        keep) and run the checks on the current state; writes row i only."""
+        keep) and run the checks on the current state; writes plan row ``pr`` only."""
         cdef int e = self.keyed_buf[i].edge
         cdef int h, r, hs, k
         cdef double dvol = 0.0
-        cdef double* x = &self.plan_x[i, 0]
+        cdef double* x = &self.plan_x[pr, 0]
         if self.c.plan(e, &h, &r, &hs, x, &x[3], &x[4]) < 0:
-            self.plan_he[i, 3] = CK_NONE
+            self.plan_he[pr, 3] = CK_NONE
             return
-        self.plan_he[i, 0] = h
-        self.plan_he[i, 1] = r
-        self.plan_he[i, 2] = hs
+        self.plan_he[pr, 0] = h
+        self.plan_he[pr, 1] = r
+        self.plan_he[pr, 2] = hs
         if hs >= 0:
-            self.plan_he[i, 3] = CK_PAIR              # both sides: checked in order
+            self.plan_he[pr, 3] = CK_PAIR              # both sides: checked in order
             return
         k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
         if not self.c.hm.link_ok(h):
-            self.plan_he[i, 3] = CK_TOPOLOGY
+            self.plan_he[pr, 3] = CK_TOPOLOGY
         elif not self.c.geometry_ok(h, r, k, x, -1, -1, &dvol):
-            self.plan_he[i, 3] = CK_GEOMETRY
+            self.plan_he[pr, 3] = CK_GEOMETRY
         else:
-            self.plan_he[i, 3] = CK_OK
+            self.plan_he[pr, 3] = CK_OK
             x[5] = dvol
 
     cdef int group(self, int n_sel) noexcept nogil:
@@ -724,13 +888,15 @@ cdef class PassDriver:
                 return True
             y = ny
 
-    cdef int try_inside(self, int i, int stamp, int row, int shift) noexcept nogil:
+    cdef int try_inside(self, int i, int stamp, int row, int shift, unsigned char flag) noexcept nogil:
         """Stage 1 (``shift`` 0) or 1b (``shift`` half a block) for candidate ``i``:
         collapse it if it lies inside its block (slots ``cblock[i] * bsize - shift`` on) and
         passes every check, keeping the tallies in its block's row (``row`` < 0: its record
-        is written after the stage).  Returns the faces it removed (0: none); candidates
-        that reach out of their block, and seam pairs, are left to the next stage."""
+        is written after the stage); a collapse is flagged ``flag`` (the stage's).  Returns
+        the faces it removed (0: none); candidates that reach out of their block, and seam
+        pairs, are left to the next stage."""
         cdef int b = self.cblock[i]
+        cdef int pr = i if self.keep_plans else b         # the plan row
         cdef int e = self.keyed_buf[i].edge
         cdef int h, u, v, r, k, st, faces
         cdef int dead[3]
@@ -745,18 +911,18 @@ cdef class PassDriver:
         if self.n_blocks > 1 and not self.inside(u, v, b * self.bsize - shift):
             self.cflag[i] = CF_DEFER
             return 0
-        self.check(i)
-        st = self.plan_he[i, 3]
+        self.check(i, pr)
+        st = self.plan_he[pr, 3]
         if st == CK_PAIR:
             self.cflag[i] = CF_DEFER
             return 0
         if st == CK_NONE:
             self.state[e] = ST_NONE
             return 0
-        h = self.plan_he[i, 0]
-        r = self.plan_he[i, 1]
+        h = self.plan_he[pr, 0]
+        r = self.plan_he[pr, 1]
         k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
-        x = &self.plan_x[i, 0]
+        x = &self.plan_x[pr, 0]
         if st == CK_TOPOLOGY:
             self.acc_i[b, 2] += 1
             self.refuse(e, r, k)
@@ -782,24 +948,116 @@ cdef class PassDriver:
             self.acc_x[b, 0] += x[5]
             if x[4] > self.acc_x[b, 1]:
                 self.acc_x[b, 1] = x[4]
-        self.cflag[i] = CF_DONE_SHIFTED if shift else CF_DONE
+        self.cflag[i] = flag
         self.lock(k, stamp)
         self.dirty_ring(k)
         return faces
 
-    cdef void walk_block(self, int b, int stamp, int shift) noexcept nogil:
-        cdef int j
+    cdef void walk_block(self, int b, int stamp, int shift, unsigned char flag) noexcept nogil:
+        """Block b's candidates numbered lo_i .. hi_i - 1, in cost order."""
+        cdef int j, i
         for j in range(self.blk_start[b], self.blk_start[b + 1]):
-            self.try_inside(self.blk_order[j], stamp, -1, shift)
+            i = self.blk_order[j]
+            if i < self.lo_i:
+                continue
+            if i >= self.hi_i:
+                break                          # a block's candidates come in cost order
+            self.try_inside(i, stamp, -1, shift, flag)
 
-    cdef int group_shifted(self, int n_sel) noexcept nogil:
-        """Stage 1b's blocks: the candidates stage 1 deferred, grouped (cost order kept) by
-        the blocks shifted by half a block, so that a candidate that reached over a border
-        of stage 1's blocks lies well inside one of these; clears their tallies and marks
-        them CF_PENDING_B (try_inside makes those that still reach out CF_DEFER again).
-        Returns the number of shifted blocks."""
+    cdef int stage(self, int n_sel, int stamp, int target_faces, bint to_target, int shift,
+                   unsigned char flag, int nb) noexcept nogil:
+        """A block stage (run_stage); with native kernels or split copies (``single``), its
+        candidates in plain cost order, each collapse whole at once (kernels commit in
+        order), the volume change summed over the stage's blocks afterwards as reduce()
+        does -- the same decisions as the blocks would take.  Returns the collapses, or -1
+        (interrupted) or -2 (a kernel failed)."""
+        cdef int i, b, st, n = 0
+        cdef int faces_left = self.c.hm.n_alive_faces
+        cdef double vol
+        if not self.single:
+            return self.run_stage(n_sel, stamp, target_faces, to_target, shift, flag, nb)
+        for i in range(n_sel):
+            if faces_left <= target_faces:
+                break
+            if flag != CF_DONE and self.cflag[i] != CF_PENDING_B:
+                continue
+            if (i & (INTERRUPT_EVERY - 1)) == INTERRUPT_EVERY - 1 and signal_pending():
+                return -1                       # abandons the pass: the run ends with the exception
+            st = self.try_inside(i, stamp, self.c.n_collapses, shift, flag)
+            if self.c.failed:
+                return -2
+            if st > 0:
+                faces_left -= st
+                n += 1
+        vol = self.c.closed_volume               # summed in block order, as reduce() does
+        for b in range(nb):
+            vol += self.acc_x[b, 0]
+        if self.c.closed_volume != 0.0:
+            self.c.closed_volume = vol
+        return n
+
+    cdef int run_stage(self, int n_sel, int stamp, int target_faces, bint to_target, int shift,
+                       unsigned char flag, int nb) noexcept nogil:
+        """Stage 1 (``shift`` 0) or 1b (half a block) over the grouped candidates, their
+        collapses flagged ``flag``.  Without a face target in reach, all blocks at once (on
+        several threads).  With one, in cost-order slices, each as long as the candidates
+        that cannot reach the target whatever they do (a collapse removes two faces at
+        most): each slice's blocks at once, since a slice taken block by block is the slice
+        taken in plain cost order; the last few candidates one by one, stopping exactly at
+        the target.  Records always come in cost order.  Returns the collapses done, or -1
+        (interrupted) or -2 (a kernel failed)."""
+        cdef int lo = 0, hi, i, b, st, row, safe, faces_left, n = 0
+        while lo < n_sel:
+            faces_left = self.c.hm.n_alive_faces
+            hi = n_sel
+            if to_target:
+                if faces_left <= target_faces:
+                    break
+                safe = (faces_left - target_faces - 1) // 2
+                if safe < SERIAL_TAIL:
+                    memset(&self.acc_i[0, 0], 0, nb * 4 * sizeof(int))
+                    memset(&self.acc_x[0, 0], 0, nb * 2 * sizeof(double))
+                    row = self.c.n_collapses
+                    for i in range(lo, n_sel):
+                        if faces_left <= target_faces:
+                            break
+                        if flag != CF_DONE and self.cflag[i] != CF_PENDING_B:
+                            continue
+                        if (i & (INTERRUPT_EVERY - 1)) == INTERRUPT_EVERY - 1 and signal_pending():
+                            return -1           # abandons the pass: the run ends with the exception
+                        st = self.try_inside(i, stamp, row, shift, flag)
+                        if self.c.failed:
+                            return -2
+                        if st > 0:
+                            faces_left -= st
+                            row += 1
+                    return n + self.reduce(False, flag, nb, lo, n_sel)
+                hi = min(n_sel, lo + safe)
+            memset(&self.acc_i[0, 0], 0, nb * 4 * sizeof(int))
+            memset(&self.acc_x[0, 0], 0, nb * 2 * sizeof(double))
+            self.lo_i = lo
+            self.hi_i = hi
+            if self.threads > 1:
+                for b in prange(nb, num_threads=self.threads, schedule="dynamic", chunksize=1):
+                    self.walk_block(b, stamp, shift, flag)
+                if signal_pending():
+                    return -1
+            else:
+                for b in range(nb):
+                    self.walk_block(b, stamp, shift, flag)
+                    if signal_pending():
+                        return -1
+            n += self.reduce(True, flag, nb, lo, hi)
+            lo = hi
+        return n
+
+    cdef int group_shifted(self, int n_sel, int half) noexcept nogil:
+        """Stage 1b's (1c's) blocks: the candidates deferred so far, grouped (cost order
+        kept) by the blocks of ``bsize`` slots shifted by ``half`` slots, so that a candidate
+        that reached over a border of the blocks before lies inside one of these; clears
+        their tallies and marks them CF_PENDING_B (try_inside makes those that still reach
+        out CF_DEFER again).  Returns the number of blocks."""
         cdef int i, b, acc = 0, size
-        cdef int half = self.bsize // 2
         cdef int nb = (self.c.hm.n_vertices + half) // self.bsize + 1
         memset(&self.blk_start[0], 0, (nb + 1) * sizeof(int))
         for i in range(n_sel):
@@ -839,85 +1097,43 @@ cdef class PassDriver:
         are summed in block order.  The same collapses taken in plain cost order give
         the same mesh: that is what the pass does when it may reach the face target, so
         it stops exactly there, and the records are always in that order.
-        Stage 1b: the candidates that reached out of their block, the same way in the
-        blocks shifted by half a block (plain cost order when the pass may reach the
-        target; its records follow stage 1's).
+        Stages 1b and 1c: the candidates that reached out of their block, the same way in
+        the blocks shifted by half a block, then in blocks of COARSE blocks (in cost-order
+        slices when the pass may reach the target; the records follow stage 1's).
         Stage 2: those that still reached out (and seam pairs), in cost order, on the
         state the stages before left, with the same rules."""
-        cdef int i, b, e, h, r, k, hs, rs, ks, st, stamp, row, faces_left, nb, half, n1 = 0
-        cdef double vol
+        cdef int i, e, h, r, k, hs, rs, ks, st, stamp, faces_left, nb, pr, fine, n1 = 0
         cdef double dv2[2]
         cdef double* x
         cdef bint to_target
         self.c.pass_counter += 1
         stamp = self.c.pass_counter
         self.group(n_sel)
-        row = self.c.n_collapses
         faces_left = self.c.hm.n_alive_faces
         # ---- stage 1
         to_target = self.single or faces_left - 2 * n_sel <= target_faces
-        if to_target:
-            for i in range(n_sel):
-                if faces_left <= target_faces:
-                    break
-                if (i & (INTERRUPT_EVERY - 1)) == INTERRUPT_EVERY - 1 and signal_pending():
-                    return RUN_INTERRUPTED      # abandons the pass: the run ends with the exception
-                st = self.try_inside(i, stamp, row, 0)
-                if self.c.failed:
-                    return RUN_ERROR
-                if st > 0:
-                    faces_left -= st
-                    row += 1
-                    n1 += 1
-        elif self.threads > 1:
-            for b in prange(self.n_blocks, num_threads=self.threads, schedule="dynamic", chunksize=1):
-                self.walk_block(b, stamp, 0)
-            if signal_pending():
-                return RUN_INTERRUPTED
-        else:
-            for b in range(self.n_blocks):
-                self.walk_block(b, stamp, 0)
-                if signal_pending():
-                    return RUN_INTERRUPTED
-        if self.single:
-            vol = self.c.closed_volume           # summed in block order, as reduce() does
-            for b in range(self.n_blocks):
-                vol += self.acc_x[b, 0]
-            if self.c.closed_volume != 0.0:
-                self.c.closed_volume = vol
-        else:
-            n1 = self.reduce(not to_target, CF_DONE, self.n_blocks)
-            # ---- stage 1b: the deferred candidates again, in the blocks shifted by half a
-            # block (the same rules; most of those that reached over a border of stage 1's
-            # blocks lie inside one of these), on several threads
-            if self.n_blocks > 1 and (target_faces < faces_left if to_target else True):
-                nb = self.group_shifted(n_sel)
-                half = self.bsize // 2
-                if to_target:
-                    for i in range(n_sel):
-                        if faces_left <= target_faces:
-                            break
-                        if self.cflag[i] != CF_PENDING_B:
-                            continue
-                        if (i & (INTERRUPT_EVERY - 1)) == INTERRUPT_EVERY - 1 and signal_pending():
-                            return RUN_INTERRUPTED
-                        st = self.try_inside(i, stamp, row, half)
-                        if self.c.failed:
-                            return RUN_ERROR
-                        if st > 0:
-                            faces_left -= st
-                            row += 1
-                elif self.threads > 1:
-                    for b in prange(nb, num_threads=self.threads, schedule="dynamic", chunksize=1):
-                        self.walk_block(b, stamp, half)
-                    if signal_pending():
-                        return RUN_INTERRUPTED
-                else:
-                    for b in range(nb):
-                        self.walk_block(b, stamp, half)
-                        if signal_pending():
-                            return RUN_INTERRUPTED
-                n1 += self.reduce(not to_target, CF_DONE_SHIFTED, nb)
+        st = self.stage(n_sel, stamp, target_faces, to_target, 0, CF_DONE, self.n_blocks)
+        if st < 0:
+            return RUN_INTERRUPTED if st == -1 else RUN_ERROR
+        n1 = st
+        # ---- stage 1b: the deferred candidates again, in the blocks shifted by half a block
+        # (the same rules; most of those that reached over a border of stage 1's blocks lie
+        # inside one of these), then 1c: what is left, in blocks of COARSE blocks
+        if self.n_blocks > 1 and self.c.hm.n_alive_faces > target_faces:
+            nb = self.group_shifted(n_sel, self.bsize // 2)
+            st = self.stage(n_sel, stamp, target_faces, to_target, self.bsize // 2, CF_DONE_SHIFTED, nb)
+            if st < 0:
+                return RUN_INTERRUPTED if st == -1 else RUN_ERROR
+            n1 += st
+            if self.c.hm.n_alive_faces > target_faces and self.n_blocks >= 2 * COARSE:
+                fine = self.bsize
+                self.bsize = fine * COARSE
+                nb = self.group_shifted(n_sel, 0)
+                st = self.stage(n_sel, stamp, target_faces, to_target, 0, CF_DONE_COARSE, nb)
+                self.bsize = fine
+                if st < 0:
+                    return RUN_INTERRUPTED if st == -1 else RUN_ERROR
+                n1 += st
         # ---- stage 2
         for i in range(n_sel):
             if self.c.hm.n_alive_faces <= target_faces:
@@ -933,16 +1149,17 @@ cdef class PassDriver:
             h = self.m.edge_he[e]
             if self.c.touched[self.m.corner[h]] == stamp or self.c.touched[he_dest(self.m, h)] == stamp:
                 continue
-            self.check(i)
-            st = self.plan_he[i, 3]
+            pr = i if self.keep_plans else 0
+            self.check(i, pr)
+            st = self.plan_he[pr, 3]
             if st == CK_NONE:
                 self.state[e] = ST_NONE
                 continue
-            h = self.plan_he[i, 0]
-            r = self.plan_he[i, 1]
-            hs = self.plan_he[i, 2]
+            h = self.plan_he[pr, 0]
+            r = self.plan_he[pr, 1]
+            hs = self.plan_he[pr, 2]
             k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
-            x = &self.plan_x[i, 0]
+            x = &self.plan_x[pr, 0]
             if st == CK_TOPOLOGY:
                 self.c.n_rejected_topology += 1
                 self.refuse(e, r, k)
@@ -979,10 +1196,11 @@ cdef class PassDriver:
             return RUN_TARGET
         return RUN_CHUNK
 
-    cdef int reduce(self, bint write_records, unsigned char flag, int n_blocks) noexcept nogil:
-        """After stage 1 (or 1b): the ``n_blocks`` blocks' tallies into the collapser's
-        counters, in block order; with ``write_records``, the records of the stage's
-        collapses (cflag ``flag``) in cost order.  Returns how many collapses the stage did."""
+    cdef int reduce(self, bint write_records, unsigned char flag, int n_blocks, int i0, int i1) noexcept nogil:
+        """After (a slice of) stage 1 or 1b: the ``n_blocks`` blocks' tallies into the
+        collapser's counters, in block order; with ``write_records``, the records of the
+        collapses of candidates i0 .. i1 - 1 (cflag ``flag``) in cost order.  Returns how many
+        collapses the tallies count."""
         cdef int b, i, j, h, k, r, row, n = 0, faces = 0
         cdef double vol = self.c.closed_volume
         for b in range(n_blocks):
@@ -995,7 +1213,7 @@ cdef class PassDriver:
                 self.c.max_error_done = self.acc_x[b, 1]
         if write_records and self.c.rec.on:
             row = self.c.n_collapses
-            for i in range(self.kmax):
+            for i in range(i0, i1):
                 if row >= self.c.n_collapses + n:
                     break
                 if self.cflag[i] != flag:
@@ -1053,14 +1271,15 @@ cdef class PassDriver:
                 # as the greedy driver does when its heap runs dry: rank every live edge
                 # again (a refusal can be lifted by a collapse two rings away, which
                 # dirtied nothing around it), and go on if that finds any
-                for i in range(self.n_live):
-                    self.state[self.live[i]] = ST_DIRTY
+                for i in range(self.ne):
+                    if self.m.edge_alive[i]:
+                        self.state[i] = ST_DIRTY
                 self.c.collapses_since_rescan = 0
                 continue
             if valid == 0:
                 over = 0
-                for i in range(self.n_live):
-                    if self.state[self.live[i]] == ST_OVER:
+                for i in range(self.ne):
+                    if self.state[i] == ST_OVER and self.m.edge_alive[i]:
                         over += 1
                 self.c.n_rejected_error = over
                 return RUN_EXHAUSTED

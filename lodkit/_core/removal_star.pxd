@@ -1,7 +1,11 @@
 # cython: language_level=3
 """A :c:type:`Star` over bare positions, for the removal kernels' ``evaluate_star`` test
 helpers (schroeder_kernel, volume_kernel): one star of a point set handed to a kernel's
-``evaluate`` without a half-edge mesh (``KernelMesh.he`` is NULL, no face slots)."""
+``evaluate`` without a half-edge mesh (``KernelMesh.he`` is NULL, no face slots); and the
+distance of a removed vertex to the patch that replaces its star (their accumulated
+bounds)."""
+from libc.math cimport sqrt
+
 from lodkit.kernel cimport KernelMesh
 from lodkit.removal cimport Star
 
@@ -26,3 +30,81 @@ cdef inline void star_on_points(KernelMesh* mesh, Star* star, const double* posi
     for i in range(k):
         star.link[i] = link[i]
         star.face[i] = -1
+
+
+cdef inline double point_triangle_dist2(const double* p, const double* a, const double* b,
+                                        const double* c) noexcept nogil:
+    """The squared distance of p to the triangle abc (Ericson, *Real-Time Collision
+    Detection* 5.1.5); a degenerate triangle gives the distance to its nearest edge point
+    or corner."""
+    cdef double ab[3]
+    cdef double ac[3]
+    cdef double ap[3]
+    cdef double bp[3]
+    cdef double cp[3]
+    cdef double q[3]
+    cdef double d1, d2, d3, d4, d5, d6, va, vb, vc, t, denom, v, w
+    cdef int i
+    for i in range(3):
+        ab[i] = b[i] - a[i]
+        ac[i] = c[i] - a[i]
+        ap[i] = p[i] - a[i]
+        bp[i] = p[i] - b[i]
+        cp[i] = p[i] - c[i]
+    d1 = ab[0] * ap[0] + ab[1] * ap[1] + ab[2] * ap[2]
+    d2 = ac[0] * ap[0] + ac[1] * ap[1] + ac[2] * ap[2]
+    d3 = ab[0] * bp[0] + ab[1] * bp[1] + ab[2] * bp[2]
+    d4 = ac[0] * bp[0] + ac[1] * bp[1] + ac[2] * bp[2]
+    d5 = ab[0] * cp[0] + ab[1] * cp[1] + ab[2] * cp[2]
+    d6 = ac[0] * cp[0] + ac[1] * cp[1] + ac[2] * cp[2]
+    vc = d1 * d4 - d3 * d2
+    vb = d5 * d2 - d1 * d6
+    va = d3 * d6 - d5 * d4
+    if d1 <= 0.0 and d2 <= 0.0:
+        for i in range(3):
+            q[i] = a[i]
+    elif d3 >= 0.0 and d4 <= d3:
+        for i in range(3):
+            q[i] = b[i]
+    elif vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0 and d1 - d3 != 0.0:
+        t = d1 / (d1 - d3)
+        for i in range(3):
+            q[i] = a[i] + t * ab[i]
+    elif d6 >= 0.0 and d5 <= d6:
+        for i in range(3):
+            q[i] = c[i]
+    elif vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0 and d2 - d6 != 0.0:
+        t = d2 / (d2 - d6)
+        for i in range(3):
+            q[i] = a[i] + t * ac[i]
+    elif va <= 0.0 and d4 - d3 >= 0.0 and d5 - d6 >= 0.0 and (d4 - d3) + (d5 - d6) != 0.0:
+        t = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        for i in range(3):
+            q[i] = b[i] + t * (c[i] - b[i])
+    else:
+        denom = va + vb + vc
+        if denom != 0.0:
+            v = vb / denom
+            w = vc / denom
+            for i in range(3):
+                q[i] = a[i] + v * ab[i] + w * ac[i]
+        else:                               # degenerate and no edge case fired: corner a
+            for i in range(3):
+                q[i] = a[i]
+    return (p[0] - q[0]) ** 2 + (p[1] - q[1]) ** 2 + (p[2] - q[2]) ** 2
+
+
+cdef inline double patch_distance(const double* positions, int stride, const double* p, const int* link,
+                                  const int* tri, int n_tris) noexcept nogil:
+    """The distance of p to the nearest of the ``n_tris`` triangles ``tri`` (indices into
+    ``link``, whose entries index ``positions``): how far a removed vertex lies from the
+    patch that replaces its star (0 when there is no triangle)."""
+    cdef int t
+    cdef double d2, best = -1.0
+    for t in range(n_tris):
+        d2 = point_triangle_dist2(p, &positions[stride * link[tri[3 * t]]],
+                                  &positions[stride * link[tri[3 * t + 1]]],
+                                  &positions[stride * link[tri[3 * t + 2]]])
+        if best < 0.0 or d2 < best:
+            best = d2
+    return sqrt(best) if best > 0.0 else 0.0

@@ -18,6 +18,8 @@ CLASS_NAMES: tuple[str, ...]
 DEFAULT_FEATURE_ANGLE: float
 #: smallest aspect ratio of a loop split (vtkDecimate's 1 / AspectRatio = 1/25)
 DEFAULT_MIN_ASPECT: float
+#: the ``accumulate`` option's values: "off" (the paper), "bound" (lodkit's default)
+ACCUMULATE_MODES: tuple[str, ...]
 
 class _StarEvaluation(TypedDict):
     cls: int
@@ -48,14 +50,24 @@ class SchroederKernel(RemovalKernel):
     @property
     def remove_corners(self) -> bool:
         """True: corner vertices may go too."""
+    @property
+    def accumulate_code(self) -> int:
+        """Index of the ``accumulate`` option in ACCUMULATE_MODES (0 off, 1 bound)."""
     def prepare(self, ctx: Any, options: dict[str, Any]) -> None:
-        """Take ``feature_angle`` (degrees, [0, 180]), ``min_aspect`` (>= 0) and
-        ``remove_corners`` from ``options``; missing ones keep the defaults."""
+        """Take ``feature_angle`` (degrees, [0, 180]), ``min_aspect`` (>= 0),
+        ``remove_corners`` and ``accumulate`` ("bound" or "off") from ``options``; missing
+        ones keep the defaults.  ``ctx.n_vertices`` (or ``options["n_vertices"]``) sizes the
+        per-vertex bounds (0: nothing is carried)."""
+    def accumulated(self) -> np.ndarray:
+        """(n,) float64: the distance bound each vertex slot carries from the removals
+        around it (normalised units; zeros with ``accumulate="off"``)."""
     def evaluate_star(self, positions: np.ndarray, v: int, link: Any, closed: bool) -> _StarEvaluation:
         """Classify and cost removing vertex ``v`` of ``positions`` (n, 3) with the given
         link (in order; closed: a cycle, else an open chain): class, the criterion's line
         ends (link indices) for boundary / interior-edge vertices, the error (= cost) and
-        the hole's triangles ((k - 2, 3) indices into ``link``), or vetoed."""
+        the hole's triangles ((k - 2, 3) indices into ``link``), or vetoed.  With
+        ``accumulate="bound"`` the error is the larger of the paper's d and v's distance to
+        those triangles (plus what v carries, if the kernel was prepared for a mesh)."""
 
 def evaluate_star(positions: np.ndarray, v: int, link: Any, closed: bool, **options: Any) -> _StarEvaluation:
     """:meth:`SchroederKernel.evaluate_star` with a kernel prepared from ``options``."""

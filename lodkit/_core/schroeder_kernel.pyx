@@ -52,7 +52,7 @@ from libc.math cimport sqrt, NAN
 from lodkit.kernel cimport KernelMesh, KERNEL_OK, KERNEL_VETO
 from lodkit.removal cimport RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION
 from .retriangulate cimport split_loop_aspect
-from .removal_star cimport star_on_points
+from .removal_star cimport star_on_points, patch_distance
 from .vec3 cimport sub3, cross3, dot3, norm3
 
 cdef enum:
@@ -67,6 +67,13 @@ COMPLEX = C_COMPLEX
 BOUNDARY = C_BOUNDARY
 INTERIOR_EDGE = C_INTERIOR_EDGE
 CORNER = C_CORNER
+cdef enum:
+    ACC_OFF = 0             # the paper: the criterion is the star's alone
+    ACC_BOUND = 1           # lodkit's default: an accumulated distance bound (module doc)
+
+#: the ``accumulate`` option's values, in ACC_* order
+ACCUMULATE_MODES = ("off", "bound")
+
 #: class code -> name
 CLASS_NAMES = ("simple", "complex", "boundary", "interior_edge", "corner")
 
@@ -89,6 +96,12 @@ cdef class SchroederKernel(RemovalKernel):
     cdef int last_class
     cdef int last_fa
     cdef int last_fb
+    # accumulation (lodkit's addition, see the module doc): ACC_* code and the distance
+    # bound each vertex slot carries from the removals around it
+    cdef readonly int accumulate_code
+    cdef double[::1] _acc
+    cdef double* acc
+    cdef int n_acc
 
     def __cinit__(self):
         self._work = np.zeros(6 * MAX_VALENCE, dtype=np.int32)
@@ -99,6 +112,9 @@ cdef class SchroederKernel(RemovalKernel):
         self.remove_corners = False
         self.last_class = C_COMPLEX
         self.last_fa = self.last_fb = -1
+        self.accumulate_code = ACC_OFF
+        self.acc = NULL
+        self.n_acc = 0
 
     def prepare(self, ctx, options):
         """Take ``feature_angle`` (degrees, in [0, 180]), ``min_aspect`` (>= 0) and
@@ -113,6 +129,14 @@ cdef class SchroederKernel(RemovalKernel):
         self.cos_feature = _math.cos(_math.radians(fa))
         self.min_aspect = ma
         self.remove_corners = bool(options.get("remove_corners", False))
+        acc = options.get("accumulate", "bound")
+        if acc not in ACCUMULATE_MODES:
+            raise ValueError(f"accumulate must be one of {ACCUMULATE_MODES}, got {acc!r}")
+        self.accumulate_code = ACCUMULATE_MODES.index(acc)
+        n = int(ctx.n_vertices) if ctx is not None else int(options.get("n_vertices", 0))
+        self._acc = np.zeros(max(n, 1))
+        self.acc = &self._acc[0]
+        self.n_acc = n
 
     cdef int evaluate(self, const Star* s, Removal* r) noexcept nogil:
         cdef const KernelMesh* m = s.mesh
@@ -128,7 +152,7 @@ cdef class SchroederKernel(RemovalKernel):
         cdef double e[3]
         cdef double f[3]
         cdef double g[3]
-        cdef double area, A = 0.0, nl, d, t, ll
+        cdef double area, A = 0.0, nl, d, t, ll, dp
         cdef int force_a, force_b
         r.gate = NAN
         self.last_class = C_COMPLEX
@@ -217,12 +241,32 @@ cdef class SchroederKernel(RemovalKernel):
         if n < 0:
             return KERNEL_VETO                  # no valid triangulation: the vertex stays
         r.n_tris = n
+        if self.accumulate_code == ACC_BOUND:
+            # lodkit's addition: the larger of d and v's distance to the patch that
+            # replaces its star, plus the bound v carries from the removals around it
+            dp = patch_distance(P, stride, x, s.link, r.tri, r.n_tris)
+            if dp > d:
+                d = dp
+            if s.v < self.n_acc:
+                d = d + self.acc[s.v]
         r.cost = d
         r.error = d
         return KERNEL_OK
 
     cdef int commit(self, const Star* s, const Removal* r) noexcept nogil:
+        cdef int i, w
+        if self.accumulate_code == ACC_BOUND:
+            # the new faces lie within r.error of the input: so do the link vertices' stars
+            for i in range(s.k):
+                w = s.link[i]
+                if 0 <= w < self.n_acc and r.error > self.acc[w]:
+                    self.acc[w] = r.error
         return KERNEL_OK
+
+    def accumulated(self):
+        """(n,) float64: the distance bound each vertex slot carries from the removals
+        around it (normalised units; zeros with ``accumulate="off"``)."""
+        return np.asarray(self._acc[:self.n_acc]).copy() if self.n_acc else np.zeros(0)
 
     def evaluate_star(self, positions, int v, link, bint closed):
         """Evaluate removing vertex ``v`` of ``positions`` (n, 3) whose link is ``link``

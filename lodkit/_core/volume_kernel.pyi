@@ -12,6 +12,8 @@ from ..removal import RemovalKernel
 DEGENERATE: int
 NON_HYPERBOLIC: int
 HYPERBOLIC: int
+#: the ``accumulate`` option's values: "off" (the paper), "bound" (lodkit's default)
+ACCUMULATE_MODES: tuple[str, ...]
 
 class VolumeKernel(RemovalKernel):
     """Removal cost vol(V) = angle * ht^3, gate angle(V) (the median filter), error ht(V);
@@ -35,12 +37,20 @@ class VolumeKernel(RemovalKernel):
     @property
     def n_fallbacks(self) -> int:
         """Evaluations that took another apex than the closest line's (fallback)."""
+    @property
+    def accumulate_code(self) -> int:
+        """Index of the ``accumulate`` option in ACCUMULATE_MODES (0 off, 1 bound)."""
+    def accumulated(self) -> np.ndarray:
+        """(n,) float64: the distance bound each vertex slot carries from the removals
+        around it (normalised units; zeros with ``accumulate="off"``)."""
     def veto_note(self) -> str:
         """Why the kernel holds vertices back now, in words (appended to a run's stop_detail)."""
     def prepare(self, ctx: Any, options: dict[str, Any]) -> None:
         """Options ``median`` (bool, default True: gated), ``tolerance`` (radians in
-        [0, 0.1), default 1e-9) and ``fallback`` (bool, default True); ``ctx.n_vertices`` (or
-        ``options["n_vertices"]`` without a context) sizes the per-vertex hyperbolic marks."""
+        [0, 0.1), default 1e-9), ``fallback`` (bool, default True) and ``accumulate``
+        ("bound", the default, or "off"); ``ctx.n_vertices`` (or
+        ``options["n_vertices"]`` without a context) sizes the per-vertex hyperbolic marks
+        and bounds."""
     def hyperbolic_mask(self) -> np.ndarray:
         """(n,) bool: the vertex slots hyperbolic at their last evaluation (not removed)."""
 
@@ -58,7 +68,9 @@ def measure(center: Sequence[float], neighbours: Any, closed: bool = True,
     ``volume``, ``pole``, ``margin``."""
 
 def evaluate_star(positions: Any, v: int, link: Any, closed: bool = True, fixed: Any | None = None,
-                  median: bool = True, tolerance: float = 1e-9, fallback: bool = True) -> dict[str, Any]:
+                  median: bool = True, tolerance: float = 1e-9, fallback: bool = True,
+                  accumulate: str = "bound") -> dict[str, Any]:
     """``VolumeKernel.evaluate`` on one star of a point set: ``status`` ("ok", "veto",
     "error"), ``cost``, ``error``, ``gate``, ``tris`` ((k-2, 3) indices into ``link``) and
-    ``hyperbolic``."""
+    ``hyperbolic``.  ``accumulate="bound"``: the error is the larger of ht and V's distance
+    to the fan (nothing carried in a lone star); "off": the paper's ht."""

@@ -61,7 +61,7 @@ from libc.math cimport sqrt, fabs, atan2, acos, cos, NAN, INFINITY, M_PI
 from lodkit.kernel cimport (KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VERTEX_FIXED)
 from lodkit.removal cimport (RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION)
 from .retriangulate cimport closest_line_apex, fan_from
-from .removal_star cimport star_on_points
+from .removal_star cimport star_on_points, patch_distance
 from .vec3 cimport dot3, cross3
 
 # classification codes
@@ -544,6 +544,14 @@ cdef int measure_star(const double* V, const double* W, int k, bint closed, doub
 
 
 cdef enum:
+    ACC_OFF = 0             # the paper: the cost is the star's alone
+    ACC_BOUND = 1           # lodkit's default: an accumulated distance bound (module doc)
+
+#: the ``accumulate`` option's values, in ACC_* order
+ACCUMULATE_MODES = ("off", "bound")
+
+
+cdef enum:
     MARK_NONE = 0           # removable, or not evaluated
     MARK_HYPERBOLIC = 1     # inside the convex hull of its neighbours (never removed)
     MARK_DEGENERATE = 2     # a neighbour at V or every neighbour on a line through V
@@ -582,6 +590,11 @@ cdef class VolumeKernel(RemovalKernel):
     cdef int n_state
     cdef long counts[4]                 # live vertex slots per MARK_* code
     cdef readonly long n_fallbacks      # evaluations that took another apex than the closest line's
+    # accumulation (lodkit's addition, see the module doc): ACC_* code and the distance
+    # bound each vertex slot carries from the removals around it
+    cdef readonly int accumulate_code
+    cdef double[::1] _acc
+    cdef double* acc
 
     def __cinit__(self):
         self.gated = True
@@ -591,6 +604,8 @@ cdef class VolumeKernel(RemovalKernel):
         self.n_state = 0
         self.counts[0] = self.counts[1] = self.counts[2] = self.counts[3] = 0
         self.n_fallbacks = 0
+        self.accumulate_code = ACC_OFF
+        self.acc = NULL
 
     def prepare(self, ctx, options):
         """Options: ``median`` (bool, default True: the paper's median filter, i.e. the
@@ -602,9 +617,15 @@ cdef class VolumeKernel(RemovalKernel):
             raise ValueError(f"tolerance must be in [0, 0.1), got {tol!r}")
         self.tolerance = tol
         self.fallback = bool(options.get("fallback", True))
+        acc = options.get("accumulate", "bound")
+        if acc not in ACCUMULATE_MODES:
+            raise ValueError(f"accumulate must be one of {ACCUMULATE_MODES}, got {acc!r}")
+        self.accumulate_code = ACCUMULATE_MODES.index(acc)
         n = int(ctx.n_vertices) if ctx is not None else int(options.get("n_vertices", 0))
         self._state = np.zeros(max(n, 1), dtype=np.uint8)
         self.state = &self._state[0]
+        self._acc = np.zeros(max(n, 1))
+        self.acc = &self._acc[0]
         self.n_state = n
         self.counts[0] = n
         self.counts[1] = self.counts[2] = self.counts[3] = 0
@@ -637,7 +658,7 @@ cdef class VolumeKernel(RemovalKernel):
         cdef double e[3]
         cdef double w[3]
         cdef double c[3]
-        cdef double ee, dist, da, db
+        cdef double ee, dist, da, db, ht
         cdef Measure ms
         cdef int i, j, t, n, apex, cls, near
         r.gate = NAN
@@ -705,13 +726,37 @@ cdef class VolumeKernel(RemovalKernel):
             else:
                 r.n_tris = fan_from(apex, s.k, r.tri)    # none fits: propose the paper's
         r.gate = ms.angle
-        r.error = ms.height
-        r.cost = ms.angle * ms.height * ms.height * ms.height
+        if self.accumulate_code == ACC_BOUND:
+            # lodkit's addition: the error is how far the removal moves the surface from
+            # the input, bounded -- the larger of ht and V's distance to the fan that
+            # replaces its star, plus the bound V carries from the removals around it
+            ht = patch_distance(m.positions, m.stride, p, s.link, r.tri, r.n_tris)
+            if ms.height > ht:
+                ht = ms.height
+            if s.v < self.n_state:
+                ht = ht + self.acc[s.v]
+            r.error = ht
+            r.cost = ms.angle * ht * ht * ht
+        else:
+            r.error = ms.height
+            r.cost = ms.angle * ms.height * ms.height * ms.height
         return KERNEL_OK
 
     cdef int commit(self, const Star* s, const Removal* r) noexcept nogil:
+        cdef int i, w
         self._mark(s.v, MARK_NONE)       # the vertex is gone
+        if self.accumulate_code == ACC_BOUND:
+            # the new faces lie within r.error of the input: so do the link vertices' stars
+            for i in range(s.k):
+                w = s.link[i]
+                if 0 <= w < self.n_state and r.error > self.acc[w]:
+                    self.acc[w] = r.error
         return KERNEL_OK
+
+    def accumulated(self):
+        """(n,) float64: the distance bound each vertex slot carries from the removals
+        around it (normalised units; zeros with ``accumulate="off"``)."""
+        return np.asarray(self._acc[:self.n_state]).copy()
 
     def hyperbolic_mask(self):
         """(n,) bool: the vertex slots hyperbolic at their last evaluation (not removed)."""
@@ -815,11 +860,13 @@ def measure(center, neighbours, closed=True, tolerance=1e-9):
 
 
 def evaluate_star(positions, int v, link, closed=True, fixed=None, median=True, tolerance=1e-9,
-                  fallback=True):
+                  fallback=True, accumulate="bound"):
     """Run ``VolumeKernel.evaluate`` on one star of a point set: ``positions`` (n, 3),
     vertex ``v``, ``link`` (k,) vertex indices in link order.  Returns a dict: ``status``
     ("ok", "veto" or "error"), ``cost``, ``error``, ``gate``, ``tris`` ((k-2, 3) indices into
-    ``link``, or None) and ``hyperbolic`` (the kernel's mark for v)."""
+    ``link``, or None) and ``hyperbolic`` (the kernel's mark for v).  ``accumulate`` as the
+    metric's option (nothing is carried yet: "bound" measures the larger of ht and V's
+    distance to the fan, "off" the paper's ht)."""
     P = np.ascontiguousarray(positions, dtype=np.float64)
     L = np.ascontiguousarray(link, dtype=np.int32)
     if P.ndim != 2 or P.shape[1] != 3 or L.ndim != 1:
@@ -835,7 +882,7 @@ def evaluate_star(positions, int v, link, closed=True, fixed=None, median=True, 
         flags[np.asarray(fixed, dtype=np.int64)] |= VERTEX_FIXED
     cdef VolumeKernel kern = VolumeKernel()
     kern.prepare(None, {"median": median, "tolerance": tolerance, "fallback": fallback,
-                        "n_vertices": n})
+                        "accumulate": accumulate, "n_vertices": n})
     cdef double[:, ::1] pv = P
     cdef unsigned char[::1] fv = flags
     cdef const int[::1] lv = L

@@ -95,6 +95,7 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
         if error_bound is not None and str(exc).startswith("the error bound"):
             raise OptionError(str(exc)) from None
         raise
+    work.fixed = None           # the collapser's vertex flags hold it now
     raise_if_failed(collapser, compiled)
     if work.seams is not None:
         work.n_seam_fixed = collapser.n_seam_fixed      # seam ends stay too (EdgeCollapser)
@@ -117,6 +118,7 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
             status = run_chunked(driver, hm, target, bar)
         rejected_error = collapser.n_rejected_error
         n_passes = driver.n_passes if passes else 0
+        del driver          # the pass driver's arrays go before release() copies the positions
     if bar:
         bar.close()
     raise_if_failed(collapser, compiled)

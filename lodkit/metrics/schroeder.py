@@ -33,4 +33,11 @@ class Schroeder(RemovalMetric):
         "remove_corners": Option(False, kind=bool,
                                  doc="let corner vertices go (by distance to the average plane, or "
                                      "to the new boundary edge on a boundary); Schroeder keeps them"),
+        "accumulate": Option("bound", choices=("bound", "off"),
+                             doc="lodkit's addition: 'bound' = carry what each removal took away to "
+                                 "the vertices that remain: a vertex's error e is the larger of d "
+                                 "and its distance to the patch that would replace its star, plus "
+                                 "the largest e of a removed neighbour (an accumulated distance "
+                                 "bound; ranked by e, held to max_error); 'off' = the paper's "
+                                 "memory-less rule"),
     }

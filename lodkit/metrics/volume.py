@@ -39,4 +39,11 @@ class Volume(RemovalMetric):
                                "or more from the star's mean normal), use the apex of the next-closest "
                                "line whose fan does not (False: always the paper's closest-line fan, "
                                "which the driver then refuses)"),
+        "accumulate": Option("bound", choices=("bound", "off"),
+                             doc="lodkit's addition: 'bound' = carry what each removal took away to "
+                                 "the vertices that remain: a vertex's error e is the larger of ht(V) "
+                                 "and its distance to the patch that would replace its star, plus "
+                                 "the largest e of a removed neighbour (an accumulated distance "
+                                 "bound; ranked by angle * e^3, held to max_error); 'off' = the paper's "
+                                 "memory-less rule"),
     }
