@@ -133,13 +133,26 @@ cdef void sym3_eigenvalues(const double* q, double* w) noexcept nogil:
     w[1] = 3.0 * m - w[0] - w[2]
 
 
+cdef inline double longer_cross(const double* a, const double* b, double* v, double best) noexcept nogil:
+    """``v = a x b`` if that is longer than ``best`` (a squared length); the longer one's."""
+    cdef double c[3]
+    cdef double n
+    cross3(a, b, c)
+    n = dot3(c, c)
+    if n > best:
+        v[0] = c[0]
+        v[1] = c[1]
+        v[2] = c[2]
+        return n
+    return best
+
+
 cdef bint sym3_eigenvector(const double* q, double lam, double* v) noexcept nogil:
     """A unit eigenvector of the quadric's 3x3 block for the (simple) eigenvalue ``lam``:
     the longest cross product of two rows of A - lam I.  False if all three vanish."""
     cdef double r0[3]
     cdef double r1[3]
     cdef double r2[3]
-    cdef double c[3]
     cdef double n, best
     r0[0] = q[0] - lam
     r0[1] = q[1]
@@ -152,20 +165,8 @@ cdef bint sym3_eigenvector(const double* q, double lam, double* v) noexcept nogi
     r2[2] = q[5] - lam
     cross3(r0, r1, v)
     best = dot3(v, v)
-    cross3(r0, r2, c)
-    n = dot3(c, c)
-    if n > best:
-        best = n
-        v[0] = c[0]
-        v[1] = c[1]
-        v[2] = c[2]
-    cross3(r1, r2, c)
-    n = dot3(c, c)
-    if n > best:
-        best = n
-        v[0] = c[0]
-        v[1] = c[1]
-        v[2] = c[2]
+    best = longer_cross(r0, r2, v, best)
+    best = longer_cross(r1, r2, v, best)
     if not (best > 0.0):
         return False
     n = 1.0 / sqrt(best)
