@@ -6,8 +6,6 @@ Exact comparisons here are between two runs on the same machine (never with reco
 """
 from __future__ import annotations
 
-import os
-
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -311,16 +309,21 @@ def test_blocks_keep_manifold_genus_and_orientation(small_blocks, seed, ratio):
     assert same_result(r, one)
 
 
-def test_openmp_spin_is_short_unless_the_user_set_it():
+def test_openmp_spin_is_short_unless_the_user_set_it(tmp_path):
     """lodkit sets GNU OpenMP's spin count before its OpenMP module loads (a long spin made
     two threads slower than one on a loaded machine), and leaves a value the user set."""
     import subprocess
     import sys
 
+    from conftest import lodkit_subprocess_env
+
     code = "import os, lodkit; print(os.environ['GOMP_SPINCOUNT'])"
-    env = {k: v for k, v in os.environ.items() if k != "GOMP_SPINCOUNT"}
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    env = lodkit_subprocess_env()
+    env.pop("GOMP_SPINCOUNT", None)
+    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=tmp_path, capture_output=True, text=True,
+                         check=True)
     assert out.stdout.strip() == "10000"
     env["GOMP_SPINCOUNT"] = "123"
-    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+    out = subprocess.run([sys.executable, "-c", code], env=env, cwd=tmp_path, capture_output=True, text=True,
+                         check=True)
     assert out.stdout.strip() == "123"
