@@ -122,7 +122,9 @@ def progressive(mesh, metric="qem", *, min_faces: int = 0, max_error: float | No
         "dead_faces": rec["faces"].astype(np.int32),
         "pair_open": rec["pair_open"],
         "cost": rec["cost"],
-        "error": rec["error"],
+        # the records' errors are in the caller's units (absolute=True: scaled by the
+        # diagonal); kept in the core's, as the bound is, and scaled on the way out
+        "error": rec["error"] / scale,
         "attributes": rec["attributes"],
         "error_scale": np.float64(scale),
         "n_input_faces": np.int64(src.n_faces),

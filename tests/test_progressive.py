@@ -517,3 +517,22 @@ def test_built_in_cursor_is_thread_safe(small_pm):
     assert errors == []
     at = pm.at(step=pm.step)
     assert np.array_equal(pm.current.faces, at.faces) and np.array_equal(pm.current.vertices, at.vertices)
+
+
+def test_absolute_errors_are_scaled_once():
+    """progressive(..., absolute=True) reports errors in model units, as simplify does (they
+    were multiplied by the diagonal twice)."""
+    import lodkit
+    from lodkit.demo import demo_mesh
+
+    base = demo_mesh(4000)
+    mesh = lodkit.Mesh(base.vertices * 7.5, base.faces)
+    pm = lodkit.progressive(mesh, absolute=True)
+    rel = lodkit.progressive(mesh)
+    for n in (2000, 600, int(pm.faces_per_step[-1])):
+        r = lodkit.simplify(mesh, target_faces=n, absolute=True)
+        step = int(np.searchsorted(-pm.faces_per_step, -n))        # the first step at n faces or fewer
+        assert pm.errors_per_step[step] == pytest.approx(r.error, rel=1e-9)
+    # the same run in relative units, times the diagonal
+    diag = float(np.linalg.norm(mesh.vertices.max(axis=0) - mesh.vertices.min(axis=0)))
+    assert pm.errors_per_step[-1] == pytest.approx(rel.errors_per_step[-1] * diag, rel=1e-9)
