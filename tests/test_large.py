@@ -81,7 +81,10 @@ def test_open_surface_keeps_its_boundary_and_is_close_to_in_core(tmp_path):
     check_same_shape(mesh, result.mesh)
     check_vertex_map(mesh, result)
     ref = lodkit.simplify(mesh, target_ratio=0.1)
-    assert result.mesh.n_faces == ref.mesh.n_faces
+    # both stop at the target or one face below it (a last collapse may remove two faces),
+    # whichever collapses came before
+    target = ref.report["target_faces"]
+    assert target - 1 <= result.mesh.n_faces <= target and target - 1 <= ref.mesh.n_faces <= target
     tiled = lodkit.evaluate(mesh, result.mesh, samples=20_000, seed=1).distance.mean
     whole = lodkit.evaluate(mesh, ref.mesh, samples=20_000, seed=1).distance.mean
     assert tiled < 2.5 * whole     # measured: 1.6 with these tiny tiles (docs/scale.md)
