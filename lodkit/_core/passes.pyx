@@ -403,6 +403,27 @@ cdef void radix_low16(Keyed* a, int n, Keyed* tmp) noexcept nogil:
         memcpy(a, src, n * sizeof(Keyed))
 
 
+cdef void sort_bucket(Keyed* a, int size, bint finite, Keyed* tmp) noexcept nogil:
+    """Sort one bucket of keyed candidates into (cost, edge) order: a few by insertion, more
+    by the radix sort on the lower cost bits when the bucket holds positive finite costs
+    (``tmp``: scratch of ``size`` rows, or NULL to take it here), else by compare_keyed."""
+    cdef bint own = False
+    if size <= 1:
+        return
+    if size <= 16:
+        insertion_sort(a, size)
+        return
+    if finite and tmp == NULL:
+        tmp = <Keyed*>malloc(size * sizeof(Keyed))
+        own = True
+    if finite and tmp != NULL:
+        radix_low16(a, size, tmp)
+    else:
+        qsort(a, size, sizeof(Keyed), compare_keyed)
+    if own:
+        free(tmp)
+
+
 @cython.final
 cdef class PassDriver:
     """Runs a :class:`PassCollapser` (an EdgeCollapser made with ``use_heap=False``) in
@@ -649,14 +670,7 @@ cdef class PassDriver:
         tmp = <Keyed*>malloc(big * sizeof(Keyed)) if big > 16 else NULL
         start = 0
         for b in range(last if cut else last + 1):       # (a cut bucket is in order already)
-            size = self.hist[b] - start
-            if size > 16:
-                if tmp != NULL and b < FINITE_BUCKETS:
-                    radix_low16(&self.keyed_buf[start], size, tmp)
-                else:
-                    qsort(&self.keyed_buf[start], size, sizeof(Keyed), compare_keyed)
-            elif size > 1:
-                insertion_sort(&self.keyed_buf[start], size)
+            sort_bucket(&self.keyed_buf[start], self.hist[b] - start, b < FINITE_BUCKETS, tmp)
             start = self.hist[b]
         free(tmp)
         return n
@@ -668,9 +682,8 @@ cdef class PassDriver:
         are sorted on threads.  The same order as one thread's."""
         cdef int T = self.threads
         cdef int per = (self.ne + T - 1) // T
-        cdef int t, b, e, lo, hi, pos, c, start, end, size
+        cdef int t, b, e, lo, hi, pos, c, start, end
         cdef unsigned int bk
-        cdef Keyed* tmp
         for t in prange(T, num_threads=T, schedule="static", chunksize=1):
             memset(&self.hist_t[t, 0], 0, (last + 1) * sizeof(int))
             lo = t * per
@@ -700,16 +713,7 @@ cdef class PassDriver:
         for b in prange(last + 1, num_threads=T, schedule="dynamic", chunksize=256):
             start = self.hist[b]
             end = self.hist[b + 1] if b < last else n
-            size = end - start
-            if size > 16:
-                tmp = <Keyed*>malloc(size * sizeof(Keyed)) if b < FINITE_BUCKETS else NULL
-                if tmp != NULL:
-                    radix_low16(&self.keyed_buf[start], size, tmp)
-                    free(tmp)
-                else:
-                    qsort(&self.keyed_buf[start], size, sizeof(Keyed), compare_keyed)
-            elif size > 1:
-                insertion_sort(&self.keyed_buf[start], size)
+            sort_bucket(&self.keyed_buf[start], end - start, b < FINITE_BUCKETS, NULL)
         return n
 
     cdef int select_wide(self, int k, int last, int n) noexcept nogil:
