@@ -73,7 +73,7 @@ class Prepared:
     memory_order: bool = False   # vertex and face slots sorted along a Morton curve
 
 
-def prepare(mesh: Mesh, *, memory_order: bool = False) -> Prepared:
+def prepare(mesh: Mesh, *, memory_order: bool = False, threads: int = 1) -> Prepared:
     """Drop faces with a repeated index and unreferenced vertices, normalise positions
     (centre of the bbox at the origin, unit diagonal) and build the half-edge arrays.
 
@@ -81,7 +81,8 @@ def prepare(mesh: Mesh, *, memory_order: bool = False) -> Prepared:
     the face slots by their first vertex slot, so that vertices and faces close on the
     surface are close in memory (the pass driver walks them in slot order); the maps
     (``input_vertex``, ``input_face``) take the permutations, so nothing downstream sees
-    them but the speed."""
+    them but the speed.  ``threads``: OpenMP threads of the half-edge build (the arrays
+    are the same for any number)."""
     faces = mesh.faces
     if faces.shape[0] == 0:
         raise MeshError("the mesh has no faces")
@@ -126,7 +127,7 @@ def prepare(mesh: Mesh, *, memory_order: bool = False) -> Prepared:
         compact, by_first = faces_by_first_slot(compact, int(input_vertex.size), True)
         input_face = input_face[by_first]
         del perm, slot_of, by_first
-    hm = build(compact, int(input_vertex.size))
+    hm = build(compact, int(input_vertex.size), threads)
     del compact, faces
     slot_input = input_vertex[hm.vertex_sources] if hm.n_split_vertices else input_vertex
     positions = mesh.vertices[slot_input]
@@ -178,7 +179,7 @@ def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolu
     if prune is not None:
         src, kept_faces, prune_report = prune_debris(src, prune)
         welded_faces = kept_faces if welded_faces is None else welded_faces[kept_faces]
-    prep = prepare(src, memory_order=memory_order)
+    prep = prepare(src, memory_order=memory_order, threads=int(settings.get("threads", (1,))[0]))
     hm = prep.hm
     fixed = hm.locked_vertices.copy()
     if locked is not None:

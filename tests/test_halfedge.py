@@ -184,6 +184,22 @@ def assert_matches_reference(faces, n: int):
     assert np.array_equal(np.bincount(src, minlength=n), [ref.fans[v] for v in range(n)])
     assert set(src[hm.locked_vertices].tolist()) == ref.locked
     assert hm.locked_vertices.sum() == sum(ref.fans[v] for v in ref.locked)
+    # edges numbered in (smaller end, larger end) order of the input vertices, the
+    # half-edges of one group (a non-manifold edge cut apart) in id order
+    corners = src[hm.corners.reshape(-1)]
+    nxt = src[hm.corners[:, [1, 2, 0]].reshape(-1)]
+    key = np.lexsort((np.arange(corners.size), np.maximum(corners, nxt), np.minimum(corners, nxt)))
+    edge_seq = hm.edges[key]
+    assert np.array_equal(np.unique(edge_seq), np.arange(hm.n_edges))
+    assert (np.diff(edge_seq) >= 0).all()
+    # each edge's stored half-edge is its later one
+    assert np.array_equal(hm.edge_halfedges, [np.flatnonzero(hm.edges == e).max() for e in range(hm.n_edges)])
+    # the same arrays on any number of threads
+    for threads in (2, 4):
+        other = build(np.asarray(faces, dtype=np.int32), n, threads)
+        for name in ("corners", "twins", "edges", "edge_halfedges", "vertex_halfedges", "vertex_sources",
+                     "locked_vertices"):
+            assert np.array_equal(getattr(hm, name), getattr(other, name)), name
     return hm
 
 
@@ -651,3 +667,26 @@ def test_build_real_meshes(name):
         assert hm.n_nonmanifold_edges == expected[0]
         if expected[1] is not None:
             assert hm.n_split_vertices == expected[1]
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_build_is_the_same_on_any_number_of_threads(seed):
+    """A grid of 30k vertices (several of build's 4096-vertex chunks per thread) with faces
+    dropped, flipped and duplicated at random: pinches, cut edges and split fans in every
+    chunk; the arrays are the same for 1, 2 and 3 threads."""
+    rng = np.random.default_rng(seed)
+    faces = grid_faces(170, 170)
+    faces = faces[rng.random(len(faces)) > 0.05]
+    flip = rng.random(len(faces)) < 0.01
+    faces[flip] = faces[flip][:, ::-1]
+    faces = np.concatenate([faces, faces[rng.integers(0, len(faces), 200)]])
+    faces, n = compact(faces)
+    faces = faces.astype(np.int32)
+    one = build(faces, n, 1)
+    assert one.n_nonmanifold_edges > 0 and one.n_split_vertices > 0
+    for threads in (2, 3):
+        other = build(faces, n, threads)
+        assert (other.n_edges, other.n_vertices) == (one.n_edges, one.n_vertices)
+        for name in ("corners", "twins", "edges", "edge_halfedges", "vertex_halfedges", "vertex_sources",
+                     "locked_vertices"):
+            assert np.array_equal(getattr(one, name), getattr(other, name)), name

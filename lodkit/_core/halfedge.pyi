@@ -57,7 +57,7 @@ class HalfEdgeMesh:
     def check(self) -> bool:
         """Verify all invariants; AssertionError naming the first broken one."""
 
-def build(faces: ArrayLike, n_vertices: int) -> HalfEdgeMesh:
+def build(faces: ArrayLike, n_vertices: int, threads: int = 1) -> HalfEdgeMesh:
     """Half-edge arrays for (m, 3) faces in O(m + n); non-manifold parts are cut and locked."""
 
 def triangulation_ok(triangles: ArrayLike, k: int, closed: bool) -> bool:

@@ -7,6 +7,8 @@ a vertex whose faces form several fans gets one vertex slot per fan.  Vertices t
 either repair are locked (they never move and are never removed) so that welding the copies
 back on output restores the input's non-manifold configuration exactly.
 """
+from cython.parallel cimport prange, threadid
+from libc.stdlib cimport qsort
 import numpy as np
 cimport numpy as cnp
 
@@ -688,9 +690,118 @@ cdef int replace_star(HalfEdgeMesh hm, int v, const int* link, const int* face, 
     return n_dead
 
 
-def build(faces, int n_vertices):
+cdef int compare_i64(const void* a, const void* b) noexcept nogil:
+    cdef long long x = (<const long long*>a)[0]
+    cdef long long y = (<const long long*>b)[0]
+    return (x > y) - (x < y)
+
+
+cdef inline void sort_keys(long long* a, int k) noexcept nogil:
+    """Sort ``k`` keys ascending: insertion sort for the usual few, qsort past 32."""
+    cdef int i, j
+    cdef long long x
+    if k > 32:
+        qsort(a, k, sizeof(long long), compare_i64)
+        return
+    for i in range(1, k):
+        x = a[i]
+        j = i - 1
+        while j >= 0 and a[j] > x:
+            a[j + 1] = a[j]
+            j -= 1
+        a[j + 1] = x
+
+
+cdef int pair_at(const int* corner, const int* first, const int* out_he, int v, long long* buf,
+                 int* twin, int* local, unsigned char* nm_he, int* n_nm) noexcept nogil:
+    """Pair the half-edges whose smaller end is ``v``: each is an outgoing half-edge of v to
+    a larger vertex, or the incoming one of a face of v from a larger vertex (every
+    half-edge has one smaller end, so each is seen once over all v).  Grouped by the other
+    end (keys ``w << 32 | h``: h ascending within a group), a group of two opposite
+    half-edges is one edge and a twin pair; any other group gives each member an edge of
+    its own (a border edge; a non-manifold one when there are several, flagged in
+    ``nm_he`` and counted in ``n_nm``).  Writes ``local``: the edge's number among v's, in
+    (w, h) order; returns how many edges v has."""
+    cdef int k = 0, s, h, p, w, i, j, t, x0, x1, ne = 0
+    for s in range(first[v], first[v + 1]):
+        h = out_he[s]
+        w = corner[he_next(h)]
+        if w > v:
+            buf[k] = (<long long>w << 32) | h
+            k += 1
+        p = he_prev(h)
+        w = corner[p]
+        if w > v:
+            buf[k] = (<long long>w << 32) | p
+            k += 1
+    sort_keys(buf, k)
+    i = 0
+    while i < k:
+        j = i + 1
+        while j < k and (buf[j] >> 32) == (buf[i] >> 32):
+            j += 1
+        x0 = <int><unsigned int>buf[i]
+        if j - i == 2:
+            x1 = <int><unsigned int>buf[i + 1]
+            if corner[x1] != corner[x0]:          # opposite directions: one manifold edge
+                twin[x0] = x1
+                twin[x1] = x0
+                local[x0] = ne
+                local[x1] = ne
+                ne += 1
+                i = j
+                continue
+        if j - i > 1:
+            n_nm[0] += 1
+        for t in range(i, j):
+            x0 = <int><unsigned int>buf[t]
+            local[x0] = ne
+            ne += 1
+            if j - i > 1:
+                nm_he[x0] = 1
+        i = j
+    return ne
+
+
+cdef int count_fans(const int* twin, const int* first, const int* out_he, int v, unsigned char* seen,
+                    int* first_start) noexcept nogil:
+    """How many fans (edge-connected runs of faces) meet at ``v``, found in the order of
+    its outgoing half-edges; ``first_start`` gets the first fan's first half-edge (-1:
+    no face).  Marks v's outgoing half-edges in ``seen`` (they are v's alone)."""
+    cdef int s, h, start, t, nxt, nf = 0
+    first_start[0] = -1
+    for s in range(first[v], first[v + 1]):
+        h = out_he[s]
+        if seen[h]:
+            continue
+        start = h                     # walk back to the fan's first half-edge (or round to h)
+        while True:
+            t = twin[start]
+            if t < 0:
+                break
+            nxt = he_next(t)
+            if nxt == h:
+                break
+            start = nxt
+        if nf == 0:
+            first_start[0] = start
+        nf += 1
+        t = start
+        while True:
+            seen[t] = 1
+            t = twin[he_prev(t)]
+            if t < 0 or t == start:
+                break
+    return nf
+
+
+def build(faces, int n_vertices, int threads=1):
     """Half-edge arrays for ``faces`` ((m, 3) int32, no repeated index within a face, every
-    index in ``0..n_vertices-1``).  O(m + n): two counting sorts pair the half-edges.
+    index in ``0..n_vertices-1``).  O(m + n): the outgoing half-edges of each vertex (a
+    counting sort), then, per vertex, its edges to larger vertices paired up and its fans
+    counted -- per vertex on ``threads`` OpenMP threads, each vertex writing only its own
+    half-edges, so the arrays are the same for any thread count.  Edges are numbered in
+    (smaller end, larger end) order, the half-edges of a non-manifold group in id order.
 
     Returns a :class:`HalfEdgeMesh`.  Non-manifold edges and vertices are cut as described
     in the module docstring; the counts are in ``n_nonmanifold_edges`` / ``n_split_vertices``.
@@ -699,145 +810,122 @@ def build(faces, int n_vertices):
     cdef Py_ssize_t m = F.shape[0]
     if m >= 700_000_000:
         raise ValueError("too many faces for 32-bit half-edge ids")
+    if threads < 1:
+        threads = 1
     cdef int H = <int>(3 * m)
     cdef int n = n_vertices
     cdef int[::1] corner = np.ascontiguousarray(F).reshape(-1).copy()
     cdef int[::1] twin = np.full(H, -1, dtype=np.intc)
     cdef int[::1] edge = np.empty(H, dtype=np.intc)
-    cdef int[::1] count = np.zeros(n + 1, dtype=np.intc)
-    cdef int[::1] order1 = np.empty(H, dtype=np.intc)
-    cdef int[::1] order2 = np.empty(H, dtype=np.intc)
+    cdef int[::1] first = np.zeros(n + 2, dtype=np.intc)
+    cdef int[::1] out_he = np.empty(H, dtype=np.intc)
+    cdef int[::1] n_edges_at = np.empty(n + 1, dtype=np.intc)
+    cdef unsigned char[::1] flags = np.zeros(H, dtype=np.uint8)   # non-manifold, then seen
     cdef unsigned char[::1] nm_vertex = np.zeros(n, dtype=np.uint8)
-    cdef int h, a, b, i, j, g, lo, hi, h0, h1, n_edges = 0, n_nm = 0
-    cdef int v, start, t, nxt, n_new, slot, fan_vertex
+    cdef int[::1] nm_t = np.zeros(threads, dtype=np.intc)
+    cdef int[::1] vstart = np.empty(n, dtype=np.intc)
+    cdef int[::1] nfans = np.empty(n, dtype=np.intc)
+    cdef long long[:, ::1] buf
+    cdef int h, a, b, i, v, t, s, bad_h = -1, maxdeg = 0, n_edges = 0, n_nm = 0, acc, size
+    cdef int n_new, k, start, fan_vertex, n_extra = 0
     with nogil:
-        for h in range(H):
-            if corner[h] < 0 or corner[h] >= n:
-                with gil:
-                    raise ValueError(f"face {h // 3} has a vertex index outside 0..{n - 1}")
-        # ---- pair half-edges: counting sort by max end, then stable by min end
+        # ---- outgoing half-edges by vertex (CSR: out_he[first[v]:first[v + 1]], h ascending)
         for h in range(H):
             a = corner[h]
-            b = corner[he_next(h)]
-            count[(a if a > b else b) + 1] += 1
-        for i in range(n):
-            count[i + 1] += count[i]
-        for h in range(H):
+            if <unsigned int>a >= <unsigned int>n:
+                bad_h = h
+                break
+            first[a + 2] += 1
+    if bad_h >= 0:
+        raise ValueError(f"face {bad_h // 3} has a vertex index outside 0..{n - 1}")
+    with nogil:
+        for v in range(n):
+            size = first[v + 2]
+            if size > maxdeg:
+                maxdeg = size
+            first[v + 2] += first[v + 1]
+        for h in range(H):                       # first[a + 1] is a's fill pointer here
+            a = corner[h]
+            out_he[first[a + 1]] = h
+            first[a + 1] += 1
+    buf = np.empty((threads, 2 * maxdeg + 2), dtype=np.int64)
+    with nogil:
+        # ---- pair the half-edges at their smaller end, count the fans at each vertex
+        for v in prange(n, num_threads=threads, schedule="static", chunksize=4096):
+            t = threadid()
+            n_edges_at[v] = pair_at(&corner[0], &first[0], &out_he[0], v, &buf[t, 0], &twin[0], &edge[0],
+                                    &flags[0], &nm_t[t])
+        for t in range(threads):
+            n_nm += nm_t[t]
+        if n_nm:
+            for h in range(H):
+                if flags[h]:
+                    nm_vertex[corner[h]] = 1
+                    nm_vertex[corner[he_next(h)]] = 1
+        # edges numbered in (smaller end, larger end) order: v's come after those of 0..v-1
+        acc = 0
+        for v in range(n):
+            size = n_edges_at[v]
+            n_edges_at[v] = acc
+            acc += size
+        n_edges = acc
+        for h in prange(H, num_threads=threads, schedule="static"):
             a = corner[h]
             b = corner[he_next(h)]
-            hi = a if a > b else b
-            order1[count[hi]] = h
-            count[hi] += 1
-        count[:] = 0
-        for h in range(H):
-            a = corner[h]
-            b = corner[he_next(h)]
-            count[(a if a < b else b) + 1] += 1
-        for i in range(n):
-            count[i + 1] += count[i]
-        for j in range(H):
-            h = order1[j]
-            a = corner[h]
-            b = corner[he_next(h)]
-            lo = a if a < b else b
-            order2[count[lo]] = h
-            count[lo] += 1
-        # ---- walk the groups of equal (min, max)
-        i = 0
-        while i < H:
-            h0 = order2[i]
-            a = corner[h0]
-            b = corner[he_next(h0)]
-            j = i + 1
-            while j < H:
-                h1 = order2[j]
-                if not ((corner[h1] == a and corner[he_next(h1)] == b) or
-                        (corner[h1] == b and corner[he_next(h1)] == a)):
-                    break
-                j += 1
-            g = j - i
-            if g == 2 and corner[order2[i + 1]] == b:
-                h1 = order2[i + 1]
-                twin[h0] = h1
-                twin[h1] = h0
-                edge[h0] = n_edges
-                edge[h1] = n_edges
-                n_edges += 1
-            else:
-                if g > 1:
-                    n_nm += 1
-                    nm_vertex[a] = 1
-                    nm_vertex[b] = 1
-                for t in range(i, j):
-                    edge[order2[t]] = n_edges
-                    n_edges += 1
-            i = j
-    # ---- split vertices with several fans (CSR of outgoing half-edges by origin).  Two
-    #      passes over the fans: count the extra vertex slots, then allocate and assign.
-    count = np.zeros(n + 1, dtype=np.intc)
-    cdef int[::1] out_he = order1          # reuse the scratch arrays
-    cdef int[::1] seen = order2
-    cdef int[::1] source
+            edge[h] += n_edges_at[a if a < b else b]
+            flags[h] = 0
+        for v in prange(n, num_threads=threads, schedule="static", chunksize=4096):
+            nfans[v] = count_fans(&twin[0], &first[0], &out_he[0], v, &flags[0], &vstart[v])
+        for v in range(n):
+            if nfans[v] > 1:
+                n_extra += nfans[v] - 1
+    # ---- split vertices with several fans: the second, third, ... fan of v (in the order
+    #      of v's outgoing half-edges) gets a new slot, numbered in the order of v
+    cdef int[::1] source = np.arange(n + n_extra, dtype=np.intc)
     cdef int[::1] vhe
-    cdef unsigned char[::1] multi = np.zeros(n, dtype=np.uint8)
-    cdef int n_extra = 0, pass_
-    cdef bint assign
-    with nogil:
-        for h in range(H):
-            count[corner[h] + 1] += 1
-        for i in range(n):
-            count[i + 1] += count[i]
-        for h in range(H):
-            out_he[count[corner[h]]] = h
-            count[corner[h]] += 1
-        # count[v] is now the end of v's run; its start is count[v-1] (0 for v=0)
-    for pass_ in range(2):
-        assign = pass_ == 1
-        if assign:
-            source = np.empty(n + n_extra, dtype=np.intc)
-            vhe = np.full(n + n_extra, -1, dtype=np.intc)
+    cdef unsigned char[::1] multi = (np.asarray(nfans) > 1).astype(np.uint8)
+    if n_extra == 0:
+        vhe = vstart
+    else:
+        vhe = np.full(n + n_extra, -1, dtype=np.intc)
         with nogil:
-            seen[:] = 0
             n_new = n
             for v in range(n):
-                lo = count[v - 1] if v > 0 else 0
-                hi = count[v]
-                fan_vertex = -1
-                if assign:
-                    source[v] = v
-                for slot in range(lo, hi):
-                    h = out_he[slot]
-                    if seen[h]:
+                vhe[v] = vstart[v]
+                if nfans[v] < 2:
+                    continue
+                for s in range(first[v], first[v + 1]):
+                    flags[out_he[s]] = 0
+                k = 0
+                for s in range(first[v], first[v + 1]):
+                    h = out_he[s]
+                    if flags[h]:
                         continue
-                    # find the fan's first half-edge, then give the whole fan one slot
                     start = h
                     while True:
                         t = twin[start]
                         if t < 0:
                             break
-                        nxt = he_next(t)
-                        if nxt == h:
+                        i = he_next(t)
+                        if i == h:
                             break
-                        start = nxt
-                    if fan_vertex < 0:
+                        start = i
+                    if k == 0:
                         fan_vertex = v
-                    else:                    # a second (third, ...) fan around v
+                    else:
                         fan_vertex = n_new
                         n_new += 1
-                        multi[v] = 1
-                        if assign:
-                            source[fan_vertex] = v
-                    if assign:
-                        vhe[fan_vertex] = start
+                        source[fan_vertex] = v
+                    vhe[fan_vertex] = start
+                    k += 1
                     t = start
                     while True:
-                        seen[t] = 1
-                        if assign:
-                            corner[t] = fan_vertex
+                        flags[t] = 1
+                        corner[t] = fan_vertex
                         t = twin[he_prev(t)]
                         if t < 0 or t == start:
                             break
-            n_extra = n_new - n
+    n_new = n + n_extra
     cdef HalfEdgeMesh hm = HalfEdgeMesh.__new__(HalfEdgeMesh)
     hm.n_vertices = n_new
     hm.n_faces = <int>m
@@ -848,10 +936,12 @@ def build(faces, int n_vertices):
     hm.corner = corner
     hm.twin = twin
     hm.edge = edge
-    edge_he = np.empty(n_edges, dtype=np.intc)
-    edge_arr = np.asarray(edge)
-    edge_he[edge_arr] = np.arange(H, dtype=np.intc)
-    hm.edge_he = edge_he
+    cdef int[::1] edge_he = np.empty(n_edges, dtype=np.intc)
+    with nogil:
+        for h in prange(H, num_threads=threads, schedule="static"):
+            if twin[h] < h:                      # the later half-edge of a pair, or a lone one
+                edge_he[edge[h]] = h
+    hm.edge_he = np.asarray(edge_he)
     hm.v_he = vhe
     src = np.asarray(source)
     hm.has_copies = n_new > n
