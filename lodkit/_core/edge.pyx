@@ -605,100 +605,117 @@ cdef class EdgeCollapser:
         """Do the faces around ``center`` (except fa, fb) stay valid when it moves to p?
         Adds to ``dvol`` six times the change of the enclosed volume; lowers ``min_q`` to
         the lowest quality of a moved face (with a quality limit).  Faces ``skip_c`` /
-        ``skip_d`` (-1: none; a triangle collapse's first step) count for the volume only."""
+        ``skip_d`` (-1: none; a triangle collapse's first step) count for the volume only.
+        (The arrays and limits are read into locals, and the sums kept in locals until the
+        end: a store through a double pointer would otherwise make the compiler load them
+        again after each one.)"""
+        cdef const double* P = self.P
+        cdef const int* corner = self.m.corner
+        cdef const int* twin = self.m.twin
+        cdef const short* N0 = self.N0
+        cdef const double* C0 = &P[VSTRIDE * center]
+        cdef const double* B
+        cdef const double* C
+        cdef const double* X
+        cdef bint vol = self.closed_volume != 0.0
+        cdef bint orig = self.lim.check_orig
+        cdef double cos_max = self.lim.cos_max_angle
+        cdef double cos_orig = self.lim.cos_orig_angle
+        cdef double qlim = self.lim.min_quality
+        cdef double dv = dvol[0]
+        cdef double mq = min_q[0]
         cdef int start = self.m.v_he[center]
         cdef int y = start
-        cdef int f, b, c, i
+        cdef int f, i, t, g, pv, prev_f = -1
+        cdef double dp[3]
         cdef double e1[3]
         cdef double e2[3]
         cdef double n0[3]
         cdef double n1[3]
-        cdef double l0, l1, l2, len0, len1, q1, lg, prev_ok
         cdef double bc[3]
         cdef double ng[3]
         cdef double prev_n1[3]
+        cdef double l0, l1, l2, len0, len1, q1, lg, prev_ok
         cdef double prev_len1 = 0.0
-        cdef int t, g, x, prev_f = -1
-        prev_n1[0] = prev_n1[1] = prev_n1[2] = 0.0
+        for i in range(3):
+            dp[i] = p[i] - C0[i]
+            prev_n1[i] = 0.0
         while True:
             f = y // 3
+            pv = he_prev(y)
             if f == fa or f == fb:
                 prev_len1 = 0.0
             elif f == skip_c or f == skip_d:
                 # a triangle collapse's first step: this face dies in the second one, its
                 # passing shape does not matter, its volume change does
-                if self.closed_volume != 0.0:
-                    b = he_dest(self.m, y)
-                    c = self.m.corner[he_prev(y)]
-                    cross3(&self.P[VSTRIDE * b], &self.P[VSTRIDE * c], bc)
-                    dvol[0] += ((p[0] - self.P[VSTRIDE * center]) * bc[0]
-                                + (p[1] - self.P[VSTRIDE * center + 1]) * bc[1]
-                                + (p[2] - self.P[VSTRIDE * center + 2]) * bc[2])
+                if vol:
+                    cross3(&P[VSTRIDE * corner[he_next(y)]], &P[VSTRIDE * corner[pv]], bc)
+                    dv += (dp[0] * bc[0] + dp[1] * bc[1] + dp[2] * bc[2])
                 prev_len1 = 0.0
             else:
-                b = he_dest(self.m, y)
-                c = self.m.corner[he_prev(y)]
+                B = &P[VSTRIDE * corner[he_next(y)]]
+                C = &P[VSTRIDE * corner[pv]]
                 for i in range(3):
-                    e1[i] = self.P[VSTRIDE * b + i] - self.P[VSTRIDE * center + i]
-                    e2[i] = self.P[VSTRIDE * c + i] - self.P[VSTRIDE * center + i]
+                    e1[i] = B[i] - C0[i]
+                    e2[i] = C[i] - C0[i]
                 cross3(e1, e2, n0)
-                if self.closed_volume != 0.0:
+                if vol:
                     # change of the cone from the origin over this face: (p - old) . (b x c)
-                    cross3(&self.P[VSTRIDE * b], &self.P[VSTRIDE * c], bc)
-                    dvol[0] += ((p[0] - self.P[VSTRIDE * center]) * bc[0]
-                                + (p[1] - self.P[VSTRIDE * center + 1]) * bc[1]
-                                + (p[2] - self.P[VSTRIDE * center + 2]) * bc[2])
+                    cross3(B, C, bc)
+                    dv += (dp[0] * bc[0] + dp[1] * bc[1] + dp[2] * bc[2])
                 len0 = sqrt(dot3(n0, n0))
                 prev_ok = prev_len1
                 prev_len1 = 0.0                      # set again below if this face is checked
                 if len0 > 0.0:
                     for i in range(3):
-                        e1[i] = self.P[VSTRIDE * b + i] - p[i]
-                        e2[i] = self.P[VSTRIDE * c + i] - p[i]
+                        e1[i] = B[i] - p[i]
+                        e2[i] = C[i] - p[i]
                     cross3(e1, e2, n1)
                     len1 = sqrt(dot3(n1, n1))
                     l0 = dot3(e1, e1)
                     l1 = dot3(e2, e2)
                     if len1 <= 1e-12 * (l0 + l1):
                         return False                 # the face would degenerate
-                    if angle_exceeds(dot3(n0, n1), self.lim.cos_max_angle, len0, len1):
+                    if angle_exceeds(dot3(n0, n1), cos_max, len0, len1):
                         return False                 # the face would turn too far (or flip)
-                    if self.lim.check_orig and turned_from_input(
-                            n1[0] * self.N0[3 * f] + n1[1] * self.N0[3 * f + 1] + n1[2] * self.N0[3 * f + 2],
-                            self.lim.cos_orig_angle, 32767.0, len1):
+                    if orig and turned_from_input(
+                            n1[0] * N0[3 * f] + n1[1] * N0[3 * f + 1] + n1[2] * N0[3 * f + 2],
+                            cos_orig, 32767.0, len1):
                         return False                 # turned away from the input face it stands for
-                    if self.lim.min_quality > 0.0:
+                    if qlim > 0.0:
                         # judged over the whole fan by geometry_ok (relative_quality_ok)
                         l2 = 0.0
                         for i in range(3):
-                            l2 += sq(self.P[VSTRIDE * b + i] - self.P[VSTRIDE * c + i])
+                            l2 += sq(B[i] - C[i])
                         q1 = tri_quality(len1, l0 + l1 + l2)
-                        if q1 < min_q[0]:
-                            min_q[0] = q1
-                    if self.lim.check_orig:
+                        if q1 < mq:
+                            mq = q1
+                    if orig:
                         # no new fold: the face must not bend back onto the neighbour across
                         # its far edge b-c, nor onto the previous face of the fan
-                        t = self.m.twin[he_next(y)]
+                        t = twin[he_next(y)]
                         if t >= 0:
                             g = t // 3
                             if g != fa and g != fb and g != skip_c and g != skip_d:
-                                x = self.m.corner[he_prev(t)]
+                                X = &P[VSTRIDE * corner[he_prev(t)]]
                                 for i in range(3):
-                                    e1[i] = self.P[VSTRIDE * b + i] - self.P[VSTRIDE * c + i]
-                                    e2[i] = self.P[VSTRIDE * x + i] - self.P[VSTRIDE * c + i]
+                                    e1[i] = B[i] - C[i]
+                                    e2[i] = X[i] - C[i]
                                 cross3(e1, e2, ng)
                                 lg = sqrt(dot3(ng, ng))
-                                if new_fold(n1, len1, n0, len0, ng, lg) and not sides_of_a_sheet(self.N0, f, g):
+                                if new_fold(n1, len1, n0, len0, ng, lg) and not sides_of_a_sheet(N0, f, g):
                                     return False
                         if (prev_ok > 0.0 and folds(n1, len1, prev_n1, prev_ok)
-                                and not sides_of_a_sheet(self.N0, f, prev_f)):
+                                and not sides_of_a_sheet(N0, f, prev_f)):
                             return False
                         for i in range(3):
                             prev_n1[i] = n1[i]
                         prev_len1 = len1
                         prev_f = f
-            y = he_ring_next(self.m, y)
+            y = twin[pv]                             # he_ring_next
             if y < 0 or y == start:
+                dvol[0] = dv
+                min_q[0] = mq
                 return True
 
     cdef bint geometry_ok(self, int h, int r, int k, const double* p, int skip_c, int skip_d,
