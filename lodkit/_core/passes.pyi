@@ -29,6 +29,8 @@ class PassDriver:
 
     def __init__(self, collapser: PassCollapser, fraction: float = ..., threads: int = ...,
                  block: int = ...) -> None: ...
+    @property
+    def phase_seconds(self) -> dict[str, float]: ...
     def run(self, target_faces: int, max_steps: int = ...) -> int:
         """Collapse until ``target_faces`` faces are left, nothing legal is left, or a pass
         ends with ``max_steps`` collapses done; 0 target, 1 chunk, 2 exhausted, 3 kernel error."""

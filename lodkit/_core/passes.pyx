@@ -38,6 +38,7 @@ from cython.parallel cimport prange, threadid
 from libc.math cimport isnan, INFINITY
 from libc.stdlib cimport qsort, malloc, free
 from libc.string cimport memcpy, memset
+from posix.time cimport clock_gettime, timespec, CLOCK_MONOTONIC
 import numpy as np
 cimport numpy as cnp
 
@@ -424,6 +425,23 @@ cdef void sort_bucket(Keyed* a, int size, bint finite, Keyed* tmp) noexcept nogi
         free(tmp)
 
 
+cdef inline double now() noexcept nogil:
+    cdef timespec ts
+    clock_gettime(CLOCK_MONOTONIC, &ts)
+    return ts.tv_sec + 1e-9 * ts.tv_nsec
+
+
+cdef enum:
+    PH_RANK = 0
+    PH_SELECT = 1
+    PH_STAGE1 = 2
+    PH_STAGE1B = 3
+    PH_STAGE2 = 4
+    N_PHASES = 5
+
+PHASE_NAMES = ("rank", "select", "stage1", "stage1b", "stage2")
+
+
 @cython.final
 cdef class PassDriver:
     """Runs a :class:`PassCollapser` (an EdgeCollapser made with ``use_heap=False``) in
@@ -465,6 +483,7 @@ cdef class PassDriver:
     cdef int n_blocks
     cdef int lo_i, hi_i              # the slice of the pass's candidates walk_block takes
     cdef readonly int n_passes
+    cdef double phase_t[N_PHASES]      # wall seconds spent in each phase (diagnostics)
     cdef readonly long n_deferred    # candidates left to stage 2 (diagnostics)
     cdef readonly long n_late        # collapses done in stage 2 (diagnostics)
     cdef readonly int threads
@@ -1110,6 +1129,7 @@ cdef class PassDriver:
         cdef double dv2[2]
         cdef double* x
         cdef bint to_target
+        cdef double t0 = now(), t1
         self.c.pass_counter += 1
         stamp = self.c.pass_counter
         self.group(n_sel)
@@ -1120,6 +1140,9 @@ cdef class PassDriver:
         if st < 0:
             return RUN_INTERRUPTED if st == -1 else RUN_ERROR
         n1 = st
+        t1 = now()
+        self.phase_t[PH_STAGE1] += t1 - t0
+        t0 = t1
         # ---- stage 1b: the deferred candidates again, in the blocks shifted by half a block
         # (the same rules; most of those that reached over a border of stage 1's blocks lie
         # inside one of these), then 1c: what is left, in blocks of COARSE blocks
@@ -1138,6 +1161,9 @@ cdef class PassDriver:
                 if st < 0:
                     return RUN_INTERRUPTED if st == -1 else RUN_ERROR
                 n1 += st
+        t1 = now()
+        self.phase_t[PH_STAGE1B] += t1 - t0
+        t0 = t1
         # ---- stage 2
         for i in range(n_sel):
             if self.c.hm.n_alive_faces <= target_faces:
@@ -1196,6 +1222,7 @@ cdef class PassDriver:
                 self.lock(ks, stamp)
                 self.dirty_ring(ks)
         done[0] += n1
+        self.phase_t[PH_STAGE2] += now() - t0
         if self.c.hm.n_alive_faces <= target_faces:
             return RUN_TARGET
         return RUN_CHUNK
@@ -1262,10 +1289,13 @@ cdef class PassDriver:
 
     cdef int run_c(self, int target_faces, int max_steps) noexcept nogil:
         cdef int valid, k, n_sel, status, done, steps = 0, i, over
+        cdef double t0
         while self.c.hm.n_alive_faces > target_faces:
             if steps >= max_steps:
                 return RUN_CHUNK
+            t0 = now()
             self.rank()
+            self.phase_t[PH_RANK] += now() - t0
             if self.interrupted:
                 return RUN_INTERRUPTED
             if self.c.failed:
@@ -1290,7 +1320,9 @@ cdef class PassDriver:
             k = <int>((valid + self.fraction - 1.0) / self.fraction)
             if k < 1:
                 k = 1
+            t0 = now()
             n_sel = self.select(k)
+            self.phase_t[PH_SELECT] += now() - t0
             if n_sel > k:
                 n_sel = k
             done = 0
@@ -1300,6 +1332,12 @@ cdef class PassDriver:
             if status != RUN_CHUNK:
                 return status
         return RUN_TARGET
+
+    @property
+    def phase_seconds(self):
+        """Wall seconds spent so far in each phase of the passes (diagnostics): ranking,
+        selection, stage 1 (with the grouping), stages 1b and 1c, stage 2."""
+        return {name: self.phase_t[i] for i, name in enumerate(PHASE_NAMES)}
 
     def run(self, int target_faces, int max_steps=2**31 - 1):
         """Collapse until ``target_faces`` live faces remain or nothing legal is left; or
