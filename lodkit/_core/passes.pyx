@@ -474,6 +474,7 @@ cdef class PassDriver:
     cdef unsigned char[::1] cflag    # (kmax,) CF_*
     cdef int[::1] cblock             # (kmax,) the block of each candidate
     cdef int[::1] blk_order          # (kmax,) candidates grouped by block, cost order within
+    cdef int[::1] blk_edge           # (kmax,) their edges, in the same order (read in order)
     cdef int[::1] blk_start          # (n_blocks + 1,)
     cdef int[:, ::1] acc_i           # (n_blocks, 4): collapses, faces, topology / geometry refusals
     cdef double[:, ::1] acc_x        # (n_blocks, 2): volume change, largest error
@@ -523,6 +524,7 @@ cdef class PassDriver:
         self.cflag = np.zeros(self.kmax, dtype=np.uint8)
         self.cblock = np.zeros(self.kmax, dtype=np.intc)
         self.blk_order = np.zeros(self.kmax, dtype=np.intc)
+        self.blk_edge = np.zeros(self.kmax, dtype=np.intc)
         self.block = block
         self.bsize = block
         self.n_blocks = 1
@@ -815,10 +817,9 @@ cdef class PassDriver:
                 return
             y = ny
 
-    cdef void check(self, int i, int pr) noexcept nogil:
-        """Plan candidate ``i`` of the pass again (for its position, which ranking does not
-        keep) and run the checks on the current state; writes plan row ``pr`` only."""
-        cdef int e = self.keyed_buf[i].edge
+    cdef void check(self, int e, int pr) noexcept nogil:
+        """Plan candidate edge ``e`` of the pass again (for its position, which ranking does
+        not keep) and run the checks on the current state; writes plan row ``pr`` only."""
         cdef int h, r, hs, k
         cdef double dvol = 0.0
         cdef double* x = &self.plan_x[pr, 0]
@@ -874,6 +875,7 @@ cdef class PassDriver:
         for i in range(n_sel):
             b = self.cblock[i]
             self.blk_order[self.blk_start[b]] = i
+            self.blk_edge[self.blk_start[b]] = self.keyed_buf[i].edge
             self.blk_start[b] += 1
         for b in range(self.n_blocks - 1, 0, -1):
             self.blk_start[b] = self.blk_start[b - 1]
@@ -911,16 +913,15 @@ cdef class PassDriver:
                 return True
             y = ny
 
-    cdef int try_inside(self, int i, int stamp, int row, int shift, unsigned char flag) noexcept nogil:
+    cdef int try_inside(self, int i, int e, int b, int stamp, int row, int shift, unsigned char flag) noexcept nogil:
         """Stage 1 (``shift`` 0) or 1b (``shift`` half a block) for candidate ``i``:
         collapse it if it lies inside its block (slots ``cblock[i] * bsize - shift`` on) and
         passes every check, keeping the tallies in its block's row (``row`` < 0: its record
         is written after the stage); a collapse is flagged ``flag`` (the stage's).  Returns
         the faces it removed (0: none); candidates that reach out of their block, and seam
-        pairs, are left to the next stage."""
-        cdef int b = self.cblock[i]
+        pairs, are left to the next stage.  (``e`` and ``b``: its edge and block, which the
+        caller holds: a block's walk reads them in block order.)"""
         cdef int pr = i if self.keep_plans else b         # the plan row
-        cdef int e = self.keyed_buf[i].edge
         cdef int h, u, v, r, k, st, faces
         cdef int dead[3]
         cdef double* x
@@ -934,7 +935,7 @@ cdef class PassDriver:
         if self.n_blocks > 1 and not self.inside(u, v, b * self.bsize - shift):
             self.cflag[i] = CF_DEFER
             return 0
-        self.check(i, pr)
+        self.check(e, pr)
         st = self.plan_he[pr, 3]
         if st == CK_PAIR:
             self.cflag[i] = CF_DEFER
@@ -985,7 +986,7 @@ cdef class PassDriver:
                 continue
             if i >= self.hi_i:
                 break                          # a block's candidates come in cost order
-            self.try_inside(i, stamp, -1, shift, flag)
+            self.try_inside(i, self.blk_edge[j], b, stamp, -1, shift, flag)
 
     cdef int stage(self, int n_sel, int stamp, int target_faces, bint to_target, int shift,
                    unsigned char flag, int nb) noexcept nogil:
@@ -1006,7 +1007,7 @@ cdef class PassDriver:
                 continue
             if (i & (INTERRUPT_EVERY - 1)) == INTERRUPT_EVERY - 1 and signal_pending():
                 return -1                       # abandons the pass: the run ends with the exception
-            st = self.try_inside(i, stamp, self.c.n_collapses, shift, flag)
+            st = self.try_inside(i, self.keyed_buf[i].edge, self.cblock[i], stamp, self.c.n_collapses, shift, flag)
             if self.c.failed:
                 return -2
             if st > 0:
@@ -1048,7 +1049,7 @@ cdef class PassDriver:
                             continue
                         if (i & (INTERRUPT_EVERY - 1)) == INTERRUPT_EVERY - 1 and signal_pending():
                             return -1           # abandons the pass: the run ends with the exception
-                        st = self.try_inside(i, stamp, row, shift, flag)
+                        st = self.try_inside(i, self.keyed_buf[i].edge, self.cblock[i], stamp, row, shift, flag)
                         if self.c.failed:
                             return -2
                         if st > 0:
@@ -1100,6 +1101,7 @@ cdef class PassDriver:
             self.cflag[i] = CF_PENDING_B
             b = self.cblock[i]
             self.blk_order[self.blk_start[b]] = i
+            self.blk_edge[self.blk_start[b]] = self.keyed_buf[i].edge
             self.blk_start[b] += 1
         for b in range(nb - 1, 0, -1):
             self.blk_start[b] = self.blk_start[b - 1]
@@ -1180,7 +1182,7 @@ cdef class PassDriver:
             if self.c.touched[self.m.corner[h]] == stamp or self.c.touched[he_dest(self.m, h)] == stamp:
                 continue
             pr = i if self.keep_plans else 0
-            self.check(i, pr)
+            self.check(e, pr)
             st = self.plan_he[pr, 3]
             if st == CK_NONE:
                 self.state[e] = ST_NONE
