@@ -287,6 +287,40 @@ def test_blocks_keep_runs_prefixes_of_longer_ones(small_blocks):
             assert np.array_equal(short.collapses[key], long.collapses[key][:k]), key
 
 
+def test_blocks_keep_runs_prefixes_at_many_targets(small_blocks):
+    """The same at every 97th face count: a candidate that stage 1b refused must not be
+    taken up again by stage 1c of the same pass, whether the blocks run at once or (a pass
+    that may reach the target) in cost-order slices and a serial tail."""
+    mesh = torus(64, 32, seed=11)
+    long = lodkit.simplify(mesh, target_faces=60, record=True, driver="pass", threads=2)
+    for n in range(mesh.n_faces - 300, 60, -97):
+        short = lodkit.simplify(mesh, target_faces=n, record=True, driver="pass", threads=1)
+        k = short.n_collapses
+        for key in ("removed", "kept", "position"):
+            assert np.array_equal(short.collapses[key], long.collapses[key][:k]), (n, key)
+
+
+@pytest.mark.parametrize("ratio", [0.3, 0.05])
+def test_native_kernels_take_the_blocks_decisions(small_blocks, ratio):
+    """A native kernel runs every pass in plain cost order on one thread; the decisions must
+    be the blocks' (qem_native, QEM's costs as a kernel, gives QEM's output exactly)."""
+    mesh = torus(80, 40, seed=2)
+    a = lodkit.simplify(mesh, target_ratio=ratio, driver="pass", threads=2)
+    b = lodkit.simplify(mesh, target_ratio=ratio, metric="qem_native", driver="pass")
+    assert b.report["passes"] > 0
+    assert same_result(a, b)
+
+
+@pytest.mark.parametrize("ratio", [0.1, 0.02])
+def test_native_kernels_take_the_blocks_decisions_on_bunny(ratio):
+    """The case that showed it: on bunny a candidate that stage 1b refused was taken up
+    again by stage 1c in plain cost order (the blocks never do), from the second pass on."""
+    mesh = lodkit.load(shared_mesh("bunny.ply"))
+    a = lodkit.simplify(mesh, target_ratio=ratio, driver="pass", threads=2)
+    b = lodkit.simplify(mesh, target_ratio=ratio, metric="qem_native", driver="pass")
+    assert same_result(a, b)
+
+
 def test_blocks_keep_progressive_levels_equal_to_simplify(small_blocks):
     mesh = torus(50, 24, seed=5)
     pm = lodkit.progressive(mesh, driver="pass", threads=2)

@@ -5,6 +5,9 @@ from numpy.typing import ArrayLike
 
 from .edge import EdgeCollapser, _Plan
 
+#: the phases of PassDriver.phase_seconds, in order
+PHASE_NAMES: tuple[str, ...]
+
 class PassCollapser(EdgeCollapser):
     """Edge collapse driven in passes by a batch metric (made with use_heap=False)."""
 

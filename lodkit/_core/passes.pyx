@@ -311,6 +311,8 @@ cdef enum:
     CF_DONE_SHIFTED = 3  # stage 1b (the blocks shifted by half a block) collapsed it
     CF_PENDING_B = 4    # deferred by stage 1 (1b), waiting for stage 1b (1c)
     CF_DONE_COARSE = 5  # stage 1c (blocks of COARSE stage-1 blocks) collapsed it
+    CF_TRIED = 6        # a stage took it up and left it (stale, refused, or no collapse):
+    #                     no later stage of the pass takes it up again
 
 cdef enum:
     N_BUCKETS = 65536   # histogram of the upper 16 bits of the float32 cost
@@ -926,11 +928,13 @@ cdef class PassDriver:
         cdef int dead[3]
         cdef double* x
         if not self.m.edge_alive[e]:
+            self.cflag[i] = CF_TRIED
             return 0
         h = self.m.edge_he[e]
         u = self.m.corner[h]
         v = he_dest(self.m, h)
         if self.c.touched[u] == stamp or self.c.touched[v] == stamp:
+            self.cflag[i] = CF_TRIED
             return 0                          # ranked on a state a collapse changed
         if self.n_blocks > 1 and not self.inside(u, v, b * self.bsize - shift):
             self.cflag[i] = CF_DEFER
@@ -942,6 +946,7 @@ cdef class PassDriver:
             return 0
         if st == CK_NONE:
             self.state[e] = ST_NONE
+            self.cflag[i] = CF_TRIED
             return 0
         h = self.plan_he[pr, 0]
         r = self.plan_he[pr, 1]
@@ -950,11 +955,13 @@ cdef class PassDriver:
         if st == CK_TOPOLOGY:
             self.acc_i[b, 2] += 1
             self.refuse(e, r, k)
+            self.cflag[i] = CF_TRIED
             return 0
         if st == CK_GEOMETRY or (self.c.closed_volume != 0.0 and
                                  turns_inside_out(self.c.closed_volume + self.acc_x[b, 0], x[5])):
             self.acc_i[b, 3] += 1
             self.refuse(e, r, k)
+            self.cflag[i] = CF_TRIED
             return 0
         faces = 2 if self.m.twin[h] >= 0 else 1
         if self.c.rec.on and row < 0:

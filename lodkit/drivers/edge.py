@@ -70,11 +70,7 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
     """Build the EdgeCollapser over ``work`` and run it to ``target`` faces (or until no
     collapse within ``max_error`` is left)."""
     hm = work.prep.hm
-    # a native kernel on a mesh with attribute seams runs from the heap: with the pass
-    # driver such runs were seen to leave the seams non-manifold once welded (spot,
-    # melod, 10%); until that is understood, the heap order (docs/algorithms.md)
-    passes = (work.prep.memory_order and operator == "edge" and not compiled.batch
-              and not (compiled.core.get("kernels") and work.seams is not None))
+    passes = work.prep.memory_order and operator == "edge" and not compiled.batch
     # error="hausdorff": max_error is the distance the core's error bound keeps to
     # (lodkit/_core/bound.pyx), not a limit on the collapse error
     error_bound = None
