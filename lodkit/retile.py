@@ -119,7 +119,7 @@ class RetileResult:
 
 
 def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, flip_angle: float = 25.0,
-           corner_angle: float = 30.0, features: float | None = None, seed: int = 0,
+           corner_angle: float = 30.0, features: float | None = None, relax: int = 3, seed: int = 0,
            progress: bool = False) -> RetileResult:
     """Re-tile ``mesh`` with about ``n_vertices`` new, evenly spread vertices (Turk 1992).
 
@@ -135,6 +135,11 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, f
     features   : None (default), or an angle in degrees: edges whose faces' normals differ
                  by more than it are creases; crease lines get their own points (like
                  boundaries), their ends and sharp turns stay, and the removal keeps them
+    relax      : rounds of tangential relaxation after the final flips (lodkit's addition,
+                 0: Turk's steps only): each new interior point moves half-way to the
+                 area-weighted centroid of its faces within its tangent plane, back onto
+                 the input surface; a move that would turn or spoil a face is undone;
+                 then the flips again (docs/retile.md)
     seed       : the random points come from ``numpy.random.default_rng(seed)``
 
     The output keeps the input's topology: the old vertices go by vertex removal with the
@@ -146,6 +151,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, f
     src, was_o3d = as_mesh(mesh), is_open3d(mesh)
     n_vertices = _count("n_vertices", n_vertices, 4)
     iterations = _count("iterations", iterations, 0)
+    relax = _count("relax", relax, 0)
     adapt = finite_number("adapt", adapt)
     if adapt < 0:
         raise OptionError(f"adapt must be >= 0, got {adapt!r}")
@@ -330,6 +336,14 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, f
         # further apart, only where the worse triangle is a sliver
         flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE))),
                                      20, crease_vertex, _SLIVER_QUALITY))
+    relaxed = 0
+    if relax and F.shape[0] and nX:
+        relaxed = _relax(P2, F, n0, nX, surf, P0, F0, all_face, all_w, relax)
+        if flip_angle > 0:
+            twin = face_twins(F)
+            flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(flip_angle)), 50, crease_vertex))
+            flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE))),
+                                         20, crease_vertex, _SLIVER_QUALITY))
     used = np.zeros(n0 + n_new, dtype=bool)
     used[F.reshape(-1)] = True
     # old vertices: one output vertex per input vertex (split copies weld back)
@@ -377,12 +391,89 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, f
             "fallback_collapses": n_collapsed,
             "quality_mean": float(q.mean()),
             "quality_min": float(q.min()),
+            "relaxed_moves": relaxed,
             "times": times,
         },
     )
 
 
 # ----------------------------------------------------------------------------- steps
+#: a relaxation move is undone when a face of the moved point would turn by more than this
+#: many degrees, or end below this quality while it was better before
+_RELAX_TURN = 30.0
+_RELAX_QUALITY = 0.3
+
+
+def _relax(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, rounds: int) -> int:
+    """Tangential relaxation of the new interior points (slots n0 .. n0 + nX - 1) of the
+    re-tiled faces ``F``, in place in ``P2``; their closest input faces and barycentric
+    weights (``all_face`` / ``all_w``, rows 0 .. nX - 1) follow.  Each round moves every
+    such point half-way to the area-weighted centroid of its faces, minus the move along
+    its normal, and back onto the input surface; then the moves that turn one of their
+    faces by more than _RELAX_TURN degrees, or leave one below _RELAX_QUALITY that was
+    above it, are undone (with their neighbours', until none is left).  Boundary, crease
+    and old vertices stay.  Returns the moves kept."""
+    F = np.asarray(F, dtype=np.int64)
+    n = P2.shape[0]
+    movable = np.zeros(n, dtype=bool)
+    movable[n0:n0 + nX] = True
+    # points on a boundary edge stay (they were placed along it)
+    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    uniq, count = np.unique(e, axis=0, return_counts=True)
+    movable[uniq[count == 1].reshape(-1)] = False
+    if not movable.any():
+        return 0
+    corners = F.reshape(-1)
+    cos_turn = math.cos(math.radians(_RELAX_TURN))
+    kept_moves = 0
+    for _ in range(rounds):
+        normals, area = face_normals(P2, F)
+        q_before = triangle_quality(P2, F)
+        centroid = P2[F].mean(axis=1)
+        w_area = np.repeat(area, 3)
+        acc = np.zeros((n, 3))
+        nrm = np.zeros((n, 3))
+        for k in range(3):
+            acc[:, k] = np.bincount(corners, weights=w_area * np.repeat(centroid[:, k], 3), minlength=n)
+            nrm[:, k] = np.bincount(corners, weights=np.repeat(normals[:, k] * area, 3), minlength=n)
+        total = np.bincount(corners, weights=w_area, minlength=n)
+        idx = np.flatnonzero(movable & (total > 0))
+        if idx.size == 0:
+            break
+        c = acc[idx] / total[idx, None]
+        vn = nrm[idx]
+        ln = np.linalg.norm(vn, axis=1, keepdims=True)
+        vn = np.divide(vn, ln, out=np.zeros_like(vn), where=ln > 0)
+        d = c - P2[idx]
+        d -= np.einsum("ij,ij->i", d, vn)[:, None] * vn
+        face, w, _ = surf.closest(P2[idx] + 0.5 * d)
+        new = np.einsum("nk,nkj->nj", w, P0[F0[face]])
+        old = P2[idx].copy()
+        P2[idx] = new
+        moved = np.zeros(n, dtype=bool)
+        moved[idx] = True
+        while True:
+            n_after, _ = face_normals(P2, F)
+            q_after = triangle_quality(P2, F)
+            bad = (np.einsum("ij,ij->i", n_after, normals) < cos_turn) | \
+                  ((q_after < _RELAX_QUALITY) & (q_after < q_before))
+            bad &= moved[F].any(axis=1)
+            if not bad.any():
+                break
+            undo = np.zeros(n, dtype=bool)
+            undo[F[bad].reshape(-1)] = True
+            undo &= moved
+            pos = np.searchsorted(idx, np.flatnonzero(undo))
+            P2[idx[pos]] = old[pos]
+            moved[idx[pos]] = False
+        keep = moved[idx]
+        rows = idx[keep] - n0
+        all_face[rows] = face[keep]
+        all_w[rows] = w[keep]
+        kept_moves += int(np.count_nonzero(keep))
+    return kept_moves
+
+
 def _count(name: str, value, lo: int) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lo:
         raise OptionError(f"{name} must be an integer >= {lo}, got {value!r}")

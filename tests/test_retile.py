@@ -94,6 +94,28 @@ def test_topology_kept(make):
         assert t.n_components == t0.n_components
 
 
+@pytest.mark.parametrize("make,n", [(sphere, 150), (open_cylinder, 120), (torus, 200)])
+def test_relaxation_lifts_the_worst_triangle_and_stays_on_the_surface(make, n):
+    """The tangential relaxation (relax=, lodkit's addition to Turk) moves new interior
+    points only, within the surface: a move that leaves a face below 0.3 and worse than it
+    was is undone, so the worst triangle is no worse than min(before, 0.3) (here it gets
+    better); the points stay on the input, the topology is kept."""
+    src = make()
+    plain = retile(src, n, relax=0)
+    relaxed = retile(src, n, relax=3)
+    q0 = triangle_quality(plain.mesh.vertices, plain.mesh.faces)
+    q1 = triangle_quality(relaxed.mesh.vertices, relaxed.mesh.faces)
+    assert relaxed.report["relaxed_moves"] > 0 and plain.report["relaxed_moves"] == 0
+    assert q1.min() >= min(q0.min(), 0.3) - 1e-12
+    assert q1.mean() >= q0.mean() - 0.01
+    assert off_surface(src, relaxed.mesh) < 1e-9
+    t0, t1 = lodkit.topology(src), lodkit.topology(relaxed.mesh)
+    assert t1.is_manifold and t1.is_oriented
+    assert (t1.genus, t1.n_boundary_loops) == (t0.genus, t0.n_boundary_loops)
+    with pytest.raises(OptionError, match="relax"):
+        retile(src, n, relax=-1)
+
+
 def test_plane_corners_kept():
     src = plane()
     r = retile(src, 60)
