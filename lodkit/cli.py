@@ -266,6 +266,8 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("--features", type=_positive, metavar="DEG",
                    help="keep creases: edges whose faces turn by more than DEG degrees (default: off)")
     p.add_argument("--iterations", type=_seed, default=30, metavar="K", help="repulsion steps (default: 30)")
+    p.add_argument("--relax", type=_seed, default=3, metavar="K",
+                   help="rounds of tangential relaxation after the flips (default: 3; 0: Turk's steps only)")
     p.add_argument("--seed", type=_seed, default=0, metavar="S", help="random seed (default: 0)")
     p.add_argument("--quiet", "-q", action="store_true", help="no summary line")
     p.set_defaults(run=_run_retile)
@@ -598,7 +600,7 @@ def _run_retile(args) -> int:
     _check_output(args.output)
     mesh = load(args.input)
     result = retile(mesh, args.vertices, adapt=args.adapt, iterations=args.iterations, seed=args.seed,
-                    features=args.features,
+                    features=args.features, relax=args.relax,
                     progress=not args.quiet and _is_tty(sys.stderr))
     save(result.mesh, args.output)
     if not args.quiet:
