@@ -763,26 +763,31 @@ cdef int pair_at(const int* corner, const int* first, const int* out_he, int v, 
     return ne
 
 
+cdef inline int fan_first(const int* twin, int h) noexcept nogil:
+    """The first half-edge of the fan of outgoing half-edge ``h``: walk back across twins
+    to a border, or (a closed fan) to the half-edge just before h."""
+    cdef int start = h
+    cdef int nxt
+    while twin[start] >= 0:
+        nxt = he_next(twin[start])
+        if nxt == h:
+            break
+        start = nxt
+    return start
+
+
 cdef int count_fans(const int* twin, const int* first, const int* out_he, int v, unsigned char* seen,
                     int* first_start) noexcept nogil:
     """How many fans (edge-connected runs of faces) meet at ``v``, found in the order of
     its outgoing half-edges; ``first_start`` gets the first fan's first half-edge (-1:
     no face).  Marks v's outgoing half-edges in ``seen`` (they are v's alone)."""
-    cdef int s, h, start, t, nxt, nf = 0
+    cdef int s, h, start, t, nf = 0
     first_start[0] = -1
     for s in range(first[v], first[v + 1]):
         h = out_he[s]
         if seen[h]:
             continue
-        start = h                     # walk back to the fan's first half-edge (or round to h)
-        while True:
-            t = twin[start]
-            if t < 0:
-                break
-            nxt = he_next(t)
-            if nxt == h:
-                break
-            start = nxt
+        start = fan_first(twin, h)
         if nf == 0:
             first_start[0] = start
         nf += 1
@@ -826,7 +831,7 @@ def build(faces, int n_vertices, int threads=1):
     cdef int[::1] vstart = np.empty(n, dtype=np.intc)
     cdef int[::1] nfans = np.empty(n, dtype=np.intc)
     cdef long long[:, ::1] buf
-    cdef int h, a, b, i, v, t, s, bad_h = -1, maxdeg = 0, n_edges = 0, n_nm = 0, acc, size
+    cdef int h, a, b, v, t, s, bad_h = -1, maxdeg = 0, n_edges = 0, n_nm = 0, acc, size
     cdef int n_new, k, start, fan_vertex, n_extra = 0
     with nogil:
         # ---- outgoing half-edges by vertex (CSR: out_he[first[v]:first[v + 1]], h ascending)
@@ -901,15 +906,7 @@ def build(faces, int n_vertices, int threads=1):
                     h = out_he[s]
                     if flags[h]:
                         continue
-                    start = h
-                    while True:
-                        t = twin[start]
-                        if t < 0:
-                            break
-                        i = he_next(t)
-                        if i == h:
-                            break
-                        start = i
+                    start = fan_first(&twin[0], h)
                     if k == 0:
                         fan_vertex = v
                     else:
