@@ -546,7 +546,7 @@ cdef class PassDriver:
         candidates into a cost histogram per thread (``compact`` sums them).  Each edge
         writes its own slots only, and the histograms are integer counts, so the result
         does not depend on the number of threads."""
-        cdef int i, c, t, lo, hi
+        cdef int c, t, lo, hi
         cdef int n_chunks = (self.ne + RANK_CHUNK - 1) // RANK_CHUNK
         memset(&self.hist_t[0, 0], 0, self.hist_t.shape[0] * N_BUCKETS * sizeof(int))
         if self.threads > 1:
@@ -562,25 +562,36 @@ cdef class PassDriver:
                     continue
                 lo = c * RANK_CHUNK
                 hi = min(lo + RANK_CHUNK, self.ne)
-                for i in range(lo, hi):
-                    self.rank_one(i)
-                    if self.state[i] == ST_VALID and self.m.edge_alive[i]:
-                        self.hist_t[t, bucket_of(self.cost[i])] += 1
+                self.rank_range(lo, hi, &self.hist_t[t, 0])
             if not self.interrupted and signal_pending():
                 self.interrupted = True
             return
         for c in range(n_chunks):
             lo = c * RANK_CHUNK
             hi = min(lo + RANK_CHUNK, self.ne)
-            for i in range(lo, hi):
-                self.rank_one(i)
-                if self.c.failed:
-                    return
-                if self.state[i] == ST_VALID and self.m.edge_alive[i]:
-                    self.hist_t[0, bucket_of(self.cost[i])] += 1
+            self.rank_range(lo, hi, &self.hist_t[0, 0])
+            if self.c.failed:
+                return
             if (c & 31) == 31 and signal_pending():
                 self.interrupted = True
                 return
+
+    cdef void rank_range(self, int lo, int hi, int* hist) noexcept nogil:
+        """rank() for edges lo .. hi - 1, counting into ``hist`` (the arrays are read through
+        locals: the histogram's stores would otherwise reload them for every edge)."""
+        cdef const unsigned char* state = &self.state[0]
+        cdef const unsigned char* alive = self.m.edge_alive
+        cdef const float* cost = &self.cost[0]
+        cdef int i
+        for i in range(lo, hi):
+            if not alive[i]:
+                continue
+            if state[i] == ST_DIRTY:
+                self.rank_one(i)
+                if self.c.failed:
+                    return
+            if state[i] == ST_VALID:
+                hist[bucket_of(cost[i])] += 1
 
     cdef inline void rank_one(self, int e) noexcept nogil:
         cdef int h, r, hs, rc
