@@ -674,13 +674,15 @@ cdef class PassDriver:
             size = self.hist[b]
             self.hist[b] = acc
             acc += size
-        for e in range(self.ne):
+        if not cut:
+            self.scatter_range(0, self.ne, last, &self.hist[0])
+        for e in range(self.ne if cut else 0):
             if self.state[e] != ST_VALID or not self.m.edge_alive[e]:
                 continue
             bk = bucket_of(self.cost[e])
             if bk > <unsigned int>last:
                 continue
-            if bk < <unsigned int>last or not cut:
+            if bk < <unsigned int>last:
                 self.keyed_buf[self.hist[bk]].cost = self.cost[e]
                 self.keyed_buf[self.hist[bk]].edge = e
                 self.hist[bk] += 1
@@ -716,17 +718,12 @@ cdef class PassDriver:
         are sorted on threads.  The same order as one thread's."""
         cdef int T = self.threads
         cdef int per = (self.ne + T - 1) // T
-        cdef int t, b, e, lo, hi, pos, c, start, end
-        cdef unsigned int bk
+        cdef int t, b, lo, hi, pos, c, start, end
         for t in prange(T, num_threads=T, schedule="static", chunksize=1):
             memset(&self.hist_t[t, 0], 0, (last + 1) * sizeof(int))
             lo = t * per
             hi = min(lo + per, self.ne)
-            for e in range(lo, hi):
-                if self.state[e] == ST_VALID and self.m.edge_alive[e]:
-                    bk = bucket_of(self.cost[e])
-                    if bk <= <unsigned int>last:
-                        self.hist_t[t, bk] += 1
+            self.count_range(lo, hi, last, &self.hist_t[t, 0])
         pos = 0
         for b in range(last + 1):             # hist: bucket starts; hist_t: each range's
             self.hist[b] = pos
@@ -737,18 +734,42 @@ cdef class PassDriver:
         for t in prange(T, num_threads=T, schedule="static", chunksize=1):
             lo = t * per
             hi = min(lo + per, self.ne)
-            for e in range(lo, hi):
-                if self.state[e] == ST_VALID and self.m.edge_alive[e]:
-                    bk = bucket_of(self.cost[e])
-                    if bk <= <unsigned int>last:
-                        self.keyed_buf[self.hist_t[t, bk]].cost = self.cost[e]
-                        self.keyed_buf[self.hist_t[t, bk]].edge = e
-                        self.hist_t[t, bk] += 1
+            self.scatter_range(lo, hi, last, &self.hist_t[t, 0])
         for b in prange(last + 1, num_threads=T, schedule="dynamic", chunksize=256):
             start = self.hist[b]
             end = self.hist[b + 1] if b < last else n
             sort_bucket(&self.keyed_buf[start], end - start, b < FINITE_BUCKETS, NULL)
         return n
+
+    cdef void count_range(self, int lo, int hi, int last, int* hist) noexcept nogil:
+        """Count the valid candidates of edges lo .. hi - 1 in buckets up to ``last``."""
+        cdef const unsigned char* state = &self.state[0]
+        cdef const unsigned char* alive = self.m.edge_alive
+        cdef const float* cost = &self.cost[0]
+        cdef unsigned int bk
+        cdef int e
+        for e in range(lo, hi):
+            if state[e] == ST_VALID and alive[e]:
+                bk = bucket_of(cost[e])
+                if bk <= <unsigned int>last:
+                    hist[bk] += 1
+
+    cdef void scatter_range(self, int lo, int hi, int last, int* pos) noexcept nogil:
+        """Write the valid candidates of edges lo .. hi - 1 in buckets up to ``last`` to
+        their buckets' next rows (``pos``, advanced), in edge order."""
+        cdef const unsigned char* state = &self.state[0]
+        cdef const unsigned char* alive = self.m.edge_alive
+        cdef const float* cost = &self.cost[0]
+        cdef Keyed* out = &self.keyed_buf[0]
+        cdef unsigned int bk
+        cdef int e
+        for e in range(lo, hi):
+            if state[e] == ST_VALID and alive[e]:
+                bk = bucket_of(cost[e])
+                if bk <= <unsigned int>last:
+                    out[pos[bk]].cost = cost[e]
+                    out[pos[bk]].edge = e
+                    pos[bk] += 1
 
     cdef int select_wide(self, int k, int last, int n) noexcept nogil:
         """select() when the bucket of the k-th holds infinite, NaN or negative costs (a
