@@ -675,7 +675,7 @@ cdef class PassDriver:
             self.hist[b] = acc
             acc += size
         if not cut:
-            self.scatter_range(0, self.ne, last, &self.hist[0])
+            self.bucket_range(0, self.ne, last, &self.hist[0], True)
         for e in range(self.ne if cut else 0):
             if self.state[e] != ST_VALID or not self.m.edge_alive[e]:
                 continue
@@ -723,7 +723,7 @@ cdef class PassDriver:
             memset(&self.hist_t[t, 0], 0, (last + 1) * sizeof(int))
             lo = t * per
             hi = min(lo + per, self.ne)
-            self.count_range(lo, hi, last, &self.hist_t[t, 0])
+            self.bucket_range(lo, hi, last, &self.hist_t[t, 0], False)
         pos = 0
         for b in range(last + 1):             # hist: bucket starts; hist_t: each range's
             self.hist[b] = pos
@@ -734,29 +734,18 @@ cdef class PassDriver:
         for t in prange(T, num_threads=T, schedule="static", chunksize=1):
             lo = t * per
             hi = min(lo + per, self.ne)
-            self.scatter_range(lo, hi, last, &self.hist_t[t, 0])
+            self.bucket_range(lo, hi, last, &self.hist_t[t, 0], True)
         for b in prange(last + 1, num_threads=T, schedule="dynamic", chunksize=256):
             start = self.hist[b]
             end = self.hist[b + 1] if b < last else n
             sort_bucket(&self.keyed_buf[start], end - start, b < FINITE_BUCKETS, NULL)
         return n
 
-    cdef void count_range(self, int lo, int hi, int last, int* hist) noexcept nogil:
-        """Count the valid candidates of edges lo .. hi - 1 in buckets up to ``last``."""
-        cdef const unsigned char* state = &self.state[0]
-        cdef const unsigned char* alive = self.m.edge_alive
-        cdef const float* cost = &self.cost[0]
-        cdef unsigned int bk
-        cdef int e
-        for e in range(lo, hi):
-            if state[e] == ST_VALID and alive[e]:
-                bk = bucket_of(cost[e])
-                if bk <= <unsigned int>last:
-                    hist[bk] += 1
-
-    cdef void scatter_range(self, int lo, int hi, int last, int* pos) noexcept nogil:
-        """Write the valid candidates of edges lo .. hi - 1 in buckets up to ``last`` to
-        their buckets' next rows (``pos``, advanced), in edge order."""
+    cdef void bucket_range(self, int lo, int hi, int last, int* pos, bint write) noexcept nogil:
+        """The valid candidates of edges lo .. hi - 1 in buckets up to ``last``, in edge
+        order: counted into ``pos`` (``write`` False), or written to their buckets' next
+        rows ``pos`` (advanced).  Through locals: the stores would otherwise reload the
+        arrays for every edge."""
         cdef const unsigned char* state = &self.state[0]
         cdef const unsigned char* alive = self.m.edge_alive
         cdef const float* cost = &self.cost[0]
@@ -767,8 +756,9 @@ cdef class PassDriver:
             if state[e] == ST_VALID and alive[e]:
                 bk = bucket_of(cost[e])
                 if bk <= <unsigned int>last:
-                    out[pos[bk]].cost = cost[e]
-                    out[pos[bk]].edge = e
+                    if write:
+                        out[pos[bk]].cost = cost[e]
+                        out[pos[bk]].edge = e
                     pos[bk] += 1
 
     cdef int select_wide(self, int k, int last, int n) noexcept nogil:
