@@ -801,26 +801,32 @@ cdef class PassDriver:
     cdef void dirty_ring(self, int k) noexcept nogil:
         """After a collapse kept k: its edges (and, for wide kernels, its neighbours' edges)
         must be ranked again; so must the refused edges of its neighbours (the collapse may
-        have made them legal)."""
+        have made them legal).  (Arrays through locals: a byte store may alias anything
+        reached through ``self``.)"""
+        cdef unsigned char* state = &self.state[0]
+        cdef const int* edge = self.m.edge
+        cdef const int* corner = self.m.corner
+        cdef const int* twin = self.m.twin
         cdef int start = self.m.v_he[k]
         cdef int y = start
-        cdef int ny, w
+        cdef int ny
         self.c.refused[k] = 0
         while True:
-            self.state[self.m.edge[y]] = ST_DIRTY
-            w = he_dest(self.m, y)
-            self.dirty_neighbour(w)
-            ny = he_ring_next(self.m, y)
+            state[edge[y]] = ST_DIRTY
+            self.dirty_neighbour(corner[he_next(y)], state)
+            ny = twin[he_prev(y)]                    # he_ring_next
             if ny < 0:
                 y = he_prev(y)
-                self.state[self.m.edge[y]] = ST_DIRTY
-                self.dirty_neighbour(self.m.corner[y])
+                state[edge[y]] = ST_DIRTY
+                self.dirty_neighbour(corner[y], state)
                 return
             if ny == start:
                 return
             y = ny
 
-    cdef void dirty_neighbour(self, int w) noexcept nogil:
+    cdef void dirty_neighbour(self, int w, unsigned char* state) noexcept nogil:
+        cdef const int* edge = self.m.edge
+        cdef const int* twin = self.m.twin
         cdef int start, y, ny
         cdef bint all_edges = self.c.opt.wide_recost      # wide kernels: costs read the stars
         if not all_edges and not self.c.refused[w]:
@@ -829,13 +835,13 @@ cdef class PassDriver:
         start = self.m.v_he[w]
         y = start
         while True:
-            if all_edges or self.state[self.m.edge[y]] == ST_REFUSED:
-                self.state[self.m.edge[y]] = ST_DIRTY
-            ny = he_ring_next(self.m, y)
+            if all_edges or state[edge[y]] == ST_REFUSED:
+                state[edge[y]] = ST_DIRTY
+            ny = twin[he_prev(y)]                    # he_ring_next
             if ny < 0:
                 y = he_prev(y)
-                if all_edges or self.state[self.m.edge[y]] == ST_REFUSED:
-                    self.state[self.m.edge[y]] = ST_DIRTY
+                if all_edges or state[edge[y]] == ST_REFUSED:
+                    state[edge[y]] = ST_DIRTY
                 return
             if ny == start:
                 return
