@@ -33,6 +33,16 @@ def torus(n_major: int = 40, n_minor: int = 20, R: float = 1.0, r: float = 0.35,
     return lodkit.Mesh(V.reshape(-1, 3), F.astype(np.int32))
 
 
+@pytest.fixture(autouse=True)
+def threads_on_small_meshes(monkeypatch):
+    """The meshes here are small: let them run on the threads asked for (lodkit runs a pass
+    driver on one thread below PASS_MIN_PARALLEL live vertices), so that the tests that
+    compare thread counts exercise the threads."""
+    import lodkit.drivers.edge as edge_driver
+
+    monkeypatch.setattr(edge_driver, "PASS_MIN_PARALLEL", 0)
+
+
 def same_result(a, b) -> bool:
     return (np.array_equal(a.mesh.vertices, b.mesh.vertices) and np.array_equal(a.mesh.faces, b.mesh.faces)
             and np.array_equal(a.vertex_map, b.vertex_map) and np.array_equal(a.face_map, b.face_map)

@@ -763,6 +763,10 @@ cdef int pair_at(const int* corner, const int* first, const int* out_he, int v, 
     return ne
 
 
+cdef enum:
+    PARALLEL_MIN_VERTICES = 16384     # build() runs on threads from this many vertices
+
+
 cdef inline int fan_first(const int* twin, int h) noexcept nogil:
     """The first half-edge of the fan of outgoing half-edge ``h``: walk back across twins
     to a border, or (a closed fan) to the half-edge just before h."""
@@ -815,8 +819,8 @@ def build(faces, int n_vertices, int threads=1):
     cdef Py_ssize_t m = F.shape[0]
     if m >= 700_000_000:
         raise ValueError("too many faces for 32-bit half-edge ids")
-    if threads < 1:
-        threads = 1
+    if threads < 1 or n_vertices < PARALLEL_MIN_VERTICES:
+        threads = 1                   # waking a team costs more than a small mesh's build
     cdef int H = <int>(3 * m)
     cdef int n = n_vertices
     cdef int[::1] corner = np.ascontiguousarray(F).reshape(-1).copy()

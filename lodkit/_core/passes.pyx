@@ -494,7 +494,8 @@ cdef class PassDriver:
     cdef bint single                 # kernels or split copies: every pass in cost order
     cdef bint interrupted            # a signal handler raised during a run: not usable again
 
-    def __init__(self, PassCollapser collapser, double fraction=6.0, int threads=1, int block=4096):
+    def __init__(self, PassCollapser collapser, double fraction=6.0, int threads=1, int block=4096,
+                 int min_parallel=0):
         if not (fraction >= 1.0):
             raise ValueError("fraction must be >= 1")
         if block < 1:
@@ -517,7 +518,10 @@ cdef class PassDriver:
         # order), and the link condition of a mesh with split copies reads the copies'
         # rings wherever they are: those run every pass in plain cost order, on one thread
         self.single = collapser.kernel is not None or collapser.hm.has_copies
-        self.threads = threads if not self.single and threads > 1 else 1
+        # below min_parallel live vertices the passes are too short to pay for waking a
+        # thread team (several times a pass): one thread, the same output
+        self.threads = (threads if not self.single and threads > 1
+                        and collapser.hm.n_alive_vertices >= min_parallel else 1)
         self.hist_t = np.zeros((self.threads, N_BUCKETS), dtype=np.intc)
         self.kmax = <int>((n_alive + fraction - 1.0) / fraction) + 1
         self.keyed_buf = np.zeros(self.kmax, dtype=[("cost", np.float32), ("edge", np.intc)])

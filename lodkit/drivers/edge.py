@@ -28,8 +28,8 @@ from ..errors import MetricError, OptionError
 from ..metrics import Batch
 from ..settings import BOUNDARY_POLICIES, COLLAPSE_OPERATORS, PLACEMENTS
 
-__all__ = ["FIX_SEAMS", "PASS_BLOCK", "PASS_FRACTION", "check", "memory_order", "setup", "run", "run_collapser",
-           "run_passes", "records"]
+__all__ = ["FIX_SEAMS", "PASS_BLOCK", "PASS_MIN_PARALLEL", "PASS_FRACTION", "check", "memory_order", "setup", "run",
+           "run_collapser", "run_passes", "records"]
 
 #: seam copies that can be paired collapse together with their partner: only the others stay
 FIX_SEAMS = False
@@ -37,6 +37,9 @@ FIX_SEAMS = False
 PASS_FRACTION = 6.0
 #: live vertices per block of the pass driver's first stage (docs/algorithms.md)
 PASS_BLOCK = 8192
+#: below this many live vertices the pass driver runs on one thread (the same output): its
+#: passes are too short to pay for waking the thread team several times a pass
+PASS_MIN_PARALLEL = 16384
 
 
 def check(metrics, pair_threshold) -> None:
@@ -102,7 +105,8 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
     if compiled.batch:
         status, rejected_error, n_passes = run_passes(collapser, compiled, work, target, bar)
     else:
-        driver = (PassDriver(collapser, threads=int(settings["threads"][0]), fraction=PASS_FRACTION, block=PASS_BLOCK)
+        driver = (PassDriver(collapser, threads=int(settings["threads"][0]), fraction=PASS_FRACTION, block=PASS_BLOCK,
+                              min_parallel=PASS_MIN_PARALLEL)
                   if passes else collapser)
         status = run_chunked(driver, hm, target, bar)
         for step in quality_steps(settings) if max_error == math.inf and error_bound is None else ():
