@@ -52,7 +52,7 @@ from libc.math cimport sqrt, NAN
 from lodkit.kernel cimport KernelMesh, KERNEL_OK, KERNEL_VETO
 from lodkit.removal cimport RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION
 from .retriangulate cimport split_loop_aspect
-from .removal_star cimport star_on_points, patch_distance
+from .removal_star cimport star_on_points, patch_distance, carried_distance, carry_points
 from .vec3 cimport sub3, cross3, dot3, norm3
 
 cdef enum:
@@ -70,9 +70,10 @@ CORNER = C_CORNER
 cdef enum:
     ACC_OFF = 0             # the paper: the criterion is the star's alone
     ACC_BOUND = 1           # lodkit's default: an accumulated distance bound (module doc)
+    ACC_POINTS = 2          # lodkit's default: the removed vertices themselves are carried
 
 #: the ``accumulate`` option's values, in ACC_* order
-ACCUMULATE_MODES = ("off", "bound")
+ACCUMULATE_MODES = ("off", "bound", "points")
 
 #: class code -> name
 CLASS_NAMES = ("simple", "complex", "boundary", "interior_edge", "corner")
@@ -101,6 +102,8 @@ cdef class SchroederKernel(RemovalKernel):
     cdef readonly int accumulate_code
     cdef double[::1] _acc
     cdef double* acc
+    cdef int[::1] _head                 # accumulate="points": removal_star's lists
+    cdef int[::1] _nxt
     cdef int n_acc
 
     def __cinit__(self):
@@ -129,13 +132,16 @@ cdef class SchroederKernel(RemovalKernel):
         self.cos_feature = _math.cos(_math.radians(fa))
         self.min_aspect = ma
         self.remove_corners = bool(options.get("remove_corners", False))
-        acc = options.get("accumulate", "bound")
+        acc = options.get("accumulate", "points")
         if acc not in ACCUMULATE_MODES:
             raise ValueError(f"accumulate must be one of {ACCUMULATE_MODES}, got {acc!r}")
         self.accumulate_code = ACCUMULATE_MODES.index(acc)
         n = int(ctx.n_vertices) if ctx is not None else int(options.get("n_vertices", 0))
         self._acc = np.zeros(max(n, 1))
         self.acc = &self._acc[0]
+        nf = int(ctx.halfedge.corners.shape[0]) if ctx is not None else int(options.get("n_faces", 0))
+        self._head = np.full(max(nf, 1), -1, dtype=np.int32)
+        self._nxt = np.full(max(n, 1), -1, dtype=np.int32)
         self.n_acc = n
 
     cdef int evaluate(self, const Star* s, Removal* r) noexcept nogil:
@@ -249,6 +255,12 @@ cdef class SchroederKernel(RemovalKernel):
                 d = dp
             if s.v < self.n_acc:
                 d = d + self.acc[s.v]
+        elif self.accumulate_code == ACC_POINTS and s.v < self.n_acc:
+            # lodkit's default: how far v and the removed vertices in its care lie from the
+            # patch (measured), or d if larger
+            dp = carried_distance(P, stride, s, r.tri, r.n_tris, &self._head[0], &self._nxt[0])
+            if dp > d:
+                d = dp
         r.cost = d
         r.error = d
         return KERNEL_OK
@@ -261,6 +273,8 @@ cdef class SchroederKernel(RemovalKernel):
                 w = s.link[i]
                 if 0 <= w < self.n_acc and r.error > self.acc[w]:
                     self.acc[w] = r.error
+        elif self.accumulate_code == ACC_POINTS and 0 <= s.v < self.n_acc:
+            carry_points(s.mesh.positions, s.mesh.stride, s, &self._head[0], &self._nxt[0])
         return KERNEL_OK
 
     def accumulated(self):

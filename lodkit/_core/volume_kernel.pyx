@@ -60,8 +60,8 @@ from libc.math cimport sqrt, fabs, atan2, acos, cos, NAN, INFINITY, M_PI
 
 from lodkit.kernel cimport (KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VERTEX_FIXED)
 from lodkit.removal cimport (RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION)
-from .retriangulate cimport closest_line_apex, fan_from
-from .removal_star cimport star_on_points, patch_distance
+from .retriangulate cimport closest_line_apex, fan_from, least_distance_patch
+from .removal_star cimport star_on_points, patch_distance, carried_distance, carry_points
 from .vec3 cimport dot3, cross3
 
 # classification codes
@@ -543,12 +543,65 @@ cdef int measure_star(const double* V, const double* W, int k, bint closed, doub
     return C_NON_HYPERBOLIC
 
 
+cdef int measure_saddle(const double* V, const double* W, int k, bint closed, Measure* out) noexcept nogil:
+    """lodkit's reading for a hyperbolic star that may be removed (``hyperbolic="remove"``):
+    the pole is the star's mean normal, angle(V) the same signed fan of solid angles about
+    it (capped at 2 pi, doubled for an open star; a saddle's is near 2 pi, so the median
+    filter lets it compete as a flat vertex does), ht(V) as for any star.  Returns
+    C_NON_HYPERBOLIC, or C_DEGENERATE when the star has no mean normal."""
+    cdef double u[3 * MAX_VALENCE]
+    cdef double U[3 * MAX_VALENCE]
+    cdef double n, total = 0.0
+    cdef int i, j, last
+    for i in range(k):
+        for j in range(3):
+            u[3 * i + j] = W[3 * i + j] - V[j]
+        n = sqrt(dot3(&u[3 * i], &u[3 * i]))
+        if not n > 0.0:
+            return C_DEGENERATE
+        for j in range(3):
+            U[3 * i + j] = u[3 * i + j] / n
+    n = sqrt(dot3(out.normal, out.normal))
+    if not n > 0.0:
+        return C_DEGENERATE
+    for j in range(3):
+        out.pole[j] = out.normal[j] / n
+    out.on_hull = 0
+    last = k if closed else k - 1
+    for i in range(last):
+        j = i + 1 if i + 1 < k else 0
+        total += solid_angle_unit(out.pole, &U[3 * i], &U[3 * j])
+    total = fabs(total)
+    if not closed:
+        total *= 2.0
+    out.angle = min(total, 2.0 * M_PI)
+    out.height = plane_height(u, k)
+    if not closed:
+        out.height = max(out.height, line_distance(&u[0], &u[3 * (k - 1)]))
+    return C_NON_HYPERBOLIC
+
+
 cdef enum:
     ACC_OFF = 0             # the paper: the cost is the star's alone
     ACC_BOUND = 1           # lodkit's default: an accumulated distance bound (module doc)
+    ACC_POINTS = 2          # lodkit's default: the removed vertices themselves are carried
 
 #: the ``accumulate`` option's values, in ACC_* order
-ACCUMULATE_MODES = ("off", "bound")
+ACCUMULATE_MODES = ("off", "bound", "points")
+
+cdef enum:
+    HYP_VETO = 0            # the paper: a hyperbolic vertex is never removed
+    HYP_REMOVE = 1          # lodkit's default: it competes, costed by its real removal error
+
+#: the ``hyperbolic`` option's values, in HYP_* order ("auto" follows ``accumulate``)
+HYPERBOLIC_MODES = ("veto", "remove")
+
+cdef enum:
+    TRI_CLOSEST_LINE = 0    # the paper: the closest-line fan (with ``fallback``)
+    TRI_NEAREST = 1         # lodkit's default: the patch nearest the removed vertex
+
+#: the ``triangulation`` option's values, in TRI_* order ("auto" follows ``accumulate``)
+TRIANGULATION_MODES = ("closest_line", "nearest")
 
 
 cdef enum:
@@ -595,6 +648,12 @@ cdef class VolumeKernel(RemovalKernel):
     cdef readonly int accumulate_code
     cdef double[::1] _acc
     cdef double* acc
+    cdef int[::1] _head                 # accumulate="points": removal_star's lists
+    cdef int[::1] _nxt
+    cdef readonly int hyperbolic_code   # HYP_*
+    cdef readonly int triangulation_code  # TRI_*
+    cdef double[::1] _dp_cost           # least_distance_patch scratch (MAX_VALENCE^2)
+    cdef int[::1] _dp_split
 
     def __cinit__(self):
         self.gated = True
@@ -606,6 +665,10 @@ cdef class VolumeKernel(RemovalKernel):
         self.n_fallbacks = 0
         self.accumulate_code = ACC_OFF
         self.acc = NULL
+        self.hyperbolic_code = HYP_VETO
+        self.triangulation_code = TRI_CLOSEST_LINE
+        self._dp_cost = np.zeros(MAX_VALENCE * MAX_VALENCE)
+        self._dp_split = np.zeros(MAX_VALENCE * MAX_VALENCE, dtype=np.int32)
 
     def prepare(self, ctx, options):
         """Options: ``median`` (bool, default True: the paper's median filter, i.e. the
@@ -617,15 +680,31 @@ cdef class VolumeKernel(RemovalKernel):
             raise ValueError(f"tolerance must be in [0, 0.1), got {tol!r}")
         self.tolerance = tol
         self.fallback = bool(options.get("fallback", True))
-        acc = options.get("accumulate", "bound")
+        acc = options.get("accumulate", "points")
         if acc not in ACCUMULATE_MODES:
             raise ValueError(f"accumulate must be one of {ACCUMULATE_MODES}, got {acc!r}")
         self.accumulate_code = ACCUMULATE_MODES.index(acc)
+        # lodkit's readings follow accumulate unless set: "off" is the paper throughout
+        hyp = options.get("hyperbolic", "auto")
+        if hyp == "auto":
+            hyp = "veto" if acc == "off" else "remove"
+        if hyp not in HYPERBOLIC_MODES:
+            raise ValueError(f"hyperbolic must be 'auto' or one of {HYPERBOLIC_MODES}, got {hyp!r}")
+        self.hyperbolic_code = HYPERBOLIC_MODES.index(hyp)
+        tri = options.get("triangulation", "auto")
+        if tri == "auto":
+            tri = "closest_line" if acc == "off" else "nearest"
+        if tri not in TRIANGULATION_MODES:
+            raise ValueError(f"triangulation must be 'auto' or one of {TRIANGULATION_MODES}, got {tri!r}")
+        self.triangulation_code = TRIANGULATION_MODES.index(tri)
         n = int(ctx.n_vertices) if ctx is not None else int(options.get("n_vertices", 0))
         self._state = np.zeros(max(n, 1), dtype=np.uint8)
         self.state = &self._state[0]
         self._acc = np.zeros(max(n, 1))
         self.acc = &self._acc[0]
+        nf = int(ctx.halfedge.corners.shape[0]) if ctx is not None else int(options.get("n_faces", 0))
+        self._head = np.full(max(nf, 1), -1, dtype=np.int32)
+        self._nxt = np.full(max(n, 1), -1, dtype=np.int32)
         self.n_state = n
         self.counts[0] = n
         self.counts[1] = self.counts[2] = self.counts[3] = 0
@@ -652,6 +731,7 @@ cdef class VolumeKernel(RemovalKernel):
         cdef double W[3 * MAX_VALENCE]
         cdef double key[MAX_VALENCE]
         cdef int order[MAX_VALENCE]
+        cdef int cand[3 * MAX_VALENCE]
         cdef const double* p
         cdef const double* a
         cdef const double* b
@@ -677,12 +757,20 @@ cdef class VolumeKernel(RemovalKernel):
         p = &m.positions[m.stride * s.v]
         cls = measure_star(p, W, s.k, s.closed, self.tolerance, &ms)
         if cls == C_HYPERBOLIC:
-            self._mark(s.v, MARK_HYPERBOLIC)
-            return KERNEL_VETO
-        if cls == C_DEGENERATE:
+            if self.hyperbolic_code == HYP_VETO:
+                self._mark(s.v, MARK_HYPERBOLIC)
+                return KERNEL_VETO
+            # lodkit's reading: measured about the mean normal, costed below by what its
+            # removal really moves the surface by
+            cls = measure_saddle(p, W, s.k, s.closed, &ms)
+            self._mark(s.v, MARK_HYPERBOLIC if cls == C_NON_HYPERBOLIC else MARK_DEGENERATE)
+            if cls != C_NON_HYPERBOLIC:
+                return KERNEL_VETO
+        elif cls == C_DEGENERATE:
             self._mark(s.v, MARK_DEGENERATE)
             return KERNEL_VETO
-        self._mark(s.v, MARK_NONE)
+        else:
+            self._mark(s.v, MARK_NONE)
         apex = closest_line_apex(m.positions, m.stride, s.link, s.k, p)
         if apex < 0 or apex >= s.k:
             return self.fail(b"volume: closest_line_apex found no line through two link vertices")
@@ -725,16 +813,31 @@ cdef class VolumeKernel(RemovalKernel):
                     break
             else:
                 r.n_tris = fan_from(apex, s.k, r.tri)    # none fits: propose the paper's
+        dist = -1.0
+        if self.triangulation_code == TRI_NEAREST:
+            # lodkit's addition: of the paper's fan, the least-volume triangulation and the
+            # other fans, the one nearest to V (none that folds)
+            if least_distance_patch(W, s.k, p, ms.normal, r.tri, r.n_tris, &dist,
+                                    &self._dp_cost[0], &self._dp_split[0], cand) < 0:
+                dist = -1.0
         r.gate = ms.angle
         if self.accumulate_code == ACC_BOUND:
             # lodkit's addition: the error is how far the removal moves the surface from
             # the input, bounded -- the larger of ht and V's distance to the fan that
             # replaces its star, plus the bound V carries from the removals around it
-            ht = patch_distance(m.positions, m.stride, p, s.link, r.tri, r.n_tris)
+            ht = dist if dist >= 0.0 else patch_distance(m.positions, m.stride, p, s.link, r.tri, r.n_tris)
             if ms.height > ht:
                 ht = ms.height
             if s.v < self.n_state:
                 ht = ht + self.acc[s.v]
+            r.error = ht
+            r.cost = ms.angle * ht * ht * ht
+        elif self.accumulate_code == ACC_POINTS and s.v < self.n_state:
+            # lodkit's default: how far V and the removed vertices in its care lie from the
+            # patch (a measured one-sided distance, not a bound), or ht if larger
+            ht = carried_distance(m.positions, m.stride, s, r.tri, r.n_tris, &self._head[0], &self._nxt[0])
+            if ms.height > ht:
+                ht = ms.height
             r.error = ht
             r.cost = ms.angle * ht * ht * ht
         else:
@@ -751,6 +854,8 @@ cdef class VolumeKernel(RemovalKernel):
                 w = s.link[i]
                 if 0 <= w < self.n_state and r.error > self.acc[w]:
                     self.acc[w] = r.error
+        elif self.accumulate_code == ACC_POINTS and 0 <= s.v < self.n_state:
+            carry_points(s.mesh.positions, s.mesh.stride, s, &self._head[0], &self._nxt[0])
         return KERNEL_OK
 
     def accumulated(self):
@@ -766,7 +871,7 @@ cdef class VolumeKernel(RemovalKernel):
         """Why the kernel holds vertices back now, in words (for a run's stop_detail)."""
         h, d, v = self.counts[MARK_HYPERBOLIC], self.counts[MARK_DEGENERATE], self.counts[MARK_VALENCE]
         parts = []
-        if h:
+        if h and self.hyperbolic_code == HYP_VETO:
             parts.append(f"{h} hyperbolic (inside the convex hull of their neighbours: the volume "
                          f"metric never removes them)")
         if d:

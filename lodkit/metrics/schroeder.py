@@ -33,7 +33,7 @@ class Schroeder(RemovalMetric):
         "remove_corners": Option(False, kind=bool,
                                  doc="let corner vertices go (by distance to the average plane, or "
                                      "to the new boundary edge on a boundary); Schroeder keeps them"),
-        "accumulate": Option("bound", choices=("bound", "off"),
+        "accumulate": Option("bound", choices=("bound", "points", "off"),
                              doc="lodkit's addition: 'bound' = carry what each removal took away to "
                                  "the vertices that remain: a vertex's error e is the larger of d "
                                  "and its distance to the patch that would replace its star, plus "

@@ -39,7 +39,18 @@ class Volume(RemovalMetric):
                                "or more from the star's mean normal), use the apex of the next-closest "
                                "line whose fan does not (False: always the paper's closest-line fan, "
                                "which the driver then refuses)"),
-        "accumulate": Option("bound", choices=("bound", "off"),
+        "hyperbolic": Option("auto", choices=("auto", "veto", "remove"),
+                             doc="lodkit's addition: 'remove' = a hyperbolic vertex (inside the convex "
+                                 "hull of its neighbours) competes like any other, its angle measured "
+                                 "about the star's mean normal and its cost by what its removal moves "
+                                 "the surface by; 'veto' = the paper: never removed; 'auto' = 'veto' "
+                                 "with accumulate='off', else 'remove'"),
+        "triangulation": Option("auto", choices=("auto", "closest_line", "nearest"),
+                                doc="lodkit's addition: 'nearest' = of the paper's fan, the hole's "
+                                    "least-volume triangulation and the other fans, the one nearest to "
+                                    "the removed vertex (none that folds); 'closest_line' = the paper's "
+                                    "fan; 'auto' = 'closest_line' with accumulate='off', else 'nearest'"),
+        "accumulate": Option("bound", choices=("bound", "points", "off"),
                              doc="lodkit's addition: 'bound' = carry what each removal took away to "
                                  "the vertices that remain: a vertex's error e is the larger of ht(V) "
                                  "and its distance to the patch that would replace its star, plus "
