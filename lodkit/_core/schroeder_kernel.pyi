@@ -52,10 +52,11 @@ class SchroederKernel(RemovalKernel):
         """True: corner vertices may go too."""
     @property
     def accumulate_code(self) -> int:
-        """Index of the ``accumulate`` option in ACCUMULATE_MODES (0 off, 1 bound)."""
+        """Index of the ``accumulate`` option in ACCUMULATE_MODES (0 off, 1 bound, 2 points)."""
     def prepare(self, ctx: Any, options: dict[str, Any]) -> None:
         """Take ``feature_angle`` (degrees, [0, 180]), ``min_aspect`` (>= 0),
-        ``remove_corners`` and ``accumulate`` ("bound" or "off") from ``options``; missing
+        ``remove_corners`` (None: True unless accumulate is "off") and ``accumulate`` ("points", "bound"
+        or "off") from ``options``; missing
         ones keep the defaults.  ``ctx.n_vertices`` (or ``options["n_vertices"]``) sizes the
         per-vertex bounds (0: nothing is carried)."""
     def accumulated(self) -> np.ndarray:

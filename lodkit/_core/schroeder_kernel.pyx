@@ -131,8 +131,9 @@ cdef class SchroederKernel(RemovalKernel):
         self.feature_angle = fa
         self.cos_feature = _math.cos(_math.radians(fa))
         self.min_aspect = ma
-        self.remove_corners = bool(options.get("remove_corners", False))
         acc = options.get("accumulate", "points")
+        rc = options.get("remove_corners", None)
+        self.remove_corners = (acc != "off") if rc is None else bool(rc)
         if acc not in ACCUMULATE_MODES:
             raise ValueError(f"accumulate must be one of {ACCUMULATE_MODES}, got {acc!r}")
         self.accumulate_code = ACCUMULATE_MODES.index(acc)
@@ -255,10 +256,13 @@ cdef class SchroederKernel(RemovalKernel):
                 d = dp
             if s.v < self.n_acc:
                 d = d + self.acc[s.v]
-        elif self.accumulate_code == ACC_POINTS and s.v < self.n_acc:
+        elif self.accumulate_code == ACC_POINTS:
             # lodkit's default: how far v and the removed vertices in its care lie from the
             # patch (measured), or d if larger
-            dp = carried_distance(P, stride, s, r.tri, r.n_tris, &self._head[0], &self._nxt[0])
+            if s.v < self.n_acc:
+                dp = carried_distance(P, stride, s, r.tri, r.n_tris, &self._head[0], &self._nxt[0])
+            else:                               # a lone star (evaluate_star): nothing carried
+                dp = patch_distance(P, stride, x, s.link, r.tri, r.n_tris)
             if dp > d:
                 d = dp
         r.cost = d

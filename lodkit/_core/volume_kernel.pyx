@@ -674,7 +674,9 @@ cdef class VolumeKernel(RemovalKernel):
         """Options: ``median`` (bool, default True: the paper's median filter, i.e. the
         kernel is gated), ``tolerance`` (radians, default 1e-9) and ``fallback`` (bool,
         default True)."""
-        self.gated = bool(options.get("median", True))
+        acc = options.get("accumulate", "points")
+        med = options.get("median", None)
+        self.gated = (acc == "off") if med is None else bool(med)
         tol = float(options.get("tolerance", 1e-9))
         if not (tol >= 0.0 and tol < 0.1):
             raise ValueError(f"tolerance must be in [0, 0.1), got {tol!r}")
@@ -965,13 +967,14 @@ def measure(center, neighbours, closed=True, tolerance=1e-9):
 
 
 def evaluate_star(positions, int v, link, closed=True, fixed=None, median=True, tolerance=1e-9,
-                  fallback=True, accumulate="bound"):
+                  fallback=True, accumulate="bound", hyperbolic="auto", triangulation="auto"):
     """Run ``VolumeKernel.evaluate`` on one star of a point set: ``positions`` (n, 3),
     vertex ``v``, ``link`` (k,) vertex indices in link order.  Returns a dict: ``status``
     ("ok", "veto" or "error"), ``cost``, ``error``, ``gate``, ``tris`` ((k-2, 3) indices into
-    ``link``, or None) and ``hyperbolic`` (the kernel's mark for v).  ``accumulate`` as the
-    metric's option (nothing is carried yet: "bound" measures the larger of ht and V's
-    distance to the fan, "off" the paper's ht)."""
+    ``link``, or None) and ``hyperbolic`` (the kernel's mark for v).  ``accumulate``,
+    ``hyperbolic`` and ``triangulation`` as the metric's options ("auto" follows
+    ``accumulate``; nothing is carried in a lone star: "bound" and "points" measure the
+    larger of ht and V's distance to the patch, "off" the paper's ht)."""
     P = np.ascontiguousarray(positions, dtype=np.float64)
     L = np.ascontiguousarray(link, dtype=np.int32)
     if P.ndim != 2 or P.shape[1] != 3 or L.ndim != 1:
@@ -987,7 +990,8 @@ def evaluate_star(positions, int v, link, closed=True, fixed=None, median=True, 
         flags[np.asarray(fixed, dtype=np.int64)] |= VERTEX_FIXED
     cdef VolumeKernel kern = VolumeKernel()
     kern.prepare(None, {"median": median, "tolerance": tolerance, "fallback": fallback,
-                        "accumulate": accumulate, "n_vertices": n})
+                        "accumulate": accumulate, "hyperbolic": hyperbolic,
+                        "triangulation": triangulation, "n_vertices": n})
     cdef double[:, ::1] pv = P
     cdef unsigned char[::1] fv = flags
     cdef const int[::1] lv = L
@@ -1010,4 +1014,4 @@ def evaluate_star(positions, int v, link, closed=True, fixed=None, median=True, 
     tris = np.array([[r.tri[3 * i], r.tri[3 * i + 1], r.tri[3 * i + 2]] for i in range(r.n_tris)],
                     dtype=np.int64).reshape(-1, 3)
     return {"status": "ok", "cost": r.cost, "error": r.error, "gate": r.gate, "tris": tris,
-            "hyperbolic": False}
+            "hyperbolic": kern._state[v] == MARK_HYPERBOLIC}

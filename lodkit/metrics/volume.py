@@ -26,10 +26,12 @@ class Volume(RemovalMetric):
     description = "Chuon & Guha: vertex removal by volume cost angle*ht^3, median angle filter"
     kernel = VolumeKernel
     options = {
-        "median": Option(True, kind=bool,
+        "median": Option(None, kind=bool, allow_none=True,
                          doc="the paper's median filter: only vertices whose angle(V) is at least "
                              "the median angle of the non-hyperbolic vertices compete (False: all "
-                             "non-hyperbolic vertices compete on vol alone)"),
+                             "vertices compete on their cost alone; None, the default: True with "
+                             "accumulate='off', else False -- the carried error protects sharp "
+                             "features, and the filter would force dearer removals)"),
         "tolerance": Option(1e-9, min=0.0, max=0.01,
                             doc="angle (radians) within which a neighbour counts as on a plane "
                                 "through V: vertices hyperbolic by less than this are treated as "
@@ -50,7 +52,7 @@ class Volume(RemovalMetric):
                                     "least-volume triangulation and the other fans, the one nearest to "
                                     "the removed vertex (none that folds); 'closest_line' = the paper's "
                                     "fan; 'auto' = 'closest_line' with accumulate='off', else 'nearest'"),
-        "accumulate": Option("bound", choices=("bound", "points", "off"),
+        "accumulate": Option("points", choices=("points", "bound", "off"),
                              doc="lodkit's addition: 'bound' = carry what each removal took away to "
                                  "the vertices that remain: a vertex's error e is the larger of ht(V) "
                                  "and its distance to the patch that would replace its star, plus "
