@@ -433,11 +433,19 @@ cdef int least_distance_patch(const double* W, int k, const double* x, const dou
                               int* tri, int n_in, double* dist, double* cost, int* split,
                               int* cand) noexcept nogil:
     """See the .pxd: candidates in order (the given one, the least-volume one, the fans
-    from 0 .. k - 1); strict improvement only, so ties keep the earlier."""
+    from 0 .. k - 1); a later one must be nearer by more than rounding, so ties keep the
+    earlier."""
     cdef int n = k - 2, c, t, found = 0
-    cdef double d2, best = INFINITY
+    cdef double d2, best = INFINITY, tie = 0.0
     if k < 3 or k > 64:
         return -1
+    # a candidate must be nearer by more than rounding: 1e-9 of the star's size, in
+    # distance (so a flat star keeps the first candidate, not a rounding winner)
+    for c in range(k):
+        d2 = (W[3 * c] - x[0]) ** 2 + (W[3 * c + 1] - x[1]) ** 2 + (W[3 * c + 2] - x[2]) ** 2
+        if d2 > tie:
+            tie = d2
+    tie *= 1e-18
     if n_in == n and not _folds(W, normal, tri, n):
         best = _nearest2(W, x, tri, n)
         found = 1
@@ -450,7 +458,7 @@ cdef int least_distance_patch(const double* W, int k, const double* x, const dou
         if _folds(W, normal, cand, n):
             continue
         d2 = _nearest2(W, x, cand, n)
-        if d2 < best:
+        if d2 < best - tie:
             best = d2
             found = 1
             for t in range(3 * n):

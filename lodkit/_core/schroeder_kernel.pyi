@@ -18,8 +18,10 @@ CLASS_NAMES: tuple[str, ...]
 DEFAULT_FEATURE_ANGLE: float
 #: smallest aspect ratio of a loop split (vtkDecimate's 1 / AspectRatio = 1/25)
 DEFAULT_MIN_ASPECT: float
-#: the ``accumulate`` option's values: "off" (the paper), "bound" (lodkit's default)
+#: the ``accumulate`` option's values: "off" (the paper), "bound", "points" (lodkit's default)
 ACCUMULATE_MODES: tuple[str, ...]
+#: the ``triangulation`` option's values besides "auto": "split" (the paper), "nearest"
+TRIANGULATION_MODES: tuple[str, ...]
 
 class _StarEvaluation(TypedDict):
     cls: int
@@ -50,6 +52,10 @@ class SchroederKernel(RemovalKernel):
     @property
     def remove_corners(self) -> bool:
         """True: corner vertices may go too."""
+    @property
+    def triangulation_code(self) -> int:
+        """Index of the resolved ``triangulation`` option in TRIANGULATION_MODES (0 split,
+        1 nearest)."""
     @property
     def accumulate_code(self) -> int:
         """Index of the ``accumulate`` option in ACCUMULATE_MODES (0 off, 1 bound, 2 points)."""

@@ -51,7 +51,7 @@ from libc.math cimport sqrt, NAN
 
 from lodkit.kernel cimport KernelMesh, KERNEL_OK, KERNEL_VETO
 from lodkit.removal cimport RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION
-from .retriangulate cimport split_loop_aspect
+from .retriangulate cimport split_loop_aspect, least_distance_patch
 from .removal_star cimport star_on_points, patch_distance, carried_distance, carry_points
 from .vec3 cimport sub3, cross3, dot3, norm3
 
@@ -74,6 +74,13 @@ cdef enum:
 
 #: the ``accumulate`` option's values, in ACC_* order
 ACCUMULATE_MODES = ("off", "bound", "points")
+
+cdef enum:
+    TRI_SPLIT = 0           # the paper: recursive loop splitting
+    TRI_NEAREST = 1         # lodkit's: the patch nearest the removed vertex (no feature line)
+
+#: the ``triangulation`` option's values, in TRI_* order ("auto" follows ``accumulate``)
+TRIANGULATION_MODES = ("split", "nearest")
 
 #: class code -> name
 CLASS_NAMES = ("simple", "complex", "boundary", "interior_edge", "corner")
@@ -102,6 +109,9 @@ cdef class SchroederKernel(RemovalKernel):
     cdef readonly int accumulate_code
     cdef double[::1] _acc
     cdef double* acc
+    cdef readonly int triangulation_code     # TRI_*
+    cdef double[::1] _dp_cost                # least_distance_patch scratch (MAX_VALENCE^2)
+    cdef int[::1] _dp_split
     cdef int[::1] _head                 # accumulate="points": removal_star's lists
     cdef int[::1] _nxt
     cdef int n_acc
@@ -117,6 +127,9 @@ cdef class SchroederKernel(RemovalKernel):
         self.last_fa = self.last_fb = -1
         self.accumulate_code = ACC_OFF
         self.acc = NULL
+        self.triangulation_code = TRI_SPLIT
+        self._dp_cost = np.zeros(MAX_VALENCE * MAX_VALENCE)
+        self._dp_split = np.zeros(MAX_VALENCE * MAX_VALENCE, dtype=np.int32)
         self.n_acc = 0
 
     def prepare(self, ctx, options):
@@ -134,6 +147,12 @@ cdef class SchroederKernel(RemovalKernel):
         acc = options.get("accumulate", "points")
         rc = options.get("remove_corners", None)
         self.remove_corners = (acc != "off") if rc is None else bool(rc)
+        tri = options.get("triangulation", "auto")
+        if tri == "auto":
+            tri = "split" if acc == "off" else "nearest"
+        if tri not in TRIANGULATION_MODES:
+            raise ValueError(f"triangulation must be 'auto' or one of {TRIANGULATION_MODES}, got {tri!r}")
+        self.triangulation_code = TRIANGULATION_MODES.index(tri)
         if acc not in ACCUMULATE_MODES:
             raise ValueError(f"accumulate must be one of {ACCUMULATE_MODES}, got {acc!r}")
         self.accumulate_code = ACCUMULATE_MODES.index(acc)
@@ -161,6 +180,8 @@ cdef class SchroederKernel(RemovalKernel):
         cdef double g[3]
         cdef double area, A = 0.0, nl, d, t, ll, dp
         cdef int force_a, force_b
+        cdef double W[3 * MAX_VALENCE]
+        cdef int cand[3 * MAX_VALENCE]
         r.gate = NAN
         self.last_class = C_COMPLEX
         self.last_fa = self.last_fb = -1
@@ -245,6 +266,15 @@ cdef class SchroederKernel(RemovalKernel):
             return KERNEL_VETO                  # corner (kept, as Schroeder) or complex
         n = split_loop_aspect(P, stride, s.link, k, N, force_a, force_b, self.min_aspect,
                               r.tri, self.work)
+        if self.triangulation_code == TRI_NEAREST and force_a < 0:
+            # lodkit's addition (no feature line to keep): of the loop split, the hole's
+            # least-volume triangulation and the fans, the one nearest to v
+            for i in range(k):
+                for j in range(3):
+                    W[3 * i + j] = P[stride * s.link[i] + j]
+            if least_distance_patch(W, k, x, N, r.tri, n if n > 0 else 0, &dp,
+                                    &self._dp_cost[0], &self._dp_split[0], cand) > 0:
+                n = k - 2
         if n < 0:
             return KERNEL_VETO                  # no valid triangulation: the vertex stays
         r.n_tris = n

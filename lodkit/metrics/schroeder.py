@@ -35,6 +35,13 @@ class Schroeder(RemovalMetric):
                                      "to the new boundary edge on a boundary, and by the carried "
                                      "error); Schroeder keeps them.  None, the default: False with "
                                      "accumulate='off', else True"),
+        "triangulation": Option("auto", choices=("auto", "split", "nearest"),
+                                doc="lodkit's addition: 'nearest' = for a vertex with no feature line "
+                                    "to keep (simple, corner), of the loop split, the hole's "
+                                    "least-volume triangulation and the fans, the one nearest to the "
+                                    "removed vertex (none that folds; also when no loop split is "
+                                    "valid); 'split' = the paper's recursive loop splitting; 'auto' "
+                                    "= 'split' with accumulate='off', else 'nearest'"),
         "accumulate": Option("points", choices=("points", "bound", "off"),
                              doc="lodkit's addition: 'bound' = carry what each removal took away to "
                                  "the vertices that remain: a vertex's error e is the larger of d "
