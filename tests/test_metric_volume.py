@@ -429,12 +429,17 @@ def test_evaluate_star_costs_and_fan():
     m = vk.measure(P[0], P[1:])
     assert r["gate"] == m["angle"] and r["error"] == m["height"]
     assert r["cost"] == pytest.approx(m["angle"] * m["height"] ** 3, rel=1e-15)
-    # lodkit's default: the larger of ht and V's distance to the fan (nothing carried yet)
-    b = vk.evaluate_star(P, 0, [1, 2, 3, 4])
+    # accumulate="bound": the larger of ht and V's distance to the fan (nothing carried yet)
+    b = vk.evaluate_star(P, 0, [1, 2, 3, 4], accumulate="bound")
     fan_distance = min(point_triangle_distance(P[0], *P[1:][t]) for t in b["tris"])
     assert b["tris"].tolist() == r["tris"].tolist() and b["gate"] == r["gate"]
     assert b["error"] == pytest.approx(max(m["height"], fan_distance), rel=1e-12)
     assert b["cost"] == pytest.approx(m["angle"] * b["error"] ** 3, rel=1e-12)
+    # lodkit's default (accumulate="points"): how far V and the star faces' centroids lie
+    # from the patch, at least min(ht, V's distance to the closest line) -- both halves of the
+    # ridge are planar and the fan keeps the ridge, so the removal changes nothing: 0
+    p = vk.evaluate_star(P, 0, [1, 2, 3, 4])
+    assert p["tris"].tolist() == r["tris"].tolist() and p["error"] < 1e-12
     # the same star, the cycle started elsewhere: apex W0 is now link index 2
     r = vk.evaluate_star(P, 0, [3, 4, 1, 2])
     assert r["tris"].tolist() == [[2, 0, 1], [2, 3, 0]]

@@ -110,9 +110,11 @@ cdef inline double patch_distance(const double* positions, int stride, const dou
     return sqrt(best) if best > 0.0 else 0.0
 
 
-# ---- the removed vertices each face stands for (accumulate="points") ----------------------
-# ``fhead[f]`` is the first removed input vertex (slot) whose nearest face, when it was last
-# placed, was face slot f (-1 if none); ``nxt[q]`` the next one after q.  A removal is costed
+# ---- the removed points each face stands for (accumulate="points") ------------------------
+# The points are the vertex slots (q < nv, at ``positions``) and the input faces' centroids
+# (q = nv + f, at ``cent[3 f]``).  ``fhead[f]`` is the first point whose nearest face, when it
+# was last placed, was face slot f (-1 if none); ``nxt[q]`` the next one after q.  At the
+# start each face holds its own centroid (distance 0); a vertex joins when it is removed.  A removal is costed
 # by how far v and the removed vertices of its star's faces lie from the patch that would
 # replace the star -- the only ones whose face changes -- and hands them, in ``commit``, to
 # the nearest face of the new patch.  A removed vertex then always lies within the
@@ -120,7 +122,10 @@ cdef inline double patch_distance(const double* positions, int stride, const dou
 # vertex lies from the output.
 
 cdef inline double _nearest_tri2(const double* positions, int stride, const double* x, const int* link,
-                                 const int* tri, int n_tris) noexcept nogil:
+                                 const int* tri, int n_tris, double floor) noexcept nogil:
+    """The squared distance of x to its nearest triangle of ``tri``, or some value <=
+    ``floor`` as soon as one triangle is that near (the caller keeps a maximum that such a
+    point cannot raise)."""
     cdef int t
     cdef double d2, best = -1.0
     for t in range(n_tris):
@@ -129,12 +134,19 @@ cdef inline double _nearest_tri2(const double* positions, int stride, const doub
                                   &positions[stride * link[tri[3 * t + 2]]])
         if best < 0.0 or d2 < best:
             best = d2
+            if best <= floor:
+                break
     return best
+
+
+cdef inline const double* carried_point(const double* positions, int stride, const double* cent,
+                                        int nv, int q) noexcept nogil:
+    return &positions[stride * q] if q < nv else &cent[3 * (q - nv)]
 
 
 cdef inline double carried_distance(const double* positions, int stride, const Star* s,
                                     const int* tri, int n_tris, const int* fhead,
-                                    const int* nxt) noexcept nogil:
+                                    const int* nxt, const double* cent, int nv) noexcept nogil:
     """The largest distance of s.v, and of the removed vertices of its star's faces, to the
     patch ``tri`` (indices into ``s.link``) that would replace the star (0 with no
     triangle)."""
@@ -142,14 +154,15 @@ cdef inline double carried_distance(const double* positions, int stride, const S
     cdef double d2, worst
     if n_tris <= 0:
         return 0.0
-    worst = _nearest_tri2(positions, stride, &positions[stride * s.v], s.link, tri, n_tris)
+    worst = _nearest_tri2(positions, stride, &positions[stride * s.v], s.link, tri, n_tris, -1.0)
     for i in range(nf):
         f = s.face[i]
         if f < 0:
             continue
         q = fhead[f]
         while q >= 0:
-            d2 = _nearest_tri2(positions, stride, &positions[stride * q], s.link, tri, n_tris)
+            d2 = _nearest_tri2(positions, stride, carried_point(positions, stride, cent, nv, q),
+                               s.link, tri, n_tris, worst)
             if d2 > worst:
                 worst = d2
             q = nxt[q]
@@ -157,7 +170,7 @@ cdef inline double carried_distance(const double* positions, int stride, const S
 
 
 cdef inline void carry_points(const double* positions, int stride, const Star* s,
-                              int* fhead, int* nxt) noexcept nogil:
+                              int* fhead, int* nxt, const double* cent, int nv) noexcept nogil:
     """After the star of s.v was replaced (its face slots hold the new triangles or are
     dead): hand s.v and the removed vertices of the old faces to the nearest live face slot
     of the star.  Needs the half-edge arrays (``s.mesh.he``); without them, nothing."""
@@ -186,7 +199,7 @@ cdef inline void carry_points(const double* positions, int stride, const Star* s
     q = todo
     while q >= 0:
         nq = nxt[q]
-        x = &positions[stride * q]
+        x = carried_point(positions, stride, cent, nv, q)
         best = -1.0
         bf = -1
         for i in range(nf):

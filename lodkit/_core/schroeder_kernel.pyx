@@ -114,6 +114,8 @@ cdef class SchroederKernel(RemovalKernel):
     cdef int[::1] _dp_split
     cdef int[::1] _head                 # accumulate="points": removal_star's lists
     cdef int[::1] _nxt
+    cdef double[::1] _cent              # the input faces' centroids (carried points)
+    cdef int _nv
     cdef int n_acc
 
     def __cinit__(self):
@@ -159,9 +161,18 @@ cdef class SchroederKernel(RemovalKernel):
         n = int(ctx.n_vertices) if ctx is not None else int(options.get("n_vertices", 0))
         self._acc = np.zeros(max(n, 1))
         self.acc = &self._acc[0]
-        nf = int(ctx.halfedge.corners.shape[0]) if ctx is not None else int(options.get("n_faces", 0))
-        self._head = np.full(max(nf, 1), -1, dtype=np.int32)
-        self._nxt = np.full(max(n, 1), -1, dtype=np.int32)
+        self._nv = n
+        if ctx is not None:
+            corners = np.asarray(ctx.halfedge.corners, dtype=np.int64)
+            pos = np.asarray(ctx.positions, dtype=np.float64)
+            cent = pos[corners].mean(axis=1) if len(corners) else np.zeros((0, 3))
+        else:
+            cent = np.zeros((0, 3))
+        nf = len(cent)
+        self._cent = np.ascontiguousarray(cent.reshape(-1) if nf else np.zeros(3))
+        # each face slot starts with its own centroid (point n + f)
+        self._head = np.arange(n, n + max(nf, 1), dtype=np.int32) if nf else np.full(1, -1, dtype=np.int32)
+        self._nxt = np.full(max(n + nf, 1), -1, dtype=np.int32)
         self.n_acc = n
 
     cdef int evaluate(self, const Star* s, Removal* r) noexcept nogil:
@@ -290,7 +301,8 @@ cdef class SchroederKernel(RemovalKernel):
             # lodkit's default: how far v and the removed vertices in its care lie from the
             # patch (measured), or d if larger
             if s.v < self.n_acc:
-                dp = carried_distance(P, stride, s, r.tri, r.n_tris, &self._head[0], &self._nxt[0])
+                dp = carried_distance(P, stride, s, r.tri, r.n_tris, &self._head[0], &self._nxt[0],
+                                  &self._cent[0], self._nv)
             else:                               # a lone star (evaluate_star): nothing carried
                 dp = patch_distance(P, stride, x, s.link, r.tri, r.n_tris)
             if dp > d:
@@ -308,7 +320,8 @@ cdef class SchroederKernel(RemovalKernel):
                 if 0 <= w < self.n_acc and r.error > self.acc[w]:
                     self.acc[w] = r.error
         elif self.accumulate_code == ACC_POINTS and 0 <= s.v < self.n_acc:
-            carry_points(s.mesh.positions, s.mesh.stride, s, &self._head[0], &self._nxt[0])
+            carry_points(s.mesh.positions, s.mesh.stride, s, &self._head[0], &self._nxt[0],
+                                  &self._cent[0], self._nv)
         return KERNEL_OK
 
     def accumulated(self):

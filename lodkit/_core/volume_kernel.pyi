@@ -83,7 +83,7 @@ def measure(center: Sequence[float], neighbours: Any, closed: bool = True,
 
 def evaluate_star(positions: Any, v: int, link: Any, closed: bool = True, fixed: Any | None = None,
                   median: bool = True, tolerance: float = 1e-9, fallback: bool = True,
-                  accumulate: str = "bound", hyperbolic: str = "auto",
+                  accumulate: str = "points", hyperbolic: str = "auto",
                   triangulation: str = "auto") -> dict[str, Any]:
     """``VolumeKernel.evaluate`` on one star of a point set: ``status`` ("ok", "veto",
     "error"), ``cost``, ``error``, ``gate``, ``tris`` ((k-2, 3) indices into ``link``) and

@@ -611,6 +611,28 @@ cdef enum:
     MARK_VALENCE = 3        # fewer than 3 or more than MAX_VALENCE link vertices
 
 
+cdef double closest_line_distance(const double* W, int k, const double* x) noexcept nogil:
+    """The distance of x to the nearest line through two of the points W (k x 3)."""
+    cdef int i, j, t
+    cdef double e[3]
+    cdef double w[3]
+    cdef double c[3]
+    cdef double ee, d, best = INFINITY
+    for i in range(k):
+        for j in range(i + 1, k):
+            for t in range(3):
+                e[t] = W[3 * j + t] - W[3 * i + t]
+                w[t] = x[t] - W[3 * i + t]
+            ee = dot3(e, e)
+            if not ee > 0.0:
+                continue
+            cross3(w, e, c)
+            d = dot3(c, c) / ee
+            if d < best:
+                best = d
+    return sqrt(best) if best < INFINITY else 0.0
+
+
 cdef bint fan_folds(const double* W, const double* N, const int* tri, int n_tris) noexcept nogil:
     """True if a triangle of the fan ``tri`` (indices into W) has a normal at or beyond 90
     degrees from the star's area vector ``N`` (Measure.normal; or is degenerate): the fold
@@ -650,6 +672,8 @@ cdef class VolumeKernel(RemovalKernel):
     cdef double* acc
     cdef int[::1] _head                 # accumulate="points": removal_star's lists
     cdef int[::1] _nxt
+    cdef double[::1] _cent              # the input faces' centroids (carried points)
+    cdef int _nv
     cdef readonly int hyperbolic_code   # HYP_*
     cdef readonly int triangulation_code  # TRI_*
     cdef double[::1] _dp_cost           # least_distance_patch scratch (MAX_VALENCE^2)
@@ -704,9 +728,18 @@ cdef class VolumeKernel(RemovalKernel):
         self.state = &self._state[0]
         self._acc = np.zeros(max(n, 1))
         self.acc = &self._acc[0]
-        nf = int(ctx.halfedge.corners.shape[0]) if ctx is not None else int(options.get("n_faces", 0))
-        self._head = np.full(max(nf, 1), -1, dtype=np.int32)
-        self._nxt = np.full(max(n, 1), -1, dtype=np.int32)
+        self._nv = n
+        if ctx is not None:
+            corners = np.asarray(ctx.halfedge.corners, dtype=np.int64)
+            pos = np.asarray(ctx.positions, dtype=np.float64)
+            cent = pos[corners].mean(axis=1) if len(corners) else np.zeros((0, 3))
+        else:
+            cent = np.zeros((0, 3))
+        nf = len(cent)
+        self._cent = np.ascontiguousarray(cent.reshape(-1) if nf else np.zeros(3))
+        # each face slot starts with its own centroid (point n + f)
+        self._head = np.arange(n, n + max(nf, 1), dtype=np.int32) if nf else np.full(1, -1, dtype=np.int32)
+        self._nxt = np.full(max(n + nf, 1), -1, dtype=np.int32)
         self.n_state = n
         self.counts[0] = n
         self.counts[1] = self.counts[2] = self.counts[3] = 0
@@ -837,9 +870,11 @@ cdef class VolumeKernel(RemovalKernel):
         elif self.accumulate_code == ACC_POINTS and s.v < self.n_state:
             # lodkit's default: how far V and the removed vertices in its care lie from the
             # patch (a measured one-sided distance, not a bound), or ht if larger
-            ht = carried_distance(m.positions, m.stride, s, r.tri, r.n_tris, &self._head[0], &self._nxt[0])
-            if ms.height > ht:
-                ht = ms.height
+            ht = carried_distance(m.positions, m.stride, s, r.tri, r.n_tris, &self._head[0], &self._nxt[0],
+                                  &self._cent[0], self._nv)
+            da = closest_line_distance(W, s.k, p)
+            if min(ms.height, da) > ht:
+                ht = min(ms.height, da)
             r.error = ht
             r.cost = ms.angle * ht * ht * ht
         else:
@@ -857,7 +892,8 @@ cdef class VolumeKernel(RemovalKernel):
                 if 0 <= w < self.n_state and r.error > self.acc[w]:
                     self.acc[w] = r.error
         elif self.accumulate_code == ACC_POINTS and 0 <= s.v < self.n_state:
-            carry_points(s.mesh.positions, s.mesh.stride, s, &self._head[0], &self._nxt[0])
+            carry_points(s.mesh.positions, s.mesh.stride, s, &self._head[0], &self._nxt[0],
+                                  &self._cent[0], self._nv)
         return KERNEL_OK
 
     def accumulated(self):
@@ -967,7 +1003,7 @@ def measure(center, neighbours, closed=True, tolerance=1e-9):
 
 
 def evaluate_star(positions, int v, link, closed=True, fixed=None, median=True, tolerance=1e-9,
-                  fallback=True, accumulate="bound", hyperbolic="auto", triangulation="auto"):
+                  fallback=True, accumulate="points", hyperbolic="auto", triangulation="auto"):
     """Run ``VolumeKernel.evaluate`` on one star of a point set: ``positions`` (n, 3),
     vertex ``v``, ``link`` (k,) vertex indices in link order.  Returns a dict: ``status``
     ("ok", "veto" or "error"), ``cost``, ``error``, ``gate``, ``tris`` ((k-2, 3) indices into
@@ -1000,6 +1036,16 @@ def evaluate_star(positions, int v, link, closed=True, fixed=None, median=True, 
     cdef Removal r
     cdef int i, rc
     star_on_points(&km, &s, &pv[0, 0], n, &fv[0], v, &lv[0] if k else NULL, k, bool(closed))
+    if kern.accumulate_code == ACC_POINTS and 3 <= k:
+        # as at the start of a run: each face of the star holds its centroid
+        nfs = k if closed else k - 1
+        idx = np.stack([np.full(nfs, v), L[:nfs], L[(np.arange(nfs) + 1) % k]], axis=1)
+        kern._cent = np.ascontiguousarray(P[idx].mean(axis=1).reshape(-1))
+        kern._head = np.arange(n, n + nfs, dtype=np.int32)
+        kern._nxt = np.full(n + nfs, -1, dtype=np.int32)
+        kern._nv = n
+        for i in range(nfs):
+            s.face[i] = i
     r.n_tris = 0
     r.cost = NAN
     r.error = NAN
