@@ -810,7 +810,7 @@ cdef class VolumeKernel(RemovalKernel):
         if apex < 0 or apex >= s.k:
             return self.fail(b"volume: closest_line_apex found no line through two link vertices")
         r.n_tris = fan_from(apex, s.k, r.tri)
-        if self.fallback and fan_folds(W, ms.normal, r.tri, r.n_tris):
+        if self.fallback and self.triangulation_code == TRI_CLOSEST_LINE and fan_folds(W, ms.normal, r.tri, r.n_tris):
             # the apexes of the next-closest lines, in order of their line's distance
             for i in range(s.k):
                 key[i] = INFINITY
