@@ -2,7 +2,8 @@
 took away to what remains (``accumulate="points"``, the default: the removed vertices and
 face centroids themselves; ``"bound"``: an accumulated distance bound per vertex), so a
 smooth, mostly convex surface is not shaved flat; ``accumulate="off"`` is the papers'
-memory-less rule (tests/test_removal_fidelity.py tests the default's other parts).  The surface: a small version of bench/head.py (a head-like ellipsoid with a nose,
+memory-less rule (tests/test_removal_fidelity.py tests the default's other parts).  The
+surface: a small version of bench/head.py (a head-like ellipsoid with a nose,
 a brow, a chin and two shallow eye sockets)."""
 from __future__ import annotations
 

@@ -25,7 +25,6 @@ from lodkit._core import volume_kernel as vk
 from lodkit.evaluate import closest_points
 from test_removal_accumulate import small_head
 
-
 # ---- the least-volume triangulation ------------------------------------------------------
 
 def test_min_volume_triangulation_takes_the_diagonal_nearer_the_vertex():

@@ -174,7 +174,7 @@ cdef inline void carry_points(const double* positions, int stride, const Star* s
     """After the star of s.v was replaced (its face slots hold the new triangles or are
     dead): hand s.v and the removed vertices of the old faces to the nearest live face slot
     of the star.  Needs the half-edge arrays (``s.mesh.he``); without them, nothing."""
-    cdef int i, j, f, q, nq, bf, c, nf = s.k if s.closed else s.k - 1
+    cdef int i, f, q, nq, bf, nf = s.k if s.closed else s.k - 1
     cdef int todo = -1
     cdef double d2, best
     cdef const double* x

@@ -302,7 +302,7 @@ cdef class SchroederKernel(RemovalKernel):
             # patch (measured), or d if larger
             if s.v < self.n_acc:
                 dp = carried_distance(P, stride, s, r.tri, r.n_tris, &self._head[0], &self._nxt[0],
-                                  &self._cent[0], self._nv)
+                                      &self._cent[0], self._nv)
             else:                               # a lone star (evaluate_star): nothing carried
                 dp = patch_distance(P, stride, x, s.link, r.tri, r.n_tris)
             if dp > d:
@@ -321,7 +321,7 @@ cdef class SchroederKernel(RemovalKernel):
                     self.acc[w] = r.error
         elif self.accumulate_code == ACC_POINTS and 0 <= s.v < self.n_acc:
             carry_points(s.mesh.positions, s.mesh.stride, s, &self._head[0], &self._nxt[0],
-                                  &self._cent[0], self._nv)
+                         &self._cent[0], self._nv)
         return KERNEL_OK
 
     def accumulated(self):

@@ -87,5 +87,7 @@ def evaluate_star(positions: Any, v: int, link: Any, closed: bool = True, fixed:
                   triangulation: str = "auto") -> dict[str, Any]:
     """``VolumeKernel.evaluate`` on one star of a point set: ``status`` ("ok", "veto",
     "error"), ``cost``, ``error``, ``gate``, ``tris`` ((k-2, 3) indices into ``link``) and
-    ``hyperbolic``; ``hyperbolic`` / ``triangulation`` as the metric's options.  ``accumulate="bound"``: the error is the larger of ht and V's distance
-    to the fan (nothing carried in a lone star); "off": the paper's ht."""
+    ``hyperbolic``; ``accumulate``, ``hyperbolic`` and ``triangulation`` as the metric's
+    options ("points": the larger of V's and its star faces' centroids' distance to the patch
+    and min(ht, V's distance to the closest line); "bound": the larger of ht and V's distance
+    to the patch; "off": the paper's ht)."""

@@ -893,7 +893,7 @@ cdef class VolumeKernel(RemovalKernel):
                     self.acc[w] = r.error
         elif self.accumulate_code == ACC_POINTS and 0 <= s.v < self.n_state:
             carry_points(s.mesh.positions, s.mesh.stride, s, &self._head[0], &self._nxt[0],
-                                  &self._cent[0], self._nv)
+                         &self._cent[0], self._nv)
         return KERNEL_OK
 
     def accumulated(self):
