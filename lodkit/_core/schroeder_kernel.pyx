@@ -40,8 +40,13 @@ For a vertex v with link l_0 .. l_{k-1} (removal.pxd: face i is (v, l_i, l_{i+1}
    vtkDecimate checks).  No valid triangulation: KERNEL_VETO (the vertex stays until its
    star changes).
 
-The kernel keeps no state between removals (commit does nothing): the error is local, as
-in the paper.
+With ``accumulate="off"`` the kernel keeps no state between removals: the error is local, as
+in the paper.  lodkit's default (``accumulate="points"``) carries the removed vertices and
+the input faces' centroids on the face slots nearest them (removal_star.pxd) and takes as
+the error the larger of d and their distance to the new patch; corners are then removable
+(``remove_corners`` None) and a vertex with no feature line to keep takes the triangulation
+nearest it (``triangulation="nearest"``: the loop split, the least-volume triangulation or
+a fan).  ``accumulate="bound"`` keeps a per-vertex distance bound instead.
 """
 import math as _math
 

@@ -53,6 +53,15 @@ U_i = u_i / |u_i|:
   of the plane distance and V's distance to the line W_0 W_{k-1} (the new boundary edge), so
   a boundary vertex is free only when it is flat *and* on a straight boundary.  Stars with
   fewer than 3 link vertices are not removed.
+
+lodkit's readings (issue 17; each an option whose default follows ``accumulate``, so that
+``accumulate="off"`` is the paper throughout): ``accumulate="points"`` carries the removed
+vertices and the input faces' centroids on the face slots nearest them (removal_star.pxd)
+and the error is their largest distance to the new patch, floored by min(ht, V's distance to
+the closest line); ``hyperbolic="remove"`` measures a hyperbolic star about its mean normal
+(``measure_saddle``) instead of vetoing it; ``triangulation="nearest"`` takes of the
+paper's fan, the least-volume triangulation and the other fans the one nearest V
+(retriangulate.least_distance_patch); ``median=None`` is not gated.
 """
 import numpy as np
 

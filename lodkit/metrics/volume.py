@@ -11,6 +11,12 @@ ht(V) its distance to the least-squares plane of its neighbours.  Only vertices 
 is at least the median angle of the current non-hyperbolic vertices compete (the paper's
 guard for sharp features), the cheapest goes, and its hole is filled by the fan from the
 nearer end of the line through two neighbours closest to V (a half-edge collapse).
+
+That is the paper's rule, ``accumulate="off"``.  lodkit's default (``accumulate="points"``)
+carries the removed vertices and the input faces' centroids on the faces nearest them and
+costs a removal by how far they lie from the new patch; hyperbolic vertices then compete at
+that cost, the hole takes the triangulation nearest V and there is no median filter (the
+options ``hyperbolic``, ``triangulation`` and ``median`` follow ``accumulate`` unless set).
 docs/metrics/volume.md gives the formulas as implemented and the readings chosen.
 """
 from __future__ import annotations
