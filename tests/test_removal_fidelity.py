@@ -4,8 +4,8 @@ by default (docs/algorithms.md, "Vertex removal: what each removal costs"):
 * ``accumulate="points"``: the removed vertices and the input faces' centroids are carried
   on the face nearest them, and a removal costs how far they (and V) lie from the patch;
 * ``volume``: hyperbolic vertices are removable (``hyperbolic="remove"``), the hole takes
-  the patch nearest V (``triangulation="nearest"``: the paper's fan, the least-volume
-  triangulation or another fan), no median filter;
+  the patch nearer V (``triangulation="nearest"``: the paper's fan or the least-volume
+  triangulation), no median filter;
 * ``schroeder``: corners removable, the same nearest-patch choice for vertices with no
   feature line;
 

@@ -42,10 +42,11 @@ cdef int closest_line_apex(const double* P, int stride, const int* loop, int k,
 cdef int min_volume_triangulation(const double* W, int k, const double* x, const double* normal,
                                   int* tri, double* cost, int* split) noexcept nogil
 
-# lodkit's addition: of candidate triangulations of the hole ``W`` (k x 3, contiguous) --
-# the one already in ``tri`` if ``n_in`` > 0 (it wins ties), the least-volume one above and
-# the k fans -- the one whose nearest triangle is nearest to the removed vertex ``x``, among
-# those with no triangle at 90 degrees or more from ``normal``.  Writes it to ``tri`` and
+# lodkit's addition: of two candidate triangulations of the hole ``W`` (k x 3, contiguous) --
+# the one already in ``tri`` if ``n_in`` > 0 (it wins ties), and the least-volume one above
+# -- the one whose nearest triangle is nearest to the removed vertex ``x``, among those with
+# no triangle at 90 degrees or more from ``normal``.  (The k fans as further candidates were
+# measured and dropped: slower, and no nearer to the input.)  Writes it to ``tri`` and
 # its distance to ``dist``; returns k - 2, or -1 when every candidate folds (``tri`` then
 # unchanged).  ``cost`` (k*k doubles), ``split`` (k*k ints) and ``cand`` (3k ints) are scratch.
 cdef int least_distance_patch(const double* W, int k, const double* x, const double* normal,

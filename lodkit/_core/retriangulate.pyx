@@ -432,9 +432,8 @@ cdef inline double _nearest2(const double* W, const double* x, const int* tri, i
 cdef int least_distance_patch(const double* W, int k, const double* x, const double* normal,
                               int* tri, int n_in, double* dist, double* cost, int* split,
                               int* cand) noexcept nogil:
-    """See the .pxd: candidates in order (the given one, the least-volume one, the fans
-    from 0 .. k - 1); a later one must be nearer by more than rounding, so ties keep the
-    earlier."""
+    """See the .pxd: candidates in order (the given one, then the least-volume one); the
+    latter must be nearer by more than rounding, so ties keep the given one."""
     cdef int n = k - 2, c, t, found = 0
     cdef double d2, best = INFINITY, tie = 0.0
     if k < 3 or k > 64:
@@ -449,14 +448,8 @@ cdef int least_distance_patch(const double* W, int k, const double* x, const dou
     if n_in == n and not _folds(W, normal, tri, n):
         best = _nearest2(W, x, tri, n)
         found = 1
-    for c in range(-1, k):
-        if c < 0:
-            if min_volume_triangulation(W, k, x, normal, cand, cost, split) < 0:
-                continue
-        else:
-            fan_from(c, k, cand)
-        if _folds(W, normal, cand, n):
-            continue
+    # the least-volume triangulation never folds (its triangles are screened): no _folds
+    if min_volume_triangulation(W, k, x, normal, cand, cost, split) >= 0:
         d2 = _nearest2(W, x, cand, n)
         if d2 < best - tie:
             best = d2

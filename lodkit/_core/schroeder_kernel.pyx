@@ -45,8 +45,8 @@ in the paper.  lodkit's default (``accumulate="points"``) carries the removed ve
 the input faces' centroids on the face slots nearest them (removal_star.pxd) and takes as
 the error the larger of d and their distance to the new patch; corners are then removable
 (``remove_corners`` None) and a vertex with no feature line to keep takes the triangulation
-nearest it (``triangulation="nearest"``: the loop split, the least-volume triangulation or
-a fan).  ``accumulate="bound"`` keeps a per-vertex distance bound instead.
+nearest it (``triangulation="nearest"``: the loop split or the hole's least-volume
+triangulation).  ``accumulate="bound"`` keeps a per-vertex distance bound instead.
 """
 import math as _math
 
@@ -284,7 +284,7 @@ cdef class SchroederKernel(RemovalKernel):
                               r.tri, self.work)
         if self.triangulation_code == TRI_NEAREST and force_a < 0:
             # lodkit's addition (no feature line to keep): of the loop split, the hole's
-            # least-volume triangulation and the fans, the one nearest to v
+            # least-volume triangulation, the one nearer to v
             for i in range(k):
                 for j in range(3):
                     W[3 * i + j] = P[stride * s.link[i] + j]

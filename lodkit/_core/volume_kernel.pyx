@@ -60,7 +60,7 @@ vertices and the input faces' centroids on the face slots nearest them (removal_
 and the error is their largest distance to the new patch, floored by min(ht, V's distance to
 the closest line); ``hyperbolic="remove"`` measures a hyperbolic star about its mean normal
 (``measure_saddle``) instead of vetoing it; ``triangulation="nearest"`` takes of the
-paper's fan, the least-volume triangulation and the other fans the one nearest V
+paper's fan and the hole's least-volume triangulation the one nearer V
 (retriangulate.least_distance_patch); ``median=None`` is not gated.
 """
 import numpy as np
@@ -860,7 +860,7 @@ cdef class VolumeKernel(RemovalKernel):
         dist = -1.0
         if self.triangulation_code == TRI_NEAREST:
             # lodkit's addition: of the paper's fan, the least-volume triangulation and the
-            # other fans, the one nearest to V (none that folds)
+            # hole's least-volume triangulation, the one nearer to V (none that folds)
             if least_distance_patch(W, s.k, p, ms.normal, r.tri, r.n_tris, &dist,
                                     &self._dp_cost[0], &self._dp_split[0], cand) < 0:
                 dist = -1.0

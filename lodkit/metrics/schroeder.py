@@ -37,8 +37,8 @@ class Schroeder(RemovalMetric):
                                      "accumulate='off', else True"),
         "triangulation": Option("auto", choices=("auto", "split", "nearest"),
                                 doc="lodkit's addition: 'nearest' = for a vertex with no feature line "
-                                    "to keep (simple, corner), of the loop split, the hole's "
-                                    "least-volume triangulation and the fans, the one nearest to the "
+                                    "to keep (simple, corner), of the loop split and the hole's "
+                                    "least-volume triangulation, the one nearer to the "
                                     "removed vertex (none that folds; also when no loop split is "
                                     "valid); 'split' = the paper's recursive loop splitting; 'auto' "
                                     "= 'split' with accumulate='off', else 'nearest'"),

@@ -54,8 +54,8 @@ class Volume(RemovalMetric):
                                  "the surface by; 'veto' = the paper: never removed; 'auto' = 'veto' "
                                  "with accumulate='off', else 'remove'"),
         "triangulation": Option("auto", choices=("auto", "closest_line", "nearest"),
-                                doc="lodkit's addition: 'nearest' = of the paper's fan, the hole's "
-                                    "least-volume triangulation and the other fans, the one nearest to "
+                                doc="lodkit's addition: 'nearest' = of the paper's fan and the hole's "
+                                    "least-volume triangulation, the one nearer to "
                                     "the removed vertex (none that folds); 'closest_line' = the paper's "
                                     "fan; 'auto' = 'closest_line' with accumulate='off', else 'nearest'"),
         "accumulate": Option("points", choices=("points", "bound", "off"),
