@@ -259,8 +259,14 @@ def test_saddles_are_hyperbolic():
     for z in (np.cos(th) * np.sin(th), np.cos(th) ** 3 - 3 * np.cos(th) * np.sin(th) ** 2):
         W = np.stack([np.cos(th), np.sin(th), z], axis=1)
         assert vk.measure([0, 0, 0], W)["class"] == "hyperbolic"
-        r = vk.evaluate_star(np.vstack([[0, 0, 0], W]), 0, np.arange(1, 9))
+        r = vk.evaluate_star(np.vstack([[0, 0, 0], W]), 0, np.arange(1, 9), hyperbolic="veto")
         assert r["status"] == "veto" and r["hyperbolic"] and math.isnan(r["gate"])
+        assert vk.evaluate_star(np.vstack([[0, 0, 0], W]), 0, np.arange(1, 9), accumulate="off")["status"] == "veto"
+        # lodkit's default: removable, measured about the mean normal (a saddle's angle is
+        # near 2 pi) and costed by V's distance to the patch
+        r = vk.evaluate_star(np.vstack([[0, 0, 0], W]), 0, np.arange(1, 9))
+        assert r["status"] == "ok" and r["hyperbolic"] and 0.0 < r["gate"] <= TAU + 1e-12
+        assert r["error"] > 0.0 and r["tris"].shape == (6, 3)
 
 
 def test_cube_corner_and_cone_tip_are_not_hyperbolic():
@@ -423,12 +429,17 @@ def test_evaluate_star_costs_and_fan():
     m = vk.measure(P[0], P[1:])
     assert r["gate"] == m["angle"] and r["error"] == m["height"]
     assert r["cost"] == pytest.approx(m["angle"] * m["height"] ** 3, rel=1e-15)
-    # lodkit's default: the larger of ht and V's distance to the fan (nothing carried yet)
-    b = vk.evaluate_star(P, 0, [1, 2, 3, 4])
+    # accumulate="bound": the larger of ht and V's distance to the fan (nothing carried yet)
+    b = vk.evaluate_star(P, 0, [1, 2, 3, 4], accumulate="bound")
     fan_distance = min(point_triangle_distance(P[0], *P[1:][t]) for t in b["tris"])
     assert b["tris"].tolist() == r["tris"].tolist() and b["gate"] == r["gate"]
     assert b["error"] == pytest.approx(max(m["height"], fan_distance), rel=1e-12)
     assert b["cost"] == pytest.approx(m["angle"] * b["error"] ** 3, rel=1e-12)
+    # lodkit's default (accumulate="points"): how far V and the star faces' centroids lie
+    # from the patch, at least min(ht, V's distance to the closest line) -- both halves of the
+    # ridge are planar and the fan keeps the ridge, so the removal changes nothing: 0
+    p = vk.evaluate_star(P, 0, [1, 2, 3, 4])
+    assert p["tris"].tolist() == r["tris"].tolist() and p["error"] < 1e-12
     # the same star, the cycle started elsewhere: apex W0 is now link index 2
     r = vk.evaluate_star(P, 0, [3, 4, 1, 2])
     assert r["tris"].tolist() == [[2, 0, 1], [2, 3, 0]]
@@ -454,7 +465,8 @@ def test_apex_is_the_nearer_end_of_the_closest_line(case, shift):
     V, W, _ = case
     k = len(W)
     W = np.roll(W, shift % k, axis=0)
-    r = vk.evaluate_star(np.vstack([V, W]), 0, np.arange(1, k + 1), fallback=False)
+    r = vk.evaluate_star(np.vstack([V, W]), 0, np.arange(1, k + 1), fallback=False,
+                         triangulation="closest_line")
     assert r["status"] == "ok"
     apex = r["tris"][0][0]
     assert (r["tris"][:, 0] == apex).all() and len(r["tris"]) == k - 2
@@ -501,7 +513,9 @@ def test_fallback_when_the_closest_line_fan_folds():
 
 
 def test_options():
-    assert Volume().params["median"] is True
+    # None: the median filter under the paper's rule (accumulate="off"), none by default
+    assert Volume().params["median"] is None
+    assert Volume().params["hyperbolic"] == "auto" and Volume().params["triangulation"] == "auto"
     assert Volume().params["tolerance"] == 1e-9   # exact: the default as written
     with pytest.raises(OptionError):
         Volume(tolerance=-1.0)
@@ -513,7 +527,9 @@ def test_options():
     k.prepare(None, {"median": False, "tolerance": 1e-6, "n_vertices": 4})
     assert not k.gated and k.tolerance == 1e-6   # exact: the option as given
     k.prepare(None, {"n_vertices": 4})
-    assert k.gated and k.n_hyperbolic == 0 and k.hyperbolic_mask().tolist() == [False] * 4
+    assert not k.gated and k.n_hyperbolic == 0 and k.hyperbolic_mask().tolist() == [False] * 4
+    k.prepare(None, {"accumulate": "off", "n_vertices": 4})
+    assert k.gated                                  # the paper's rule: the median filter
     with pytest.raises(ValueError):
         k.prepare(None, {"tolerance": 1.0})
 
@@ -581,12 +597,13 @@ def test_cube_keeps_its_corners_and_edges():
         assert np.all((np.isin(out, [0.0, 1.0])).any(axis=1))
     # down to 100 faces (from 192) only flat face vertices (cost 0) have gone
     result = lodkit.simplify(mesh, target_faces=100, metric="volume", record=True)
-    assert result.error == 0.0 and np.all(result.collapses["cost"] == 0.0)
+    assert result.error < 1e-12 and np.all(result.collapses["cost"] < 1e-12)   # 0 up to rounding
 
 
 def test_every_vertex_hyperbolic_stops_with_the_reason():
     mesh = saddle_grid(8)
-    result = lodkit.simplify(mesh, target_faces=10, metric="volume", boundary="lock")
+    result = lodkit.simplify(mesh, target_faces=10, metric=("volume", {"hyperbolic": "veto"}),
+                             boundary="lock")
     assert result.n_collapses == 0 and result.mesh.n_faces == mesh.n_faces
     assert result.stop_reason == "no_valid_collapse"
     assert "49 hyperbolic" in result.report["stop_detail"]
@@ -663,7 +680,7 @@ def test_real_meshes(name, ratio):
 def test_stall_on_a_real_mesh_is_explained():
     # the cow cannot go to 2%: what is left is hyperbolic or refused by the checks
     mesh = lodkit.load(shared_mesh("cow.obj"))
-    result = lodkit.simplify(mesh, target_ratio=0.02, metric="volume")
+    result = lodkit.simplify(mesh, target_ratio=0.02, metric=("volume", {"accumulate": "off"}))
     assert result.stop_reason == "no_valid_collapse" and result.mesh.n_faces > 0.02 * mesh.n_faces
     detail = result.report["stop_detail"]
     n = int(detail.split("kernel vetoes: ")[1].split(" hyperbolic")[0])

@@ -108,3 +108,111 @@ cdef inline double patch_distance(const double* positions, int stride, const dou
         if best < 0.0 or d2 < best:
             best = d2
     return sqrt(best) if best > 0.0 else 0.0
+
+
+# ---- the removed points each face stands for (accumulate="points") ------------------------
+# The points are the vertex slots (q < nv, at ``positions``) and the input faces' centroids
+# (q = nv + f, at ``cent[3 f]``).  ``fhead[f]`` is the first point whose nearest face, when it
+# was last placed, was face slot f (-1 if none); ``nxt[q]`` the next one after q.  At the
+# start each face holds its own centroid (distance 0); a vertex joins when it is removed.  A removal is costed
+# by how far v and the removed vertices of its star's faces lie from the patch that would
+# replace the star -- the only ones whose face changes -- and hands them, in ``commit``, to
+# the nearest face of the new patch.  A removed vertex then always lies within the
+# recorded distance of its face, so the largest recorded distance bounds how far any input
+# vertex lies from the output.
+
+cdef inline double _nearest_tri2(const double* positions, int stride, const double* x, const int* link,
+                                 const int* tri, int n_tris, double floor) noexcept nogil:
+    """The squared distance of x to its nearest triangle of ``tri``, or some value <=
+    ``floor`` as soon as one triangle is that near (the caller keeps a maximum that such a
+    point cannot raise)."""
+    cdef int t
+    cdef double d2, best = -1.0
+    for t in range(n_tris):
+        d2 = point_triangle_dist2(x, &positions[stride * link[tri[3 * t]]],
+                                  &positions[stride * link[tri[3 * t + 1]]],
+                                  &positions[stride * link[tri[3 * t + 2]]])
+        if best < 0.0 or d2 < best:
+            best = d2
+            if best <= floor:
+                break
+    return best
+
+
+cdef inline const double* carried_point(const double* positions, int stride, const double* cent,
+                                        int nv, int q) noexcept nogil:
+    return &positions[stride * q] if q < nv else &cent[3 * (q - nv)]
+
+
+cdef inline double carried_distance(const double* positions, int stride, const Star* s,
+                                    const int* tri, int n_tris, const int* fhead,
+                                    const int* nxt, const double* cent, int nv) noexcept nogil:
+    """The largest distance of s.v, and of the removed vertices of its star's faces, to the
+    patch ``tri`` (indices into ``s.link``) that would replace the star (0 with no
+    triangle)."""
+    cdef int i, f, q, nf = s.k if s.closed else s.k - 1
+    cdef double d2, worst
+    if n_tris <= 0:
+        return 0.0
+    worst = _nearest_tri2(positions, stride, &positions[stride * s.v], s.link, tri, n_tris, -1.0)
+    for i in range(nf):
+        f = s.face[i]
+        if f < 0:
+            continue
+        q = fhead[f]
+        while q >= 0:
+            d2 = _nearest_tri2(positions, stride, carried_point(positions, stride, cent, nv, q),
+                               s.link, tri, n_tris, worst)
+            if d2 > worst:
+                worst = d2
+            q = nxt[q]
+    return sqrt(worst) if worst > 0.0 else 0.0
+
+
+cdef inline void carry_points(const double* positions, int stride, const Star* s,
+                              int* fhead, int* nxt, const double* cent, int nv) noexcept nogil:
+    """After the star of s.v was replaced (its face slots hold the new triangles or are
+    dead): hand s.v and the removed vertices of the old faces to the nearest live face slot
+    of the star.  Needs the half-edge arrays (``s.mesh.he``); without them, nothing."""
+    cdef int i, f, q, nq, bf, nf = s.k if s.closed else s.k - 1
+    cdef int todo = -1
+    cdef double d2, best
+    cdef const double* x
+    cdef const int* corner
+    if s.mesh == NULL or s.mesh.he == NULL:
+        return
+    corner = s.mesh.he.corner
+    # one list of everything to place: s.v, then each old face's list
+    nxt[s.v] = -1
+    todo = s.v
+    for i in range(nf):
+        f = s.face[i]
+        if f < 0:
+            continue
+        q = fhead[f]
+        fhead[f] = -1
+        while q >= 0:
+            nq = nxt[q]
+            nxt[q] = todo
+            todo = q
+            q = nq
+    q = todo
+    while q >= 0:
+        nq = nxt[q]
+        x = carried_point(positions, stride, cent, nv, q)
+        best = -1.0
+        bf = -1
+        for i in range(nf):
+            f = s.face[i]
+            if f < 0 or not s.mesh.he.face_alive[f]:
+                continue
+            d2 = point_triangle_dist2(x, &positions[stride * corner[3 * f]],
+                                      &positions[stride * corner[3 * f + 1]],
+                                      &positions[stride * corner[3 * f + 2]])
+            if best < 0.0 or d2 < best:
+                best = d2
+                bf = f
+        if bf >= 0:
+            nxt[q] = fhead[bf]
+            fhead[bf] = q
+        q = nq

@@ -31,3 +31,24 @@ cdef int fan_from(int apex, int k, int* tri) noexcept nogil
 # ``x``; its end nearer to ``x`` (index into loop) is returned, or -1 if k < 3.
 cdef int closest_line_apex(const double* P, int stride, const int* loop, int k,
                            const double* x) noexcept nogil
+
+# lodkit's addition for the removal kernels' default rule: the triangulation of the hole
+# ``W`` (k x 3 positions, contiguous, in loop order) that minimises the volume between it and
+# the cone of the removed vertex ``x`` (the sum of |det(a - x, b - x, c - x)| over its
+# triangles), by dynamic programming over the polygon (O(k^3)); a triangle whose normal is
+# not within 90 degrees of ``normal`` costs +inf (the driver would refuse it).  ``cost`` is
+# scratch of >= k*k doubles, ``split`` of >= k*k ints.  Returns k - 2, or -1 when every
+# triangulation has such a triangle.
+cdef int min_volume_triangulation(const double* W, int k, const double* x, const double* normal,
+                                  int* tri, double* cost, int* split) noexcept nogil
+
+# lodkit's addition: of two candidate triangulations of the hole ``W`` (k x 3, contiguous) --
+# the one already in ``tri`` if ``n_in`` > 0 (it wins ties), and the least-volume one above
+# -- the one whose nearest triangle is nearest to the removed vertex ``x``, among those with
+# no triangle at 90 degrees or more from ``normal``.  (The k fans as further candidates were
+# measured and dropped: slower, and no nearer to the input.)  Writes it to ``tri`` and
+# its distance to ``dist``; returns k - 2, or -1 when every candidate folds (``tri`` then
+# unchanged).  ``cost`` (k*k doubles), ``split`` (k*k ints) and ``cand`` (3k ints) are scratch.
+cdef int least_distance_patch(const double* W, int k, const double* x, const double* normal,
+                              int* tri, int n_in, double* dist, double* cost, int* split,
+                              int* cand) noexcept nogil

@@ -15,6 +15,12 @@ def py_split_loop(points: ArrayLike, normal: ArrayLike | None = None,
     """Schroeder's recursive loop splitting of the loop ``points`` (k, 3): (k - 2, 3)
     triangles as loop indices, or None when no valid triangulation exists."""
 
+def py_min_volume_triangulation(points: ArrayLike, x: ArrayLike,
+                                normal: ArrayLike) -> NDArray[np.int32] | None:
+    """The hole ``points`` (k, 3)'s triangulation of least volume to the cone of ``x``
+    (sum of |det|), none of whose triangles turns 90 degrees or more from ``normal``:
+    (k - 2, 3) loop indices, or None."""
+
 def py_fan_from(apex: int, k: int) -> NDArray[np.int32]:
     """(k - 2, 3) triangles of the fan from loop index ``apex``."""
 

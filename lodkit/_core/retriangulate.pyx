@@ -27,6 +27,8 @@ function does)."""
 from libc.math cimport sqrt, INFINITY
 from libc.float cimport DBL_MIN, DBL_MAX
 
+from .removal_star cimport point_triangle_dist2
+
 # Schroeder's vtkDecimate: AspectRatio = 25, a split is refused when
 # (min distance / split length)^2 < 1 / 25^2, i.e. below 1 / 25 = 0.04.
 SPLIT_MIN_ASPECT = 0.04
@@ -317,6 +319,174 @@ cdef int closest_line_apex(const double* P, int stride, const int* loop, int k,
     da = (x[0] - a[0]) ** 2 + (x[1] - a[1]) ** 2 + (x[2] - a[2]) ** 2
     db = (x[0] - b[0]) ** 2 + (x[1] - b[1]) ** 2 + (x[2] - b[2]) ** 2
     return best_j if db < da else best_i
+
+
+cdef int min_volume_triangulation(const double* W, int k, const double* x, const double* normal,
+                                  int* tri, double* cost, int* split) noexcept nogil:
+    """The hole's triangulation of least |volume| to the removed vertex's cone (see the
+    .pxd): C[i][j] = min over i < m < j of C[i][m] + C[m][j] + w(i, m, j) over the
+    sub-polygon i..j, w the triangle's |det| (+inf if it turns 90 degrees or more from
+    ``normal``); ties keep the smallest m.  Triangles come out as (i, m, j), i < m < j."""
+    cdef int i, j, m, gap, best_m, n = 0, top
+    cdef double best, c, w
+    cdef double a[3]
+    cdef double b[3]
+    cdef double d[3]
+    cdef double e[3]
+    cdef const double* pi
+    cdef const double* pm
+    cdef const double* pj
+    cdef int stack[2 * 64]
+    if k < 3 or k > 64:
+        return -1
+    for i in range(k - 1):
+        cost[k * i + i + 1] = 0.0
+    for gap in range(2, k):
+        for i in range(k - gap):
+            j = i + gap
+            best = INFINITY
+            best_m = -1
+            pi = &W[3 * i]
+            pj = &W[3 * j]
+            for m in range(i + 1, j):
+                pm = &W[3 * m]
+                a[0] = pi[0] - x[0]
+                a[1] = pi[1] - x[1]
+                a[2] = pi[2] - x[2]
+                b[0] = pm[0] - x[0]
+                b[1] = pm[1] - x[1]
+                b[2] = pm[2] - x[2]
+                d[0] = pj[0] - x[0]
+                d[1] = pj[1] - x[1]
+                d[2] = pj[2] - x[2]
+                # (m - i) x (j - i) . normal > 0: oriented as the surface
+                e[0] = (b[1] - a[1]) * (d[2] - a[2]) - (b[2] - a[2]) * (d[1] - a[1])
+                e[1] = (b[2] - a[2]) * (d[0] - a[0]) - (b[0] - a[0]) * (d[2] - a[2])
+                e[2] = (b[0] - a[0]) * (d[1] - a[1]) - (b[1] - a[1]) * (d[0] - a[0])
+                if not (e[0] * normal[0] + e[1] * normal[1] + e[2] * normal[2]) > 0.0:
+                    continue
+                w = (a[0] * (b[1] * d[2] - b[2] * d[1]) + a[1] * (b[2] * d[0] - b[0] * d[2])
+                     + a[2] * (b[0] * d[1] - b[1] * d[0]))
+                c = cost[k * i + m] + cost[k * m + j] + (w if w >= 0.0 else -w)
+                if c < best:
+                    best = c
+                    best_m = m
+            cost[k * i + j] = best
+            split[k * i + j] = best_m
+    if not cost[k - 1] < INFINITY:
+        return -1
+    # unwind the splits from (0, k - 1)
+    stack[0] = 0
+    stack[1] = k - 1
+    top = 1
+    while top > 0:
+        top -= 1
+        i = stack[2 * top]
+        j = stack[2 * top + 1]
+        if j - i < 2:
+            continue
+        m = split[k * i + j]
+        tri[3 * n] = i
+        tri[3 * n + 1] = m
+        tri[3 * n + 2] = j
+        n += 1
+        stack[2 * top] = i
+        stack[2 * top + 1] = m
+        stack[2 * top + 2] = m
+        stack[2 * top + 3] = j
+        top += 2
+    return n
+
+
+cdef inline bint _folds(const double* W, const double* normal, const int* tri, int n) noexcept nogil:
+    """True if a triangle of ``tri`` (indices into W) is not within 90 degrees of ``normal``."""
+    cdef int t, a, b, c
+    cdef double e0, e1, e2, f0, f1, f2
+    for t in range(n):
+        a = 3 * tri[3 * t]
+        b = 3 * tri[3 * t + 1]
+        c = 3 * tri[3 * t + 2]
+        e0 = W[b] - W[a]
+        e1 = W[b + 1] - W[a + 1]
+        e2 = W[b + 2] - W[a + 2]
+        f0 = W[c] - W[a]
+        f1 = W[c + 1] - W[a + 1]
+        f2 = W[c + 2] - W[a + 2]
+        if not ((e1 * f2 - e2 * f1) * normal[0] + (e2 * f0 - e0 * f2) * normal[1]
+                + (e0 * f1 - e1 * f0) * normal[2]) > 0.0:
+            return True
+    return False
+
+
+cdef inline double _nearest2(const double* W, const double* x, const int* tri, int n) noexcept nogil:
+    """The squared distance of x to the nearest triangle of ``tri`` (indices into W)."""
+    cdef int t
+    cdef double d2, best = INFINITY
+    for t in range(n):
+        d2 = point_triangle_dist2(x, &W[3 * tri[3 * t]], &W[3 * tri[3 * t + 1]], &W[3 * tri[3 * t + 2]])
+        if d2 < best:
+            best = d2
+    return best
+
+
+cdef int least_distance_patch(const double* W, int k, const double* x, const double* normal,
+                              int* tri, int n_in, double* dist, double* cost, int* split,
+                              int* cand) noexcept nogil:
+    """See the .pxd: candidates in order (the given one, then the least-volume one); the
+    latter must be nearer by more than rounding, so ties keep the given one."""
+    cdef int n = k - 2, c, t, found = 0
+    cdef double d2, best = INFINITY, tie = 0.0
+    if k < 3 or k > 64:
+        return -1
+    # a candidate must be nearer by more than rounding: 1e-9 of the star's size, in
+    # distance (so a flat star keeps the first candidate, not a rounding winner)
+    for c in range(k):
+        d2 = (W[3 * c] - x[0]) ** 2 + (W[3 * c + 1] - x[1]) ** 2 + (W[3 * c + 2] - x[2]) ** 2
+        if d2 > tie:
+            tie = d2
+    tie *= 1e-18
+    if n_in == n and not _folds(W, normal, tri, n):
+        best = _nearest2(W, x, tri, n)
+        found = 1
+    # the least-volume triangulation never folds (its triangles are screened): no _folds
+    if min_volume_triangulation(W, k, x, normal, cand, cost, split) >= 0:
+        d2 = _nearest2(W, x, cand, n)
+        if d2 < best - tie:
+            best = d2
+            found = 1
+            for t in range(3 * n):
+                tri[t] = cand[t]
+    if not found:
+        return -1
+    dist[0] = sqrt(best)
+    return n
+
+
+def py_min_volume_triangulation(points, x, normal):
+    """Test wrapper of ``min_volume_triangulation``: ``points`` (k, 3) the hole in order,
+    ``x`` (3,) the removed vertex, ``normal`` (3,) the star's normal.  Returns (k - 2, 3)
+    int32 triangles as loop indices, or None."""
+    import numpy as np
+
+    P = np.ascontiguousarray(points, dtype=np.float64)
+    if P.ndim != 2 or P.shape[1] != 3 or not 3 <= P.shape[0] <= 64:
+        raise ValueError(f"points must have shape (k, 3) with 3 <= k <= 64, got {P.shape}")
+    X = np.ascontiguousarray(x, dtype=np.float64).reshape(3)
+    N = np.ascontiguousarray(normal, dtype=np.float64).reshape(3)
+    k = P.shape[0]
+    out = np.zeros(3 * k, dtype=np.int32)
+    cst = np.zeros(k * k)
+    spl = np.zeros(k * k, dtype=np.int32)
+    cdef double[:, ::1] Pv = P
+    cdef double[::1] Xv = X
+    cdef double[::1] Nv = N
+    cdef int[::1] tv = out
+    cdef double[::1] cv = cst
+    cdef int[::1] sv = spl
+    cdef int n = min_volume_triangulation(&Pv[0, 0], k, &Xv[0], &Nv[0], &tv[0], &cv[0], &sv[0])
+    if n < 0:
+        return None
+    return out[:3 * n].reshape(n, 3).copy()
 
 
 def py_fan_from(int apex, int k):

@@ -18,8 +18,10 @@ CLASS_NAMES: tuple[str, ...]
 DEFAULT_FEATURE_ANGLE: float
 #: smallest aspect ratio of a loop split (vtkDecimate's 1 / AspectRatio = 1/25)
 DEFAULT_MIN_ASPECT: float
-#: the ``accumulate`` option's values: "off" (the paper), "bound" (lodkit's default)
+#: the ``accumulate`` option's values: "off" (the paper), "bound", "points" (lodkit's default)
 ACCUMULATE_MODES: tuple[str, ...]
+#: the ``triangulation`` option's values besides "auto": "split" (the paper), "nearest"
+TRIANGULATION_MODES: tuple[str, ...]
 
 class _StarEvaluation(TypedDict):
     cls: int
@@ -51,11 +53,16 @@ class SchroederKernel(RemovalKernel):
     def remove_corners(self) -> bool:
         """True: corner vertices may go too."""
     @property
+    def triangulation_code(self) -> int:
+        """Index of the resolved ``triangulation`` option in TRIANGULATION_MODES (0 split,
+        1 nearest)."""
+    @property
     def accumulate_code(self) -> int:
-        """Index of the ``accumulate`` option in ACCUMULATE_MODES (0 off, 1 bound)."""
+        """Index of the ``accumulate`` option in ACCUMULATE_MODES (0 off, 1 bound, 2 points)."""
     def prepare(self, ctx: Any, options: dict[str, Any]) -> None:
         """Take ``feature_angle`` (degrees, [0, 180]), ``min_aspect`` (>= 0),
-        ``remove_corners`` and ``accumulate`` ("bound" or "off") from ``options``; missing
+        ``remove_corners`` (None: True unless accumulate is "off") and ``accumulate`` ("points", "bound"
+        or "off") from ``options``; missing
         ones keep the defaults.  ``ctx.n_vertices`` (or ``options["n_vertices"]``) sizes the
         per-vertex bounds (0: nothing is carried)."""
     def accumulated(self) -> np.ndarray:

@@ -40,8 +40,13 @@ For a vertex v with link l_0 .. l_{k-1} (removal.pxd: face i is (v, l_i, l_{i+1}
    vtkDecimate checks).  No valid triangulation: KERNEL_VETO (the vertex stays until its
    star changes).
 
-The kernel keeps no state between removals (commit does nothing): the error is local, as
-in the paper.
+With ``accumulate="off"`` the kernel keeps no state between removals: the error is local, as
+in the paper.  lodkit's default (``accumulate="points"``) carries the removed vertices and
+the input faces' centroids on the face slots nearest them (removal_star.pxd) and takes as
+the error the larger of d and their distance to the new patch; corners are then removable
+(``remove_corners`` None) and a vertex with no feature line to keep takes the triangulation
+nearest it (``triangulation="nearest"``: the loop split or the hole's least-volume
+triangulation).  ``accumulate="bound"`` keeps a per-vertex distance bound instead.
 """
 import math as _math
 
@@ -51,8 +56,8 @@ from libc.math cimport sqrt, NAN
 
 from lodkit.kernel cimport KernelMesh, KERNEL_OK, KERNEL_VETO
 from lodkit.removal cimport RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION
-from .retriangulate cimport split_loop_aspect
-from .removal_star cimport star_on_points, patch_distance
+from .retriangulate cimport split_loop_aspect, least_distance_patch
+from .removal_star cimport star_on_points, patch_distance, carried_distance, carry_points
 from .vec3 cimport sub3, cross3, dot3, norm3
 
 cdef enum:
@@ -70,9 +75,17 @@ CORNER = C_CORNER
 cdef enum:
     ACC_OFF = 0             # the paper: the criterion is the star's alone
     ACC_BOUND = 1           # lodkit's default: an accumulated distance bound (module doc)
+    ACC_POINTS = 2          # lodkit's default: the removed vertices themselves are carried
 
 #: the ``accumulate`` option's values, in ACC_* order
-ACCUMULATE_MODES = ("off", "bound")
+ACCUMULATE_MODES = ("off", "bound", "points")
+
+cdef enum:
+    TRI_SPLIT = 0           # the paper: recursive loop splitting
+    TRI_NEAREST = 1         # lodkit's: the patch nearest the removed vertex (no feature line)
+
+#: the ``triangulation`` option's values, in TRI_* order ("auto" follows ``accumulate``)
+TRIANGULATION_MODES = ("split", "nearest")
 
 #: class code -> name
 CLASS_NAMES = ("simple", "complex", "boundary", "interior_edge", "corner")
@@ -101,6 +114,13 @@ cdef class SchroederKernel(RemovalKernel):
     cdef readonly int accumulate_code
     cdef double[::1] _acc
     cdef double* acc
+    cdef readonly int triangulation_code     # TRI_*
+    cdef double[::1] _dp_cost                # least_distance_patch scratch (MAX_VALENCE^2)
+    cdef int[::1] _dp_split
+    cdef int[::1] _head                 # accumulate="points": removal_star's lists
+    cdef int[::1] _nxt
+    cdef double[::1] _cent              # the input faces' centroids (carried points)
+    cdef int _nv
     cdef int n_acc
 
     def __cinit__(self):
@@ -114,6 +134,9 @@ cdef class SchroederKernel(RemovalKernel):
         self.last_fa = self.last_fb = -1
         self.accumulate_code = ACC_OFF
         self.acc = NULL
+        self.triangulation_code = TRI_SPLIT
+        self._dp_cost = np.zeros(MAX_VALENCE * MAX_VALENCE)
+        self._dp_split = np.zeros(MAX_VALENCE * MAX_VALENCE, dtype=np.int32)
         self.n_acc = 0
 
     def prepare(self, ctx, options):
@@ -128,14 +151,33 @@ cdef class SchroederKernel(RemovalKernel):
         self.feature_angle = fa
         self.cos_feature = _math.cos(_math.radians(fa))
         self.min_aspect = ma
-        self.remove_corners = bool(options.get("remove_corners", False))
-        acc = options.get("accumulate", "bound")
+        acc = options.get("accumulate", "points")
+        rc = options.get("remove_corners", None)
+        self.remove_corners = (acc != "off") if rc is None else bool(rc)
+        tri = options.get("triangulation", "auto")
+        if tri == "auto":
+            tri = "split" if acc == "off" else "nearest"
+        if tri not in TRIANGULATION_MODES:
+            raise ValueError(f"triangulation must be 'auto' or one of {TRIANGULATION_MODES}, got {tri!r}")
+        self.triangulation_code = TRIANGULATION_MODES.index(tri)
         if acc not in ACCUMULATE_MODES:
             raise ValueError(f"accumulate must be one of {ACCUMULATE_MODES}, got {acc!r}")
         self.accumulate_code = ACCUMULATE_MODES.index(acc)
         n = int(ctx.n_vertices) if ctx is not None else int(options.get("n_vertices", 0))
         self._acc = np.zeros(max(n, 1))
         self.acc = &self._acc[0]
+        self._nv = n
+        if ctx is not None:
+            corners = np.asarray(ctx.halfedge.corners, dtype=np.int64)
+            pos = np.asarray(ctx.positions, dtype=np.float64)
+            cent = pos[corners].mean(axis=1) if len(corners) else np.zeros((0, 3))
+        else:
+            cent = np.zeros((0, 3))
+        nf = len(cent)
+        self._cent = np.ascontiguousarray(cent.reshape(-1) if nf else np.zeros(3))
+        # each face slot starts with its own centroid (point n + f)
+        self._head = np.arange(n, n + max(nf, 1), dtype=np.int32) if nf else np.full(1, -1, dtype=np.int32)
+        self._nxt = np.full(max(n + nf, 1), -1, dtype=np.int32)
         self.n_acc = n
 
     cdef int evaluate(self, const Star* s, Removal* r) noexcept nogil:
@@ -154,6 +196,8 @@ cdef class SchroederKernel(RemovalKernel):
         cdef double g[3]
         cdef double area, A = 0.0, nl, d, t, ll, dp
         cdef int force_a, force_b
+        cdef double W[3 * MAX_VALENCE]
+        cdef int cand[3 * MAX_VALENCE]
         r.gate = NAN
         self.last_class = C_COMPLEX
         self.last_fa = self.last_fb = -1
@@ -238,6 +282,15 @@ cdef class SchroederKernel(RemovalKernel):
             return KERNEL_VETO                  # corner (kept, as Schroeder) or complex
         n = split_loop_aspect(P, stride, s.link, k, N, force_a, force_b, self.min_aspect,
                               r.tri, self.work)
+        if self.triangulation_code == TRI_NEAREST and force_a < 0:
+            # lodkit's addition (no feature line to keep): of the loop split, the hole's
+            # least-volume triangulation, the one nearer to v
+            for i in range(k):
+                for j in range(3):
+                    W[3 * i + j] = P[stride * s.link[i] + j]
+            if least_distance_patch(W, k, x, N, r.tri, n if n > 0 else 0, &dp,
+                                    &self._dp_cost[0], &self._dp_split[0], cand) > 0:
+                n = k - 2
         if n < 0:
             return KERNEL_VETO                  # no valid triangulation: the vertex stays
         r.n_tris = n
@@ -249,6 +302,16 @@ cdef class SchroederKernel(RemovalKernel):
                 d = dp
             if s.v < self.n_acc:
                 d = d + self.acc[s.v]
+        elif self.accumulate_code == ACC_POINTS:
+            # lodkit's default: how far v and the removed vertices in its care lie from the
+            # patch (measured), or d if larger
+            if s.v < self.n_acc:
+                dp = carried_distance(P, stride, s, r.tri, r.n_tris, &self._head[0], &self._nxt[0],
+                                      &self._cent[0], self._nv)
+            else:                               # a lone star (evaluate_star): nothing carried
+                dp = patch_distance(P, stride, x, s.link, r.tri, r.n_tris)
+            if dp > d:
+                d = dp
         r.cost = d
         r.error = d
         return KERNEL_OK
@@ -261,6 +324,9 @@ cdef class SchroederKernel(RemovalKernel):
                 w = s.link[i]
                 if 0 <= w < self.n_acc and r.error > self.acc[w]:
                     self.acc[w] = r.error
+        elif self.accumulate_code == ACC_POINTS and 0 <= s.v < self.n_acc:
+            carry_points(s.mesh.positions, s.mesh.stride, s, &self._head[0], &self._nxt[0],
+                         &self._cent[0], self._nv)
         return KERNEL_OK
 
     def accumulated(self):

@@ -12,8 +12,12 @@ from ..removal import RemovalKernel
 DEGENERATE: int
 NON_HYPERBOLIC: int
 HYPERBOLIC: int
-#: the ``accumulate`` option's values: "off" (the paper), "bound" (lodkit's default)
+#: the ``accumulate`` option's values: "off" (the paper), "bound", "points" (lodkit's default)
 ACCUMULATE_MODES: tuple[str, ...]
+#: the ``hyperbolic`` option's values besides "auto": "veto" (the paper), "remove"
+HYPERBOLIC_MODES: tuple[str, ...]
+#: the ``triangulation`` option's values besides "auto": "closest_line" (the paper), "nearest"
+TRIANGULATION_MODES: tuple[str, ...]
 
 class VolumeKernel(RemovalKernel):
     """Removal cost vol(V) = angle * ht^3, gate angle(V) (the median filter), error ht(V);
@@ -38,19 +42,29 @@ class VolumeKernel(RemovalKernel):
     def n_fallbacks(self) -> int:
         """Evaluations that took another apex than the closest line's (fallback)."""
     @property
+    def hyperbolic_code(self) -> int:
+        """Index of the resolved ``hyperbolic`` option in HYPERBOLIC_MODES (0 veto, 1 remove)."""
+    @property
+    def triangulation_code(self) -> int:
+        """Index of the resolved ``triangulation`` option in TRIANGULATION_MODES (0
+        closest_line, 1 nearest)."""
+    @property
     def accumulate_code(self) -> int:
-        """Index of the ``accumulate`` option in ACCUMULATE_MODES (0 off, 1 bound)."""
+        """Index of the ``accumulate`` option in ACCUMULATE_MODES (0 off, 1 bound, 2 points)."""
     def accumulated(self) -> np.ndarray:
         """(n,) float64: the distance bound each vertex slot carries from the removals
         around it (normalised units; zeros with ``accumulate="off"``)."""
     def veto_note(self) -> str:
         """Why the kernel holds vertices back now, in words (appended to a run's stop_detail)."""
     def prepare(self, ctx: Any, options: dict[str, Any]) -> None:
-        """Options ``median`` (bool, default True: gated), ``tolerance`` (radians in
-        [0, 0.1), default 1e-9), ``fallback`` (bool, default True) and ``accumulate``
-        ("bound", the default, or "off"); ``ctx.n_vertices`` (or
-        ``options["n_vertices"]`` without a context) sizes the per-vertex hyperbolic marks
-        and bounds."""
+        """Options ``median`` (bool, or None: gated only when ``accumulate`` is "off"),
+        ``tolerance`` (radians in [0, 0.1), default 1e-9), ``fallback`` (bool, default
+        True), ``accumulate`` ("points", the default, "bound" or "off"), ``hyperbolic``
+        ("auto", "veto", "remove") and ``triangulation`` ("auto", "closest_line",
+        "nearest"; "auto": the paper's with accumulate="off", else lodkit's);
+        ``ctx.n_vertices`` / ``ctx.halfedge`` (or ``options["n_vertices"]`` /
+        ``options["n_faces"]`` without a context) size the per-vertex marks, bounds and
+        the per-face lists of carried vertices."""
     def hyperbolic_mask(self) -> np.ndarray:
         """(n,) bool: the vertex slots hyperbolic at their last evaluation (not removed)."""
 
@@ -69,8 +83,11 @@ def measure(center: Sequence[float], neighbours: Any, closed: bool = True,
 
 def evaluate_star(positions: Any, v: int, link: Any, closed: bool = True, fixed: Any | None = None,
                   median: bool = True, tolerance: float = 1e-9, fallback: bool = True,
-                  accumulate: str = "bound") -> dict[str, Any]:
+                  accumulate: str = "points", hyperbolic: str = "auto",
+                  triangulation: str = "auto") -> dict[str, Any]:
     """``VolumeKernel.evaluate`` on one star of a point set: ``status`` ("ok", "veto",
     "error"), ``cost``, ``error``, ``gate``, ``tris`` ((k-2, 3) indices into ``link``) and
-    ``hyperbolic``.  ``accumulate="bound"``: the error is the larger of ht and V's distance
-    to the fan (nothing carried in a lone star); "off": the paper's ht."""
+    ``hyperbolic``; ``accumulate``, ``hyperbolic`` and ``triangulation`` as the metric's
+    options ("points": the larger of V's and its star faces' centroids' distance to the patch
+    and min(ht, V's distance to the closest line); "bound": the larger of ht and V's distance
+    to the patch; "off": the paper's ht)."""

@@ -53,6 +53,15 @@ U_i = u_i / |u_i|:
   of the plane distance and V's distance to the line W_0 W_{k-1} (the new boundary edge), so
   a boundary vertex is free only when it is flat *and* on a straight boundary.  Stars with
   fewer than 3 link vertices are not removed.
+
+lodkit's readings (issue 17; each an option whose default follows ``accumulate``, so that
+``accumulate="off"`` is the paper throughout): ``accumulate="points"`` carries the removed
+vertices and the input faces' centroids on the face slots nearest them (removal_star.pxd)
+and the error is their largest distance to the new patch, floored by min(ht, V's distance to
+the closest line); ``hyperbolic="remove"`` measures a hyperbolic star about its mean normal
+(``measure_saddle``) instead of vetoing it; ``triangulation="nearest"`` takes of the
+paper's fan and the hole's least-volume triangulation the one nearer V
+(retriangulate.least_distance_patch); ``median=None`` is not gated.
 """
 import numpy as np
 
@@ -60,8 +69,8 @@ from libc.math cimport sqrt, fabs, atan2, acos, cos, NAN, INFINITY, M_PI
 
 from lodkit.kernel cimport (KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VERTEX_FIXED)
 from lodkit.removal cimport (RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION)
-from .retriangulate cimport closest_line_apex, fan_from
-from .removal_star cimport star_on_points, patch_distance
+from .retriangulate cimport closest_line_apex, fan_from, least_distance_patch
+from .removal_star cimport star_on_points, patch_distance, carried_distance, carry_points
 from .vec3 cimport dot3, cross3
 
 # classification codes
@@ -543,12 +552,65 @@ cdef int measure_star(const double* V, const double* W, int k, bint closed, doub
     return C_NON_HYPERBOLIC
 
 
+cdef int measure_saddle(const double* V, const double* W, int k, bint closed, Measure* out) noexcept nogil:
+    """lodkit's reading for a hyperbolic star that may be removed (``hyperbolic="remove"``):
+    the pole is the star's mean normal, angle(V) the same signed fan of solid angles about
+    it (capped at 2 pi, doubled for an open star; a saddle's is near 2 pi, so the median
+    filter lets it compete as a flat vertex does), ht(V) as for any star.  Returns
+    C_NON_HYPERBOLIC, or C_DEGENERATE when the star has no mean normal."""
+    cdef double u[3 * MAX_VALENCE]
+    cdef double U[3 * MAX_VALENCE]
+    cdef double n, total = 0.0
+    cdef int i, j, last
+    for i in range(k):
+        for j in range(3):
+            u[3 * i + j] = W[3 * i + j] - V[j]
+        n = sqrt(dot3(&u[3 * i], &u[3 * i]))
+        if not n > 0.0:
+            return C_DEGENERATE
+        for j in range(3):
+            U[3 * i + j] = u[3 * i + j] / n
+    n = sqrt(dot3(out.normal, out.normal))
+    if not n > 0.0:
+        return C_DEGENERATE
+    for j in range(3):
+        out.pole[j] = out.normal[j] / n
+    out.on_hull = 0
+    last = k if closed else k - 1
+    for i in range(last):
+        j = i + 1 if i + 1 < k else 0
+        total += solid_angle_unit(out.pole, &U[3 * i], &U[3 * j])
+    total = fabs(total)
+    if not closed:
+        total *= 2.0
+    out.angle = min(total, 2.0 * M_PI)
+    out.height = plane_height(u, k)
+    if not closed:
+        out.height = max(out.height, line_distance(&u[0], &u[3 * (k - 1)]))
+    return C_NON_HYPERBOLIC
+
+
 cdef enum:
     ACC_OFF = 0             # the paper: the cost is the star's alone
     ACC_BOUND = 1           # lodkit's default: an accumulated distance bound (module doc)
+    ACC_POINTS = 2          # lodkit's default: the removed vertices themselves are carried
 
 #: the ``accumulate`` option's values, in ACC_* order
-ACCUMULATE_MODES = ("off", "bound")
+ACCUMULATE_MODES = ("off", "bound", "points")
+
+cdef enum:
+    HYP_VETO = 0            # the paper: a hyperbolic vertex is never removed
+    HYP_REMOVE = 1          # lodkit's default: it competes, costed by its real removal error
+
+#: the ``hyperbolic`` option's values, in HYP_* order ("auto" follows ``accumulate``)
+HYPERBOLIC_MODES = ("veto", "remove")
+
+cdef enum:
+    TRI_CLOSEST_LINE = 0    # the paper: the closest-line fan (with ``fallback``)
+    TRI_NEAREST = 1         # lodkit's default: the patch nearest the removed vertex
+
+#: the ``triangulation`` option's values, in TRI_* order ("auto" follows ``accumulate``)
+TRIANGULATION_MODES = ("closest_line", "nearest")
 
 
 cdef enum:
@@ -556,6 +618,28 @@ cdef enum:
     MARK_HYPERBOLIC = 1     # inside the convex hull of its neighbours (never removed)
     MARK_DEGENERATE = 2     # a neighbour at V or every neighbour on a line through V
     MARK_VALENCE = 3        # fewer than 3 or more than MAX_VALENCE link vertices
+
+
+cdef double closest_line_distance(const double* W, int k, const double* x) noexcept nogil:
+    """The distance of x to the nearest line through two of the points W (k x 3)."""
+    cdef int i, j, t
+    cdef double e[3]
+    cdef double w[3]
+    cdef double c[3]
+    cdef double ee, d, best = INFINITY
+    for i in range(k):
+        for j in range(i + 1, k):
+            for t in range(3):
+                e[t] = W[3 * j + t] - W[3 * i + t]
+                w[t] = x[t] - W[3 * i + t]
+            ee = dot3(e, e)
+            if not ee > 0.0:
+                continue
+            cross3(w, e, c)
+            d = dot3(c, c) / ee
+            if d < best:
+                best = d
+    return sqrt(best) if best < INFINITY else 0.0
 
 
 cdef bint fan_folds(const double* W, const double* N, const int* tri, int n_tris) noexcept nogil:
@@ -595,6 +679,14 @@ cdef class VolumeKernel(RemovalKernel):
     cdef readonly int accumulate_code
     cdef double[::1] _acc
     cdef double* acc
+    cdef int[::1] _head                 # accumulate="points": removal_star's lists
+    cdef int[::1] _nxt
+    cdef double[::1] _cent              # the input faces' centroids (carried points)
+    cdef int _nv
+    cdef readonly int hyperbolic_code   # HYP_*
+    cdef readonly int triangulation_code  # TRI_*
+    cdef double[::1] _dp_cost           # least_distance_patch scratch (MAX_VALENCE^2)
+    cdef int[::1] _dp_split
 
     def __cinit__(self):
         self.gated = True
@@ -606,26 +698,57 @@ cdef class VolumeKernel(RemovalKernel):
         self.n_fallbacks = 0
         self.accumulate_code = ACC_OFF
         self.acc = NULL
+        self.hyperbolic_code = HYP_VETO
+        self.triangulation_code = TRI_CLOSEST_LINE
+        self._dp_cost = np.zeros(MAX_VALENCE * MAX_VALENCE)
+        self._dp_split = np.zeros(MAX_VALENCE * MAX_VALENCE, dtype=np.int32)
 
     def prepare(self, ctx, options):
         """Options: ``median`` (bool, default True: the paper's median filter, i.e. the
         kernel is gated), ``tolerance`` (radians, default 1e-9) and ``fallback`` (bool,
         default True)."""
-        self.gated = bool(options.get("median", True))
+        acc = options.get("accumulate", "points")
+        med = options.get("median", None)
+        self.gated = (acc == "off") if med is None else bool(med)
         tol = float(options.get("tolerance", 1e-9))
         if not (tol >= 0.0 and tol < 0.1):
             raise ValueError(f"tolerance must be in [0, 0.1), got {tol!r}")
         self.tolerance = tol
         self.fallback = bool(options.get("fallback", True))
-        acc = options.get("accumulate", "bound")
+        acc = options.get("accumulate", "points")
         if acc not in ACCUMULATE_MODES:
             raise ValueError(f"accumulate must be one of {ACCUMULATE_MODES}, got {acc!r}")
         self.accumulate_code = ACCUMULATE_MODES.index(acc)
+        # lodkit's readings follow accumulate unless set: "off" is the paper throughout
+        hyp = options.get("hyperbolic", "auto")
+        if hyp == "auto":
+            hyp = "veto" if acc == "off" else "remove"
+        if hyp not in HYPERBOLIC_MODES:
+            raise ValueError(f"hyperbolic must be 'auto' or one of {HYPERBOLIC_MODES}, got {hyp!r}")
+        self.hyperbolic_code = HYPERBOLIC_MODES.index(hyp)
+        tri = options.get("triangulation", "auto")
+        if tri == "auto":
+            tri = "closest_line" if acc == "off" else "nearest"
+        if tri not in TRIANGULATION_MODES:
+            raise ValueError(f"triangulation must be 'auto' or one of {TRIANGULATION_MODES}, got {tri!r}")
+        self.triangulation_code = TRIANGULATION_MODES.index(tri)
         n = int(ctx.n_vertices) if ctx is not None else int(options.get("n_vertices", 0))
         self._state = np.zeros(max(n, 1), dtype=np.uint8)
         self.state = &self._state[0]
         self._acc = np.zeros(max(n, 1))
         self.acc = &self._acc[0]
+        self._nv = n
+        if ctx is not None:
+            corners = np.asarray(ctx.halfedge.corners, dtype=np.int64)
+            pos = np.asarray(ctx.positions, dtype=np.float64)
+            cent = pos[corners].mean(axis=1) if len(corners) else np.zeros((0, 3))
+        else:
+            cent = np.zeros((0, 3))
+        nf = len(cent)
+        self._cent = np.ascontiguousarray(cent.reshape(-1) if nf else np.zeros(3))
+        # each face slot starts with its own centroid (point n + f)
+        self._head = np.arange(n, n + max(nf, 1), dtype=np.int32) if nf else np.full(1, -1, dtype=np.int32)
+        self._nxt = np.full(max(n + nf, 1), -1, dtype=np.int32)
         self.n_state = n
         self.counts[0] = n
         self.counts[1] = self.counts[2] = self.counts[3] = 0
@@ -652,6 +775,7 @@ cdef class VolumeKernel(RemovalKernel):
         cdef double W[3 * MAX_VALENCE]
         cdef double key[MAX_VALENCE]
         cdef int order[MAX_VALENCE]
+        cdef int cand[3 * MAX_VALENCE]
         cdef const double* p
         cdef const double* a
         cdef const double* b
@@ -677,17 +801,25 @@ cdef class VolumeKernel(RemovalKernel):
         p = &m.positions[m.stride * s.v]
         cls = measure_star(p, W, s.k, s.closed, self.tolerance, &ms)
         if cls == C_HYPERBOLIC:
-            self._mark(s.v, MARK_HYPERBOLIC)
-            return KERNEL_VETO
-        if cls == C_DEGENERATE:
+            if self.hyperbolic_code == HYP_VETO:
+                self._mark(s.v, MARK_HYPERBOLIC)
+                return KERNEL_VETO
+            # lodkit's reading: measured about the mean normal, costed below by what its
+            # removal really moves the surface by
+            cls = measure_saddle(p, W, s.k, s.closed, &ms)
+            self._mark(s.v, MARK_HYPERBOLIC if cls == C_NON_HYPERBOLIC else MARK_DEGENERATE)
+            if cls != C_NON_HYPERBOLIC:
+                return KERNEL_VETO
+        elif cls == C_DEGENERATE:
             self._mark(s.v, MARK_DEGENERATE)
             return KERNEL_VETO
-        self._mark(s.v, MARK_NONE)
+        else:
+            self._mark(s.v, MARK_NONE)
         apex = closest_line_apex(m.positions, m.stride, s.link, s.k, p)
         if apex < 0 or apex >= s.k:
             return self.fail(b"volume: closest_line_apex found no line through two link vertices")
         r.n_tris = fan_from(apex, s.k, r.tri)
-        if self.fallback and fan_folds(W, ms.normal, r.tri, r.n_tris):
+        if self.fallback and self.triangulation_code == TRI_CLOSEST_LINE and fan_folds(W, ms.normal, r.tri, r.n_tris):
             # the apexes of the next-closest lines, in order of their line's distance
             for i in range(s.k):
                 key[i] = INFINITY
@@ -725,16 +857,33 @@ cdef class VolumeKernel(RemovalKernel):
                     break
             else:
                 r.n_tris = fan_from(apex, s.k, r.tri)    # none fits: propose the paper's
+        dist = -1.0
+        if self.triangulation_code == TRI_NEAREST:
+            # lodkit's addition: of the paper's fan, the least-volume triangulation and the
+            # hole's least-volume triangulation, the one nearer to V (none that folds)
+            if least_distance_patch(W, s.k, p, ms.normal, r.tri, r.n_tris, &dist,
+                                    &self._dp_cost[0], &self._dp_split[0], cand) < 0:
+                dist = -1.0
         r.gate = ms.angle
         if self.accumulate_code == ACC_BOUND:
             # lodkit's addition: the error is how far the removal moves the surface from
             # the input, bounded -- the larger of ht and V's distance to the fan that
             # replaces its star, plus the bound V carries from the removals around it
-            ht = patch_distance(m.positions, m.stride, p, s.link, r.tri, r.n_tris)
+            ht = dist if dist >= 0.0 else patch_distance(m.positions, m.stride, p, s.link, r.tri, r.n_tris)
             if ms.height > ht:
                 ht = ms.height
             if s.v < self.n_state:
                 ht = ht + self.acc[s.v]
+            r.error = ht
+            r.cost = ms.angle * ht * ht * ht
+        elif self.accumulate_code == ACC_POINTS and s.v < self.n_state:
+            # lodkit's default: how far V and the removed vertices in its care lie from the
+            # patch (a measured one-sided distance, not a bound), or ht if larger
+            ht = carried_distance(m.positions, m.stride, s, r.tri, r.n_tris, &self._head[0], &self._nxt[0],
+                                  &self._cent[0], self._nv)
+            da = closest_line_distance(W, s.k, p)
+            if min(ms.height, da) > ht:
+                ht = min(ms.height, da)
             r.error = ht
             r.cost = ms.angle * ht * ht * ht
         else:
@@ -751,6 +900,9 @@ cdef class VolumeKernel(RemovalKernel):
                 w = s.link[i]
                 if 0 <= w < self.n_state and r.error > self.acc[w]:
                     self.acc[w] = r.error
+        elif self.accumulate_code == ACC_POINTS and 0 <= s.v < self.n_state:
+            carry_points(s.mesh.positions, s.mesh.stride, s, &self._head[0], &self._nxt[0],
+                         &self._cent[0], self._nv)
         return KERNEL_OK
 
     def accumulated(self):
@@ -766,7 +918,7 @@ cdef class VolumeKernel(RemovalKernel):
         """Why the kernel holds vertices back now, in words (for a run's stop_detail)."""
         h, d, v = self.counts[MARK_HYPERBOLIC], self.counts[MARK_DEGENERATE], self.counts[MARK_VALENCE]
         parts = []
-        if h:
+        if h and self.hyperbolic_code == HYP_VETO:
             parts.append(f"{h} hyperbolic (inside the convex hull of their neighbours: the volume "
                          f"metric never removes them)")
         if d:
@@ -860,13 +1012,14 @@ def measure(center, neighbours, closed=True, tolerance=1e-9):
 
 
 def evaluate_star(positions, int v, link, closed=True, fixed=None, median=True, tolerance=1e-9,
-                  fallback=True, accumulate="bound"):
+                  fallback=True, accumulate="points", hyperbolic="auto", triangulation="auto"):
     """Run ``VolumeKernel.evaluate`` on one star of a point set: ``positions`` (n, 3),
     vertex ``v``, ``link`` (k,) vertex indices in link order.  Returns a dict: ``status``
     ("ok", "veto" or "error"), ``cost``, ``error``, ``gate``, ``tris`` ((k-2, 3) indices into
-    ``link``, or None) and ``hyperbolic`` (the kernel's mark for v).  ``accumulate`` as the
-    metric's option (nothing is carried yet: "bound" measures the larger of ht and V's
-    distance to the fan, "off" the paper's ht)."""
+    ``link``, or None) and ``hyperbolic`` (the kernel's mark for v).  ``accumulate``,
+    ``hyperbolic`` and ``triangulation`` as the metric's options ("auto" follows
+    ``accumulate``; nothing is carried in a lone star: "bound" and "points" measure the
+    larger of ht and V's distance to the patch, "off" the paper's ht)."""
     P = np.ascontiguousarray(positions, dtype=np.float64)
     L = np.ascontiguousarray(link, dtype=np.int32)
     if P.ndim != 2 or P.shape[1] != 3 or L.ndim != 1:
@@ -882,7 +1035,8 @@ def evaluate_star(positions, int v, link, closed=True, fixed=None, median=True, 
         flags[np.asarray(fixed, dtype=np.int64)] |= VERTEX_FIXED
     cdef VolumeKernel kern = VolumeKernel()
     kern.prepare(None, {"median": median, "tolerance": tolerance, "fallback": fallback,
-                        "accumulate": accumulate, "n_vertices": n})
+                        "accumulate": accumulate, "hyperbolic": hyperbolic,
+                        "triangulation": triangulation, "n_vertices": n})
     cdef double[:, ::1] pv = P
     cdef unsigned char[::1] fv = flags
     cdef const int[::1] lv = L
@@ -891,6 +1045,16 @@ def evaluate_star(positions, int v, link, closed=True, fixed=None, median=True, 
     cdef Removal r
     cdef int i, rc
     star_on_points(&km, &s, &pv[0, 0], n, &fv[0], v, &lv[0] if k else NULL, k, bool(closed))
+    if kern.accumulate_code == ACC_POINTS and 3 <= k:
+        # as at the start of a run: each face of the star holds its centroid
+        nfs = k if closed else k - 1
+        idx = np.stack([np.full(nfs, v), L[:nfs], L[(np.arange(nfs) + 1) % k]], axis=1)
+        kern._cent = np.ascontiguousarray(P[idx].mean(axis=1).reshape(-1))
+        kern._head = np.arange(n, n + nfs, dtype=np.int32)
+        kern._nxt = np.full(n + nfs, -1, dtype=np.int32)
+        kern._nv = n
+        for i in range(nfs):
+            s.face[i] = i
     r.n_tris = 0
     r.cost = NAN
     r.error = NAN
@@ -905,4 +1069,4 @@ def evaluate_star(positions, int v, link, closed=True, fixed=None, median=True, 
     tris = np.array([[r.tri[3 * i], r.tri[3 * i + 1], r.tri[3 * i + 2]] for i in range(r.n_tris)],
                     dtype=np.int64).reshape(-1, 3)
     return {"status": "ok", "cost": r.cost, "error": r.error, "gate": r.gate, "tris": tris,
-            "hyperbolic": False}
+            "hyperbolic": kern._state[v] == MARK_HYPERBOLIC}

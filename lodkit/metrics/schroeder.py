@@ -30,10 +30,19 @@ class Schroeder(RemovalMetric):
                              doc="smallest aspect ratio of a loop split (min distance of the loop "
                                  "to the split plane / split length); below it the vertex stays "
                                  "(vtkDecimate's 1/25)"),
-        "remove_corners": Option(False, kind=bool,
+        "remove_corners": Option(None, kind=bool, allow_none=True,
                                  doc="let corner vertices go (by distance to the average plane, or "
-                                     "to the new boundary edge on a boundary); Schroeder keeps them"),
-        "accumulate": Option("bound", choices=("bound", "off"),
+                                     "to the new boundary edge on a boundary, and by the carried "
+                                     "error); Schroeder keeps them.  None, the default: False with "
+                                     "accumulate='off', else True"),
+        "triangulation": Option("auto", choices=("auto", "split", "nearest"),
+                                doc="lodkit's addition: 'nearest' = for a vertex with no feature line "
+                                    "to keep (simple, corner), of the loop split and the hole's "
+                                    "least-volume triangulation, the one nearer to the "
+                                    "removed vertex (none that folds; also when no loop split is "
+                                    "valid); 'split' = the paper's recursive loop splitting; 'auto' "
+                                    "= 'split' with accumulate='off', else 'nearest'"),
+        "accumulate": Option("points", choices=("points", "bound", "off"),
                              doc="lodkit's addition: 'bound' = carry what each removal took away to "
                                  "the vertices that remain: a vertex's error e is the larger of d "
                                  "and its distance to the patch that would replace its star, plus "
