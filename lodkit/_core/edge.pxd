@@ -104,6 +104,8 @@ cdef class EdgeCollapser:
     cdef double fan_worst_quality(self, int center, double floor) noexcept nogil
     cdef bint geometry_ok(self, int h, int r, int k, const double* p, int skip_c, int skip_d,
                           double* dvol_out) noexcept nogil
+    cdef bint place_ok(self, int h, int r, int k, double* p, double* cost_err, double limit,
+                       double* dvol_out) noexcept nogil
     cdef double face_volume6(self, int f) noexcept nogil
     cdef bint ring_has(self, int v, int a, int b) noexcept nogil
     cdef bint pair_ok(self, int h, int r, int k, int hs, int rs, int ks, const double* p,
