@@ -242,3 +242,60 @@ def test_cad_plate_keeps_its_genus_without_flips(driver):
     flat = (np.abs(n[:, 2]) > 0.9 * np.linalg.norm(n, axis=1)) & one_side
     assert flat.sum() >= 10
     assert (np.sign(n[flat, 2]) == np.sign(zs[flat, 0])).all()
+
+
+# ------------------------------------------------------------------ h. what stops a run, and reaching it
+
+def test_stop_detail_names_the_checks_that_refuse_the_last_candidates():
+    # a tetrahedron is the smallest closed surface: every collapse breaks the link
+    # condition, and the stop census says so
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    F = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    for driver in DRIVERS:
+        res = lodkit.simplify(lodkit.Mesh(V, F), target_faces=2, driver=driver)
+        assert res.stop_reason == "no_valid_collapse"
+        census = res.report["refusals"]
+        assert census["topology"] == 6
+        assert sum(census.values()) == 6
+        assert "last candidates refused by: 6 link condition (topology)" in res.report["stop_detail"]
+
+
+def test_stop_census_of_a_run_that_reaches_its_target_is_none():
+    V, F = grid(4, 4)
+    res = lodkit.simplify(lodkit.Mesh(V, F), target_faces=8)
+    assert res.stop_reason == "target_faces"
+    assert res.report["refusals"] is None
+
+
+def test_stop_census_counts_every_live_edge_once_on_the_thin_plate():
+    mesh = cad.plate(6, 4, thickness=1.0)
+    res = lodkit.simplify(mesh, target_faces=40)
+    assert res.stop_reason == "no_valid_collapse"
+    census = res.report["refusals"]
+    n_edges = res.mesh.n_faces * 3 // 2          # closed: every edge has two faces
+    assert sum(census.values()) == n_edges
+    assert census["free"] == 0
+
+
+@pytest.mark.parametrize("driver", DRIVERS)
+def test_cad_bracket_reaches_ten_percent_without_flips(driver):
+    # before the end-of-edge fallback (EdgeCollapser.place_ok) the pass driver stopped at
+    # 128 faces for 126: the optimal positions of the last candidates failed the fold test
+    mesh = cad.bracket()
+    target = int(round(0.1 * mesh.n_faces))
+    res = lodkit.simplify(mesh, target_faces=target, driver=driver)
+    assert res.stop_reason == "target_faces"
+    assert target - 1 <= res.mesh.n_faces <= target
+
+
+def test_cad_plate24_pass_driver_reaches_five_percent():
+    # before the fallback: 338 faces for 319 (no_valid_collapse)
+    mesh = cad.plate(6, 4, thickness=1.0)
+    target = int(round(0.05 * mesh.n_faces))
+    res = lodkit.simplify(mesh, target_faces=target, driver="pass")
+    assert res.stop_reason == "target_faces"
+    F = res.mesh.faces
+    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(e, axis=0, return_counts=True)
+    assert (counts == 2).all()
+

@@ -20,8 +20,7 @@ cdef struct CheckLimits:     # what the checks allow: the same options in every 
     double cos_max_angle     # cos(max_normal_angle): the largest turn of a changed face
     double cos_orig_angle    # cos(min(max_normal_angle, 90)): its largest turn from its input face
     bint check_orig          # max_normal_angle < 180: the input-face test is on
-    bint check_fold          # max_normal_angle < 180: the fold test is on (its own flag: the
-                             # stop census switches each test off alone)
+    bint check_fold          # max_normal_angle < 180: the fold test is on (own flag: the census)
     double min_quality       # a face below this quality (and worse than before) is refused
 
 
