@@ -277,14 +277,36 @@ def test_stop_census_counts_every_live_edge_once_on_the_thin_plate():
     assert census["free"] == 0
 
 
-def test_cad_plate24_greedy_goes_further_with_the_end_of_edge_fallback():
-    # before the fallback (EdgeCollapser.place_ok) the greedy driver stopped at 362 faces for
-    # 319: the optimal positions of the last candidates failed the fold / input-face tests,
-    # while an end of the edge, no dearer than the next candidate, passes them
+@pytest.mark.parametrize("driver", DRIVERS)
+def test_cad_plate24_goes_further_with_the_end_of_edge_fallback(driver):
+    # before the fallback (EdgeCollapser.place_ok, simplify's last step once the checks leave
+    # no collapse) the run stopped at 338 (pass) / 362 (greedy) faces for 319: the optimal
+    # positions of the last candidates failed the fold / input-face tests, while an end of
+    # the edge passes them
     mesh = cad.plate(6, 4, thickness=1.0)
-    res = lodkit.simplify(mesh, target_faces=int(round(0.05 * mesh.n_faces)), driver="greedy")
-    assert res.mesh.n_faces <= 340
+    res = lodkit.simplify(mesh, target_faces=int(round(0.05 * mesh.n_faces)), driver=driver)
+    assert res.report["end_fallback"] is True
+    assert res.mesh.n_faces <= 336
     F = res.mesh.faces
     e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
     _, counts = np.unique(e, axis=0, return_counts=True)
     assert (counts == 2).all()
+
+
+@pytest.mark.parametrize("driver", DRIVERS)
+def test_cad_bracket_reaches_ten_percent(driver):
+    # the pass driver stopped at 128 faces for 126 before the end-of-edge fallback
+    mesh = cad.bracket()
+    target = int(round(0.1 * mesh.n_faces))
+    res = lodkit.simplify(mesh, target_faces=target, driver=driver)
+    assert res.stop_reason == "target_faces"
+    assert target - 1 <= res.mesh.n_faces <= target
+
+
+def test_runs_that_reach_their_target_never_fall_back():
+    # the fallback is the last step after the checks left no collapse: a run that reaches
+    # its target with the planned positions is the same as without it
+    V, F = grid(6, 6)
+    res = lodkit.simplify(lodkit.Mesh(V, F), target_faces=20)
+    assert res.stop_reason == "target_faces"
+    assert res.report["end_fallback"] is False

@@ -152,6 +152,7 @@ cdef class EdgeCollapser:
         self.opt.placement = placement
         self.opt.boundary = boundary
         self.lim = check_limits(max_normal_angle, min_quality)
+        self.end_fallback = False
         self.opt.max_error = max_error
         # the collapse sequence (a progressive mesh) is only kept on request: 48 bytes/vertex
         self.rec = Records(n, self.n_attr, record)
@@ -736,6 +737,8 @@ cdef class EdgeCollapser:
         cdef const double* x
         if self.geometry_ok(h, r, k, p, -1, -1, dvol_out):
             return True
+        if not self.end_fallback:
+            return False
         # only where plan() chose a free optimal placement: neither end fixed, on the border
         # or a seam, no fields, kernels or attribute quadrics in the cost, no error bound
         if (limit < 0.0 or self.opt.placement != PLACE_OPTIMAL or self.opt.has_extras or self.aq.dim > 0
@@ -1346,6 +1349,15 @@ cdef class EdgeCollapser:
         if not (0.0 <= min_quality <= 1.0):
             raise ValueError("min_quality must be in [0, 1]")
         self.lim.min_quality = min_quality
+        self.collapses_since_rescan += 1
+
+    def allow_end_fallback(self):
+        """From the next ``run`` on, a candidate whose planned position fails the checks may
+        collapse at an end of its edge (``place_ok``), and every live candidate gets another
+        chance (a full rescan): ``simplify``'s last step when the checks leave no collapse."""
+        if self.released:
+            raise RuntimeError("this EdgeCollapser was released")
+        self.end_fallback = True
         self.collapses_since_rescan += 1
 
     def collapse_pass(self, edges, positions=None, int target_faces=0):

@@ -873,8 +873,7 @@ cdef class PassDriver:
         k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
         if not self.c.hm.link_ok(h):
             self.plan_he[pr, 3] = CK_TOPOLOGY
-        elif not self.c.place_ok(h, r, k, x, &x[3], self.keyed_buf[i + 1].cost if i + 1 < self.n_sel_pass
-                                 else self.fallback_limit, &dvol):
+        elif not self.c.place_ok(h, r, k, x, &x[3], self.fallback_limit, &dvol):
             self.plan_he[pr, 3] = CK_GEOMETRY
         else:
             self.plan_he[pr, 3] = CK_OK

@@ -102,6 +102,7 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
     bar = progress_bar(progress, hm, target)
     n_passes = 0
     relaxed = None
+    fallback = False
     if compiled.batch:
         status, rejected_error, n_passes = run_passes(collapser, compiled, work, target, bar)
     else:
@@ -115,6 +116,12 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
             # the checks left no collapse: relax the quality limit a step and go on
             collapser.relax_quality(step)
             relaxed = step
+            status = run_chunked(driver, hm, target, bar)
+        if status == RUN_EXHAUSTED and max_error == math.inf and error_bound is None:
+            # still stuck: let the refused candidates collapse at an end of their edge
+            # (EdgeCollapser.place_ok: every check still holds; only the placement changes)
+            collapser.allow_end_fallback()
+            fallback = True
             status = run_chunked(driver, hm, target, bar)
         rejected_error = collapser.n_rejected_error
         n_passes = driver.n_passes if passes else 0
@@ -135,6 +142,8 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
         stop, detail = STOP_NO_COLLAPSE, _no_collapse_detail(collapser)
     if relaxed is not None and detail:
         detail += f" (min_quality relaxed to {relaxed:g})"
+    if fallback and detail:
+        detail += " (end-of-edge placement allowed)"
     census = None
     if stop == STOP_NO_COLLAPSE and operator == "edge" and not compiled.batch and not collapser.failed:
         census = collapser.refusal_census()
@@ -164,6 +173,7 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
             "triangle_collapses": int(collapser.n_tri_collapses),
             "refused_at_second_collapse": int(collapser.n_tri_refused_second),
             "min_quality_relaxed_to": relaxed,
+            "end_fallback": fallback,
             "refusals": census,
             **counters,
         },
