@@ -281,12 +281,12 @@ def test_stop_census_counts_every_live_edge_once_on_the_thin_plate():
 def test_cad_plate24_goes_further_with_the_end_of_edge_fallback(driver):
     # before the fallback (EdgeCollapser.place_ok, simplify's last step once the checks leave
     # no collapse) the run stopped at 338 (pass) / 362 (greedy) faces for 319: the optimal
-    # positions of the last candidates failed the fold / input-face tests, while an end of
-    # the edge passes them
+    # positions of the last candidates failed the fold / input-face tests, while an end or
+    # the midpoint of the edge passes them
     mesh = cad.plate(6, 4, thickness=1.0)
     res = lodkit.simplify(mesh, target_faces=int(round(0.05 * mesh.n_faces)), driver=driver)
     assert res.report["end_fallback"] is True
-    assert res.mesh.n_faces <= 336
+    assert res.mesh.n_faces <= (319 if driver == "pass" else 336)
     F = res.mesh.faces
     e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
     _, counts = np.unique(e, axis=0, return_counts=True)

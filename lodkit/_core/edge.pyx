@@ -724,14 +724,16 @@ cdef class EdgeCollapser:
                        double* dvol_out) noexcept nogil:
         """``geometry_ok`` for a planned collapse, with a fallback: when the moved faces fail
         a check at the planned position ``p`` (an optimal placement), the collapse may still
-        go with the kept vertex at one of the edge's ends -- the cheaper first -- if that
-        passes every check and costs no more than ``limit``, what the driver would take
+        go with the kept vertex at one of the edge's ends or its midpoint -- the cheapest
+        first -- if that passes every check and costs no more than ``limit``, what the driver would take
         next anyway (the greedy driver: the heap's top; the pass driver: the pass's dearest
         candidate; < 0: no fallback).  Then ``p`` and ``cost_err`` (cost, error) are
         updated.  Without it, a refusal sends the driver to a costlier collapse elsewhere
         (issue 17: the thin-CAD set stopped above its targets; docs/algorithms.md)."""
         cdef double q[QSIZE]
-        cdef double ce[2]
+        cdef double alt[3][3]
+        cdef double ca[3]
+        cdef int order[3]
         cdef double c, err
         cdef int i, j, first
         cdef const double* x
@@ -751,13 +753,23 @@ cdef class EdgeCollapser:
         if same_point(p, &self.P[VSTRIDE * k]) or same_point(p, &self.P[VSTRIDE * r]):
             return False                     # an end was planned already: nothing else to try
         quadric_sum(&self.Q[VSTRIDE * k], &self.Q[VSTRIDE * r], q)
-        ce[0] = quadric_eval(q, &self.P[VSTRIDE * k])
-        ce[1] = quadric_eval(q, &self.P[VSTRIDE * r])
-        first = 0 if ce[0] <= ce[1] else 1
-        for j in range(2):
-            i = first if j == 0 else 1 - first
-            x = &self.P[VSTRIDE * (k if i == 0 else r)]
-            c = ce[i] if ce[i] > 0.0 else 0.0
+        for i in range(3):
+            alt[0][i] = self.P[VSTRIDE * k + i]
+            alt[1][i] = self.P[VSTRIDE * r + i]
+            alt[2][i] = 0.5 * (alt[0][i] + alt[1][i])
+        for i in range(3):
+            ca[i] = quadric_eval(q, alt[i])
+            order[i] = i
+        for i in range(3):
+            for j in range(i + 1, 3):
+                if ca[order[j]] < ca[order[i]]:
+                    first = order[i]
+                    order[i] = order[j]
+                    order[j] = first
+        for j in range(3):
+            i = order[j]
+            x = alt[i]
+            c = ca[i] if ca[i] > 0.0 else 0.0
             if self.opt.quadric_weight * c > limit:
                 return False
             err = collapse_error(c, q[10], self.opt.error_scale)
@@ -1353,7 +1365,7 @@ cdef class EdgeCollapser:
 
     def allow_end_fallback(self):
         """From the next ``run`` on, a candidate whose planned position fails the checks may
-        collapse at an end of its edge (``place_ok``), and every live candidate gets another
+        collapse at an end or the midpoint of its edge (``place_ok``), and every live candidate gets another
         chance (a full rescan): ``simplify``'s last step when the checks leave no collapse."""
         if self.released:
             raise RuntimeError("this EdgeCollapser was released")

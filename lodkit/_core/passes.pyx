@@ -463,7 +463,6 @@ cdef class PassDriver:
     cdef int ne                     # edge slots (dead ones are skipped where they come up)
     cdef Keyed[::1] keyed_buf       # (kmax,) the candidates of a pass, in (cost, edge) order
     cdef double fallback_limit      # the pass's dearest candidate's cost (EdgeCollapser.place_ok)
-    cdef int n_sel_pass             # the pass's candidates: a fallback costs at most the next one's
     cdef int[::1] hist
     cdef int[::1] hist_low          # histogram of the lower 16 cost bits of select()'s last bucket
     cdef int[:, ::1] hist_t         # (threads, N_BUCKETS) rank()'s cost histograms
@@ -514,7 +513,6 @@ cdef class PassDriver:
         self.hist_low = np.zeros(N_BUCKETS, dtype=np.intc)
         self.n_passes = 0
         self.fallback_limit = -1.0
-        self.n_sel_pass = 0
         self.n_deferred = 0
         self.n_late = 0
         self.fraction = fraction
@@ -1371,11 +1369,11 @@ cdef class PassDriver:
             if n_sel > k:
                 n_sel = k
             done = 0
-            # a candidate whose planned position fails the checks may still go at an end of
-            # its edge if that costs no more than the next candidate of the pass (EdgeCollapser
-            # place_ok; the last one: the pass's limit), as the greedy driver's heap top
+            # once simplify allows it (EdgeCollapser.allow_end_fallback), a candidate whose
+            # planned position fails the checks may go at an end or the midpoint of its edge
+            # if that costs no more than the pass's dearest candidate (place_ok): a pass
+            # never takes a collapse costlier than its limit
             self.fallback_limit = self.keyed_buf[n_sel - 1].cost if n_sel > 0 else -1.0
-            self.n_sel_pass = n_sel
             status = self.walk_pass(n_sel, target_faces, &done)
             self.n_passes += 1
             steps += done
