@@ -310,3 +310,16 @@ def test_runs_that_reach_their_target_never_fall_back():
     res = lodkit.simplify(lodkit.Mesh(V, F), target_faces=20)
     assert res.stop_reason == "target_faces"
     assert res.report["end_fallback"] is False
+
+
+def test_progressive_levels_equal_simplify_through_the_fallback():
+    # the fallback comes after the same exhausted run whatever the target, so a progressive
+    # mesh cut at the bracket's 10 % (reached only with it, pass driver) is simplify's output
+    from lodkit import progressive
+    mesh = cad.bracket()
+    target = int(round(0.1 * mesh.n_faces))
+    a = progressive(mesh).level(faces=target).mesh
+    b = lodkit.simplify(mesh, target_faces=target)
+    assert b.report["end_fallback"] is True
+    np.testing.assert_array_equal(a.faces, b.mesh.faces)
+    assert a.vertices.tobytes() == b.mesh.vertices.tobytes()
