@@ -323,3 +323,9 @@ def test_progressive_levels_equal_simplify_through_the_fallback():
     assert b.report["end_fallback"] is True
     np.testing.assert_array_equal(a.faces, b.mesh.faces)
     assert a.vertices.tobytes() == b.mesh.vertices.tobytes()
+
+
+def test_triangle_collapse_takes_no_fallback_step():
+    mesh = cad.plate(3, 2, segments=24)
+    res = lodkit.simplify(mesh, target_faces=10, operator="triangle")
+    assert res.report["end_fallback"] is False

@@ -117,10 +117,10 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
             collapser.relax_quality(step)
             relaxed = step
             status = run_chunked(driver, hm, target, bar)
-        if status == RUN_EXHAUSTED and max_error == math.inf and error_bound is None:
+        if status == RUN_EXHAUSTED and operator == "edge" and max_error == math.inf and error_bound is None:
             # still stuck: let the refused candidates collapse at an end or the midpoint of
             # their edge (EdgeCollapser.place_ok: every check still holds; only the placement
-            # changes)
+            # changes).  Edge collapse only: triangle collapse plans faces, not edges
             collapser.allow_end_fallback()
             fallback = True
             status = run_chunked(driver, hm, target, bar)
