@@ -57,7 +57,7 @@ cdef class EdgeCollapser:
     cdef unsigned char[::1] refused  # 1: an edge of this vertex was refused by a check
     cdef CollapseOptions opt
     cdef CheckLimits lim            # the checks' limits (checks.pxd)
-    cdef bint end_fallback          # place_ok may fall back to an end of the edge (allow_end_fallback)
+    cdef bint end_fallback          # place_ok may fall back to an end or the midpoint (allow_end_fallback)
     cdef short[::1] face_n0         # (3 * n_faces,) unit normals of the input faces, x 32767
     cdef short* N0
     cdef bint released              # heap and quadrics freed after the run

@@ -91,7 +91,7 @@ class EdgeCollapser:
     def count_bound_refusals(self) -> int:
         """Live candidates that pass every check but the error bound (0 without one)."""
     def allow_end_fallback(self) -> None:
-        """Let refused candidates collapse at an end of their edge from the next run on."""
+        """Let refused candidates collapse at an end or the midpoint of their edge from the next run on."""
     def refusal_census(self) -> dict[str, int]:
         """Why each live candidate may not collapse: counts by the check that refuses it."""
     def certified_bound(self) -> float | None:
