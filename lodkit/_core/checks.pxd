@@ -19,7 +19,8 @@ from .vec3 cimport dot3
 cdef struct CheckLimits:     # what the checks allow: the same options in every driver
     double cos_max_angle     # cos(max_normal_angle): the largest turn of a changed face
     double cos_orig_angle    # cos(min(max_normal_angle, 90)): its largest turn from its input face
-    bint check_orig          # max_normal_angle < 180: the input-face and fold tests are on
+    bint check_orig          # max_normal_angle < 180: the input-face test is on
+    bint check_fold          # max_normal_angle < 180: the fold test is on (own flag: the census)
     double min_quality       # a face below this quality (and worse than before) is refused
 
 
@@ -30,6 +31,7 @@ cdef inline CheckLimits check_limits(double max_normal_angle, double min_quality
     lim.cos_max_angle = cos(max_normal_angle * M_PI / 180.0)
     lim.cos_orig_angle = cos((max_normal_angle if max_normal_angle < 90.0 else 90.0) * M_PI / 180.0)
     lim.check_orig = max_normal_angle < 180.0
+    lim.check_fold = lim.check_orig
     lim.min_quality = min_quality
     return lim
 

@@ -57,6 +57,7 @@ cdef class EdgeCollapser:
     cdef unsigned char[::1] refused  # 1: an edge of this vertex was refused by a check
     cdef CollapseOptions opt
     cdef CheckLimits lim            # the checks' limits (checks.pxd)
+    cdef bint end_fallback          # place_ok may fall back to an end or the midpoint (allow_end_fallback)
     cdef short[::1] face_n0         # (3 * n_faces,) unit normals of the input faces, x 32767
     cdef short* N0
     cdef bint released              # heap and quadrics freed after the run
@@ -104,6 +105,8 @@ cdef class EdgeCollapser:
     cdef double fan_worst_quality(self, int center, double floor) noexcept nogil
     cdef bint geometry_ok(self, int h, int r, int k, const double* p, int skip_c, int skip_d,
                           double* dvol_out) noexcept nogil
+    cdef bint place_ok(self, int h, int r, int k, double* p, double* cost_err, double limit,
+                       double* dvol_out) noexcept nogil
     cdef double face_volume6(self, int f) noexcept nogil
     cdef bint ring_has(self, int v, int a, int b) noexcept nogil
     cdef bint pair_ok(self, int h, int r, int k, int hs, int rs, int ks, const double* p,

@@ -90,6 +90,10 @@ class EdgeCollapser:
     bound: Bound | None
     def count_bound_refusals(self) -> int:
         """Live candidates that pass every check but the error bound (0 without one)."""
+    def allow_end_fallback(self) -> None:
+        """Let refused candidates collapse at an end or the midpoint of their edge from the next run on."""
+    def refusal_census(self) -> dict[str, int]:
+        """Why each live candidate may not collapse: counts by the check that refuses it."""
     def certified_bound(self) -> float | None:
         """The largest certificate of a live face (normalised units), None without a bound."""
     def _setup_seams(self, partners: ArrayLike | None) -> None: ...

@@ -33,8 +33,8 @@ from .common cimport (QSIZE, VSTRIDE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, RUN_
                       BOUNDARY_PRESERVE, BOUNDARY_FREE, PLACE_OPTIMAL, PLACE_ENDPOINT)
 from .quadric cimport (AttributeQuadrics, sq, collapse_error, quadric_eval, quadric_sum, take_if_lower, quadric_solve,
                        quadric_solve_truncated, within_reach)
-from .checks cimport (check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality, face_volume,
-                      turns_inside_out, sides_of_a_sheet)
+from .checks cimport (CheckLimits, check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality,
+                      face_volume, turns_inside_out, sides_of_a_sheet)
 from .fields cimport FieldSet, STEP_VFIELD, STEP_EFIELD
 from .common cimport RUN_INTERRUPTED
 from .interrupt cimport signal_pending, raise_pending, INTERRUPT_EVERY
@@ -152,6 +152,7 @@ cdef class EdgeCollapser:
         self.opt.placement = placement
         self.opt.boundary = boundary
         self.lim = check_limits(max_normal_angle, min_quality)
+        self.end_fallback = False
         self.opt.max_error = max_error
         # the collapse sequence (a progressive mesh) is only kept on request: 48 bytes/vertex
         self.rec = Records(n, self.n_attr, record)
@@ -619,6 +620,7 @@ cdef class EdgeCollapser:
         cdef const double* X
         cdef bint vol = self.closed_volume != 0.0
         cdef bint orig = self.lim.check_orig
+        cdef bint fold = self.lim.check_fold
         cdef double cos_max = self.lim.cos_max_angle
         cdef double cos_orig = self.lim.cos_orig_angle
         cdef double qlim = self.lim.min_quality
@@ -690,7 +692,7 @@ cdef class EdgeCollapser:
                         q1 = tri_quality(len1, l0 + l1 + l2)
                         if q1 < mq:
                             mq = q1
-                    if orig:
+                    if fold:
                         # no new fold: the face must not bend back onto the neighbour across
                         # its far edge b-c, nor onto the previous face of the fan
                         t = twin[he_next(y)]
@@ -717,6 +719,70 @@ cdef class EdgeCollapser:
                 dvol[0] = dv
                 min_q[0] = mq
                 return True
+
+    cdef bint place_ok(self, int h, int r, int k, double* p, double* cost_err, double limit,
+                       double* dvol_out) noexcept nogil:
+        """``geometry_ok`` for a planned collapse, with a fallback: when the moved faces fail
+        a check at the planned position ``p`` (an optimal placement), the collapse may still
+        go with the kept vertex at one of the edge's ends or its midpoint -- the cheapest
+        first -- if that passes every check and costs no more than ``limit``, what the driver would take
+        next anyway (the greedy driver: the heap's top; the pass driver: the pass's dearest
+        candidate; < 0: no fallback).  Then ``p`` and ``cost_err`` (cost, error) are
+        updated.  Without it, a refusal sends the driver to a costlier collapse elsewhere
+        (issue 17: the thin-CAD set stopped above its targets; docs/algorithms.md)."""
+        cdef double q[QSIZE]
+        cdef double alt[3][3]
+        cdef double ca[3]
+        cdef int order[3]
+        cdef double c, err
+        cdef int i, j, first
+        cdef const double* x
+        if self.geometry_ok(h, r, k, p, -1, -1, dvol_out):
+            return True
+        if not self.end_fallback:
+            return False
+        # only where plan() chose a free optimal placement: neither end fixed, on the border
+        # or a seam, no fields, kernels or attribute quadrics in the cost, no error bound
+        if (limit < 0.0 or self.opt.placement != PLACE_OPTIMAL or self.opt.has_extras or self.aq.dim > 0
+                or self.bound is not None):
+            return False
+        if (self.vflags[k] | self.vflags[r]) & (VERTEX_FIXED | VERTEX_BOUNDARY):
+            return False
+        if self.SP != NULL and (self.SP[k] != SEAM_NONE or self.SP[r] != SEAM_NONE):
+            return False
+        if same_point(p, &self.P[VSTRIDE * k]) or same_point(p, &self.P[VSTRIDE * r]):
+            return False                     # an end was planned already: nothing else to try
+        quadric_sum(&self.Q[VSTRIDE * k], &self.Q[VSTRIDE * r], q)
+        for i in range(3):
+            alt[0][i] = self.P[VSTRIDE * k + i]
+            alt[1][i] = self.P[VSTRIDE * r + i]
+            alt[2][i] = 0.5 * (alt[0][i] + alt[1][i])
+        for i in range(3):
+            ca[i] = quadric_eval(q, alt[i])
+            order[i] = i
+        for i in range(3):
+            for j in range(i + 1, 3):
+                if ca[order[j]] < ca[order[i]]:
+                    first = order[i]
+                    order[i] = order[j]
+                    order[j] = first
+        for j in range(3):
+            i = order[j]
+            x = alt[i]
+            c = ca[i] if ca[i] > 0.0 else 0.0
+            if self.opt.quadric_weight * c > limit:
+                return False
+            err = collapse_error(c, q[10], self.opt.error_scale)
+            if err > self.opt.max_error:
+                return False
+            if self.geometry_ok(h, r, k, x, -1, -1, dvol_out):
+                p[0] = x[0]
+                p[1] = x[1]
+                p[2] = x[2]
+                cost_err[0] = self.opt.quadric_weight * c
+                cost_err[1] = err
+                return True
+        return False
 
     cdef bint geometry_ok(self, int h, int r, int k, const double* p, int skip_c, int skip_d,
                           double* dvol_out) noexcept nogil:
@@ -1112,6 +1178,7 @@ cdef class EdgeCollapser:
     cdef int run_c(self, int target_faces, int max_steps) noexcept nogil:
         cdef int e, h, r, k, hs, rs, ks, steps = 0, n_iter = 0
         cdef double cost, err
+        cdef double ce[2]
         cdef double p[3]
         cdef double dvol[2]
         while self.hm.n_alive_faces > target_faces:
@@ -1150,12 +1217,14 @@ cdef class EdgeCollapser:
                 self.refused[r] = 1
                 self.refused[k] = 1
                 continue
-            if not self.geometry_ok(h, r, k, p, -1, -1, &dvol[0]):
+            ce[0] = cost
+            ce[1] = err
+            if not self.place_ok(h, r, k, p, ce, self.heap.hkey[0] if self.heap.size > 0 else INFINITY, &dvol[0]):
                 self.n_rejected_geometry += 1
                 self.refused[r] = 1
                 self.refused[k] = 1
                 continue
-            self.perform(h, r, p, cost, err, -1.0, dvol[0], True)
+            self.perform(h, r, p, ce[0], ce[1], -1.0, dvol[0], True)
             if self.failed:
                 return RUN_ERROR
             steps += 1
@@ -1209,6 +1278,73 @@ cdef class EdgeCollapser:
                 n += 1
         return n
 
+    def refusal_census(self):
+        """Why each live candidate edge may not collapse now, after a run that found none:
+        a dict of counts -- ``fixed`` (the lock / boundary rules), ``topology`` (the link
+        condition), and for the ones the moved-face checks refuse, the one check which,
+        switched off alone, would let it through (``quality``, ``input_face``, ``fold``,
+        ``turn``, ``volume``), else ``several``; ``free``: passes every check (none, after
+        an exhausted run).  Seam pairs count once.  For the stop detail and for study; the
+        collapser is left as it was."""
+        if self.released:
+            raise RuntimeError("this EdgeCollapser was released")
+        cdef int e, h, r, hs, k, rs, ks
+        cdef double p[3]
+        cdef double dv2[2]
+        cdef double cost, err, dv, vol
+        cdef CheckLimits saved = self.lim
+        out = {"fixed": 0, "topology": 0, "quality": 0, "input_face": 0, "fold": 0, "turn": 0, "volume": 0,
+               "several": 0, "free": 0}
+        for e in range(self.hm.n_edges):
+            if not self.m.edge_alive[e]:
+                continue
+            if self.plan(e, &h, &r, &hs, p, &cost, &err) != 0:
+                out["fixed"] += 1
+                continue
+            k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
+            if hs >= 0:
+                if self.m.edge[h] != e:
+                    continue
+                rs = self.SP[r]
+                ks = self.seam_kept(hs, rs)
+                if (not self.hm.link_ok(h) or not self.hm.link_ok(hs)
+                        or self.ring_has(r, rs, ks) or self.ring_has(k, rs, ks)):
+                    out["topology"] += 1
+                elif self.pair_ok(h, r, k, hs, rs, ks, p, dv2):
+                    out["free"] += 1
+                else:
+                    out["several"] += 1
+                continue
+            if not self.hm.link_ok(h):
+                out["topology"] += 1
+                continue
+            if self.geometry_ok(h, r, k, p, -1, -1, &dv):
+                out["free"] += 1
+                continue
+            reason = "several"
+            for name in ("quality", "input_face", "fold", "turn", "volume"):
+                self.lim = saved
+                vol = self.closed_volume
+                if name == "quality":
+                    self.lim.min_quality = 0.0
+                elif name == "input_face":
+                    self.lim.check_orig = False
+                elif name == "fold":
+                    self.lim.check_fold = False
+                elif name == "turn":
+                    self.lim.cos_max_angle = -2.0
+                else:
+                    self.closed_volume = 0.0
+                ok = self.geometry_ok(h, r, k, p, -1, -1, &dv)
+                self.closed_volume = vol
+                if ok:
+                    reason = name
+                    break
+            self.lim = saved
+            out[reason] += 1
+        self.lim = saved
+        return out
+
     def certified_bound(self):
         """The distance (normalised units) the current mesh is certified to be within of
         the input, both ways: the largest certificate of a live face (None without a bound)."""
@@ -1225,6 +1361,15 @@ cdef class EdgeCollapser:
         if not (0.0 <= min_quality <= 1.0):
             raise ValueError("min_quality must be in [0, 1]")
         self.lim.min_quality = min_quality
+        self.collapses_since_rescan += 1
+
+    def allow_end_fallback(self):
+        """From the next ``run`` on, a candidate whose planned position fails the checks may
+        collapse at an end or the midpoint of its edge (``place_ok``), and every live candidate gets another
+        chance (a full rescan): ``simplify``'s last step when the checks leave no collapse."""
+        if self.released:
+            raise RuntimeError("this EdgeCollapser was released")
+        self.end_fallback = True
         self.collapses_since_rescan += 1
 
     def collapse_pass(self, edges, positions=None, int target_faces=0):

@@ -462,6 +462,7 @@ cdef class PassDriver:
     cdef unsigned char[::1] state   # (n_edges,) ST_*
     cdef int ne                     # edge slots (dead ones are skipped where they come up)
     cdef Keyed[::1] keyed_buf       # (kmax,) the candidates of a pass, in (cost, edge) order
+    cdef double fallback_limit      # the pass's dearest candidate's cost (EdgeCollapser.place_ok)
     cdef int[::1] hist
     cdef int[::1] hist_low          # histogram of the lower 16 cost bits of select()'s last bucket
     cdef int[:, ::1] hist_t         # (threads, N_BUCKETS) rank()'s cost histograms
@@ -511,6 +512,7 @@ cdef class PassDriver:
         self.hist = np.zeros(N_BUCKETS, dtype=np.intc)
         self.hist_low = np.zeros(N_BUCKETS, dtype=np.intc)
         self.n_passes = 0
+        self.fallback_limit = -1.0
         self.n_deferred = 0
         self.n_late = 0
         self.fraction = fraction
@@ -869,7 +871,7 @@ cdef class PassDriver:
         k = he_dest(self.m, h) if self.m.corner[h] == r else self.m.corner[h]
         if not self.c.hm.link_ok(h):
             self.plan_he[pr, 3] = CK_TOPOLOGY
-        elif not self.c.geometry_ok(h, r, k, x, -1, -1, &dvol):
+        elif not self.c.place_ok(h, r, k, x, &x[3], self.fallback_limit, &dvol):
             self.plan_he[pr, 3] = CK_GEOMETRY
         else:
             self.plan_he[pr, 3] = CK_OK
@@ -1367,6 +1369,11 @@ cdef class PassDriver:
             if n_sel > k:
                 n_sel = k
             done = 0
+            # once simplify allows it (EdgeCollapser.allow_end_fallback), a candidate whose
+            # planned position fails the checks may go at an end or the midpoint of its edge
+            # if that costs no more than the pass's dearest candidate (place_ok): a pass
+            # never takes a collapse costlier than its limit
+            self.fallback_limit = self.keyed_buf[n_sel - 1].cost if n_sel > 0 else -1.0
             status = self.walk_pass(n_sel, target_faces, &done)
             self.n_passes += 1
             steps += done

@@ -102,6 +102,7 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
     bar = progress_bar(progress, hm, target)
     n_passes = 0
     relaxed = None
+    fallback = False
     if compiled.batch:
         status, rejected_error, n_passes = run_passes(collapser, compiled, work, target, bar)
     else:
@@ -115,6 +116,13 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
             # the checks left no collapse: relax the quality limit a step and go on
             collapser.relax_quality(step)
             relaxed = step
+            status = run_chunked(driver, hm, target, bar)
+        if status == RUN_EXHAUSTED and operator == "edge" and max_error == math.inf and error_bound is None:
+            # still stuck: let the refused candidates collapse at an end or the midpoint of
+            # their edge (EdgeCollapser.place_ok: every check still holds; only the placement
+            # changes).  Edge collapse only: triangle collapse plans faces, not edges
+            collapser.allow_end_fallback()
+            fallback = True
             status = run_chunked(driver, hm, target, bar)
         rejected_error = collapser.n_rejected_error
         n_passes = driver.n_passes if passes else 0
@@ -135,6 +143,12 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
         stop, detail = STOP_NO_COLLAPSE, _no_collapse_detail(collapser)
     if relaxed is not None and detail:
         detail += f" (min_quality relaxed to {relaxed:g})"
+    if fallback and detail:
+        detail += " (end-of-edge placement allowed)"
+    census = None
+    if stop == STOP_NO_COLLAPSE and operator == "edge" and not compiled.batch and not collapser.failed:
+        census = collapser.refusal_census()
+        detail += "; " + census_detail(census)
     bound = collapser.certified_bound()
     counters = {}
     if error_bound is not None:
@@ -160,6 +174,8 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
             "triangle_collapses": int(collapser.n_tri_collapses),
             "refused_at_second_collapse": int(collapser.n_tri_refused_second),
             "min_quality_relaxed_to": relaxed,
+            "end_fallback": fallback,
+            "refusals": census,
             **counters,
         },
         bound=bound,
@@ -191,6 +207,19 @@ def raise_if_failed(collapser, compiled: Compiled) -> None:
         if k.failed:
             raise MetricError(f"metric {m.name!r} failed during the run: {k.message}")
     raise MetricError(f"a metric kernel failed during the run: {collapser.error_message}")
+
+
+#: the stop census's names (EdgeCollapser.refusal_census) as the stop detail words them
+CENSUS_WORDS = {"fixed": "locked or boundary rules", "topology": "link condition (topology)",
+                "quality": "quality", "input_face": "turn from the input face", "fold": "fold",
+                "turn": "normal turn", "volume": "enclosed volume", "several": "more than one check",
+                "free": "no check"}
+
+
+def census_detail(census: dict) -> str:
+    """The stop census as words: what refuses the last candidate edges, most first."""
+    parts = [f"{n} {CENSUS_WORDS[k]}" for k, n in sorted(census.items(), key=lambda kv: -kv[1]) if n]
+    return "last candidates refused by: " + (", ".join(parts) if parts else "none left")
 
 
 def _no_collapse_detail(collapser) -> str:
