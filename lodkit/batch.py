@@ -140,7 +140,10 @@ def batch(inputs, out_dir, *, ratios=(0.5, 0.1, 0.02), format: str = "ply", sche
             # output; Dask's worker processes get one through OMP_NUM_THREADS=1)
             task_options = dict(options, threads=1) if engine.kind == "threads" else options
             futures = {}
-            for row in todo:
+            # the largest files first (longest processing time first): a large mesh left to
+            # the end keeps one worker busy while the others wait (the manifest keeps the
+            # input order)
+            for row in sorted(todo, key=_work_estimate, reverse=True):
                 job = {k: row[k] for k in ("key", "input", "sha256")}
                 futures[engine.submit(run_item, job, str(out), list(ratios), format, task_options)] = row
             for future, result, exc in engine.completed(list(futures)):
@@ -157,6 +160,14 @@ def batch(inputs, out_dir, *, ratios=(0.5, 0.1, 0.02), format: str = "ply", sche
     bar.close()
     paths = _write_manifest(out, rows, settings, settings_hash)
     return BatchResult(rows=rows, manifest=paths, elapsed=time.perf_counter() - t0)
+
+
+def _work_estimate(row: dict) -> int:
+    """How long an input may take, for the submission order: its file size (0 if gone)."""
+    try:
+        return os.path.getsize(row["input"])
+    except OSError:
+        return 0
 
 
 def run_item(job: dict, out_dir: str, ratios: list, fmt: str, options: dict) -> dict:
