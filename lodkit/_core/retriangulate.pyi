@@ -2,6 +2,7 @@
 removal.  The nogil routines (split_loop, fan_from, closest_line_apex) are cimported from
 retriangulate.pxd; these are their Python test wrappers."""
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -27,3 +28,11 @@ def py_fan_from(apex: int, k: int) -> NDArray[np.int32]:
 def py_closest_line_apex(points: ArrayLike, x: ArrayLike) -> int:
     """Chuon & Guha: the loop index of the end, nearer to ``x``, of the line through two
     loop vertices closest to ``x`` (-1 if k < 3)."""
+
+def carried_points(ctx: Any, n: int) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.int32]]:
+    """The starting lists of a removal kernel's carried points: (face centroids flattened,
+    the head point of each face slot, the next point of each point; -1 ends a list)."""
+
+def auto_mode(name: str, value: Any, modes: Sequence[str], paper: str, ours: str, accumulate: str) -> int:
+    """The index in ``modes`` of a removal kernel's option (``"auto"``: ``paper`` with
+    accumulate="off", else ``ours``)."""

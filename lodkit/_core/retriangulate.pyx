@@ -24,6 +24,8 @@ function does)."""
 # with one empty side: every other vertex must lie on the loop's side of the plane through
 # that edge (Schroeder's own vtkDecimate does this for the new boundary edge of a boundary
 # vertex); the loop is then triangulated without constraint.
+import numpy as np
+
 from libc.math cimport sqrt, INFINITY
 from libc.float cimport DBL_MIN, DBL_MAX
 
@@ -517,3 +519,32 @@ def py_closest_line_apex(points, x):
     cdef double[::1] Xv = X
     cdef int[::1] loop = np.arange(k, dtype=np.int32)
     return closest_line_apex(&Pv[0, 0], 3, &loop[0], k, &Xv[0])
+
+
+def carried_points(ctx, int n):
+    """The starting lists of a removal kernel's carried points (``accumulate="points"``,
+    removal_star.pxd): every input face's centroid (point ``n + f``) on its own face.
+    Returns (centroids flattened (3 nf,), the head point of each face slot, the next point
+    of each of the n + nf points: -1 ends a list); ``ctx`` None: no faces."""
+    if ctx is not None:
+        corners = np.asarray(ctx.halfedge.corners, dtype=np.int64)
+        pos = np.asarray(ctx.positions, dtype=np.float64)
+        cent = pos[corners].mean(axis=1) if len(corners) else np.zeros((0, 3))
+    else:
+        cent = np.zeros((0, 3))
+    nf = len(cent)
+    flat = np.ascontiguousarray(cent.reshape(-1) if nf else np.zeros(3))
+    head = np.arange(n, n + max(nf, 1), dtype=np.int32) if nf else np.full(1, -1, dtype=np.int32)
+    nxt = np.full(max(n + nf, 1), -1, dtype=np.int32)
+    return flat, head, nxt
+
+
+def auto_mode(name, value, modes, paper, ours, accumulate):
+    """The index in ``modes`` of a removal kernel's option ``name``: ``value``, where
+    "auto" is the paper's reading (``paper``) with ``accumulate="off"`` and lodkit's
+    (``ours``) otherwise; ValueError naming the choices for anything else."""
+    if value == "auto":
+        value = paper if accumulate == "off" else ours
+    if value not in modes:
+        raise ValueError(f"{name} must be 'auto' or one of {modes}, got {value!r}")
+    return modes.index(value)

@@ -52,6 +52,8 @@ import math as _math
 
 import numpy as np
 
+from .retriangulate import auto_mode, carried_points
+
 from libc.math cimport sqrt, NAN
 
 from lodkit.kernel cimport KernelMesh, KERNEL_OK, KERNEL_VETO
@@ -154,12 +156,8 @@ cdef class SchroederKernel(RemovalKernel):
         acc = options.get("accumulate", "points")
         rc = options.get("remove_corners", None)
         self.remove_corners = (acc != "off") if rc is None else bool(rc)
-        tri = options.get("triangulation", "auto")
-        if tri == "auto":
-            tri = "split" if acc == "off" else "nearest"
-        if tri not in TRIANGULATION_MODES:
-            raise ValueError(f"triangulation must be 'auto' or one of {TRIANGULATION_MODES}, got {tri!r}")
-        self.triangulation_code = TRIANGULATION_MODES.index(tri)
+        self.triangulation_code = auto_mode("triangulation", options.get("triangulation", "auto"),
+                                            TRIANGULATION_MODES, "split", "nearest", acc)
         if acc not in ACCUMULATE_MODES:
             raise ValueError(f"accumulate must be one of {ACCUMULATE_MODES}, got {acc!r}")
         self.accumulate_code = ACCUMULATE_MODES.index(acc)
@@ -167,17 +165,8 @@ cdef class SchroederKernel(RemovalKernel):
         self._acc = np.zeros(max(n, 1))
         self.acc = &self._acc[0]
         self._nv = n
-        if ctx is not None:
-            corners = np.asarray(ctx.halfedge.corners, dtype=np.int64)
-            pos = np.asarray(ctx.positions, dtype=np.float64)
-            cent = pos[corners].mean(axis=1) if len(corners) else np.zeros((0, 3))
-        else:
-            cent = np.zeros((0, 3))
-        nf = len(cent)
-        self._cent = np.ascontiguousarray(cent.reshape(-1) if nf else np.zeros(3))
         # each face slot starts with its own centroid (point n + f)
-        self._head = np.arange(n, n + max(nf, 1), dtype=np.int32) if nf else np.full(1, -1, dtype=np.int32)
-        self._nxt = np.full(max(n + nf, 1), -1, dtype=np.int32)
+        self._cent, self._head, self._nxt = carried_points(ctx, n)
         self.n_acc = n
 
     cdef int evaluate(self, const Star* s, Removal* r) noexcept nogil:

@@ -65,6 +65,8 @@ paper's fan and the hole's least-volume triangulation the one nearer V
 """
 import numpy as np
 
+from .retriangulate import auto_mode, carried_points
+
 from libc.math cimport sqrt, fabs, atan2, acos, cos, NAN, INFINITY, M_PI
 
 from lodkit.kernel cimport (KernelMesh, KERNEL_OK, KERNEL_VETO, KERNEL_ERROR, VERTEX_FIXED)
@@ -720,35 +722,18 @@ cdef class VolumeKernel(RemovalKernel):
             raise ValueError(f"accumulate must be one of {ACCUMULATE_MODES}, got {acc!r}")
         self.accumulate_code = ACCUMULATE_MODES.index(acc)
         # lodkit's readings follow accumulate unless set: "off" is the paper throughout
-        hyp = options.get("hyperbolic", "auto")
-        if hyp == "auto":
-            hyp = "veto" if acc == "off" else "remove"
-        if hyp not in HYPERBOLIC_MODES:
-            raise ValueError(f"hyperbolic must be 'auto' or one of {HYPERBOLIC_MODES}, got {hyp!r}")
-        self.hyperbolic_code = HYPERBOLIC_MODES.index(hyp)
-        tri = options.get("triangulation", "auto")
-        if tri == "auto":
-            tri = "closest_line" if acc == "off" else "nearest"
-        if tri not in TRIANGULATION_MODES:
-            raise ValueError(f"triangulation must be 'auto' or one of {TRIANGULATION_MODES}, got {tri!r}")
-        self.triangulation_code = TRIANGULATION_MODES.index(tri)
+        self.hyperbolic_code = auto_mode("hyperbolic", options.get("hyperbolic", "auto"), HYPERBOLIC_MODES,
+                                         "veto", "remove", acc)
+        self.triangulation_code = auto_mode("triangulation", options.get("triangulation", "auto"),
+                                            TRIANGULATION_MODES, "closest_line", "nearest", acc)
         n = int(ctx.n_vertices) if ctx is not None else int(options.get("n_vertices", 0))
         self._state = np.zeros(max(n, 1), dtype=np.uint8)
         self.state = &self._state[0]
         self._acc = np.zeros(max(n, 1))
         self.acc = &self._acc[0]
         self._nv = n
-        if ctx is not None:
-            corners = np.asarray(ctx.halfedge.corners, dtype=np.int64)
-            pos = np.asarray(ctx.positions, dtype=np.float64)
-            cent = pos[corners].mean(axis=1) if len(corners) else np.zeros((0, 3))
-        else:
-            cent = np.zeros((0, 3))
-        nf = len(cent)
-        self._cent = np.ascontiguousarray(cent.reshape(-1) if nf else np.zeros(3))
         # each face slot starts with its own centroid (point n + f)
-        self._head = np.arange(n, n + max(nf, 1), dtype=np.int32) if nf else np.full(1, -1, dtype=np.int32)
-        self._nxt = np.full(max(n + nf, 1), -1, dtype=np.int32)
+        self._cent, self._head, self._nxt = carried_points(ctx, n)
         self.n_state = n
         self.counts[0] = n
         self.counts[1] = self.counts[2] = self.counts[3] = 0
