@@ -485,8 +485,8 @@ cdef int measure_star(const double* V, const double* W, int k, bint closed, doub
     """Classify and measure the star of V (neighbour positions W, k x 3, in link order)."""
     cdef double u[3 * MAX_VALENCE]
     cdef double U[3 * MAX_VALENCE]
-    cdef double n, total = 0.0
-    cdef int i, j, last
+    cdef double n
+    cdef int i, j
     out.angle = NAN
     out.height = NAN
     out.margin = NAN
@@ -540,18 +540,28 @@ cdef int measure_star(const double* V, const double* W, int k, bint closed, doub
         if out.cls != C_NON_HYPERBOLIC:
             return out.cls
     out.on_hull = out.margin <= tol
-    last = k if closed else k - 1
+    angle_and_height(u, U, k, closed, out)
+    return C_NON_HYPERBOLIC
+
+
+cdef void angle_and_height(const double* u, const double* U, int k, bint closed, Measure* out) noexcept nogil:
+    """angle(V): the fan of solid angles about ``out.pole`` (doubled for an open star,
+    capped at 2 pi: more only for a self-overlapping, folded link), and ht(V) (an open
+    star: at least the distance to the line through its two border neighbours), from the
+    star's spokes ``u`` and their unit vectors ``U``."""
+    cdef double total = 0.0
+    cdef int i, j
+    cdef int last = k if closed else k - 1
     for i in range(last):
         j = i + 1 if i + 1 < k else 0
         total += solid_angle_unit(out.pole, &U[3 * i], &U[3 * j])
     total = fabs(total)
     if not closed:
         total *= 2.0
-    out.angle = min(total, 2.0 * M_PI)   # > 2 pi only for a self-overlapping (folded) link
+    out.angle = min(total, 2.0 * M_PI)
     out.height = plane_height(u, k)
     if not closed:
         out.height = max(out.height, line_distance(&u[0], &u[3 * (k - 1)]))
-    return C_NON_HYPERBOLIC
 
 
 cdef int measure_saddle(const double* V, const double* W, int k, bint closed, Measure* out) noexcept nogil:
@@ -562,8 +572,8 @@ cdef int measure_saddle(const double* V, const double* W, int k, bint closed, Me
     C_NON_HYPERBOLIC, or C_DEGENERATE when the star has no mean normal."""
     cdef double u[3 * MAX_VALENCE]
     cdef double U[3 * MAX_VALENCE]
-    cdef double n, total = 0.0
-    cdef int i, j, last
+    cdef double n
+    cdef int i, j
     for i in range(k):
         for j in range(3):
             u[3 * i + j] = W[3 * i + j] - V[j]
@@ -578,17 +588,7 @@ cdef int measure_saddle(const double* V, const double* W, int k, bint closed, Me
     for j in range(3):
         out.pole[j] = out.normal[j] / n
     out.on_hull = 0
-    last = k if closed else k - 1
-    for i in range(last):
-        j = i + 1 if i + 1 < k else 0
-        total += solid_angle_unit(out.pole, &U[3 * i], &U[3 * j])
-    total = fabs(total)
-    if not closed:
-        total *= 2.0
-    out.angle = min(total, 2.0 * M_PI)
-    out.height = plane_height(u, k)
-    if not closed:
-        out.height = max(out.height, line_distance(&u[0], &u[3 * (k - 1)]))
+    angle_and_height(u, U, k, closed, out)
     return C_NON_HYPERBOLIC
 
 
