@@ -83,6 +83,30 @@ def test_sync_batch_equals_serial_simplify(tmp_path):
         lodkit.simplify(lodkit.load(paths[0]), target_ratio=r).mesh.n_faces for r in RATIOS]
 
 
+def test_largest_inputs_go_first_and_the_manifest_keeps_the_input_order(tmp_path, monkeypatch):
+    """Longest processing time first: the tasks are submitted largest file first (a large
+    mesh left to the end would keep one worker busy while the others wait); the rows and
+    the manifest stay in the input order."""
+    batch_module = sys.modules["lodkit.batch"]     # (lodkit.batch is also the function)
+
+    paths = write_meshes(tmp_path / "in", sizes=(600, 3000, 1200))
+    ran = []
+    real = batch_module.run_item
+
+    def recording(job, *args):
+        ran.append(Path(job["input"]).name)
+        return real(job, *args)
+
+    monkeypatch.setattr(batch_module, "run_item", recording)
+    result = lodkit.batch(paths, tmp_path / "out", ratios=RATIOS, scheduler="sync")
+    by_size = sorted(paths, key=lambda p: p.stat().st_size, reverse=True)
+    assert ran == [p.name for p in by_size] == ["mesh1.ply", "mesh2.ply", "mesh0.ply"]
+    assert [Path(r["input"]).name for r in result.rows] == ["mesh0.ply", "mesh1.ply", "mesh2.ply"]
+    with open(result.manifest["csv"], newline="") as fh:
+        names = [Path(row["input"]).name for row in csv.DictReader(fh)]
+    assert names == ["mesh0.ply", "mesh1.ply", "mesh2.ply"]
+
+
 def test_four_meshes_on_four_threads_equal_serial_runs(tmp_path):
     """The core runs without the GIL: four meshes simplified at once on four threads give
     the files four serial runs give, bit for bit."""
