@@ -135,6 +135,8 @@ def _parse_real_slow(tok: bytes) -> float:
             mant = np.float32(float(ip + b"." + fp if fp else ip or b"0"))
         if ex is not None:
             e = int(ex)
-            mant = np.float32(mant * np.float32(10.0 ** e if -330 < e < 310 else (0.0 if e < 0 else np.inf)))
+            # 10.0 ** 309 overflows a Python float (OverflowError, not inf): the float32
+            # result is inf from 1e39 on anyway
+            mant = np.float32(mant * np.float32(10.0 ** e if -330 < e < 309 else (0.0 if e < 0 else np.inf)))
     v = float(mant)
     return -v if sign == b"-" else v
