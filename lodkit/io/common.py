@@ -130,7 +130,7 @@ def _parse_real_slow(tok: bytes) -> float:
     ipv, fpv = int(ip or b"0"), int(fp or b"0")
     with np.errstate(over="ignore", under="ignore", invalid="ignore"):
         if ipv < 1 << 24 and fpv < 1 << 24:
-            mant = np.float32(ipv) + np.float32(fpv) / np.float32(10.0 ** len(fp))
+            mant = np.float32(ipv) + np.float32(fpv) / np.float32(10.0 ** min(len(fp), 308))
         else:
             mant = np.float32(float(ip + b"." + fp if fp else ip or b"0"))
         if ex is not None:
