@@ -880,7 +880,6 @@ cdef class PassDriver:
     cdef int group(self, int n_sel) noexcept nogil:
         """Group the pass's candidates by the block of their first end (a counting sort,
         cost order kept within a block) and clear the blocks' tallies."""
-        cdef int i, b, e, acc = 0, size
         cdef long long nv = self.c.hm.n_vertices
         cdef long long alive = self.c.hm.n_alive_vertices
         cdef long long per = self.block
@@ -896,28 +895,8 @@ cdef class PassDriver:
         if self.n_blocks > self.acc_i.shape[0]:
             self.n_blocks = self.acc_i.shape[0]          # cannot happen (see __init__)
             self.bsize = <int>((nv + self.n_blocks - 1) // self.n_blocks)
-        memset(&self.blk_start[0], 0, (self.n_blocks + 1) * sizeof(int))
-        for i in range(n_sel):
-            e = self.keyed_buf[i].edge
-            b = self.m.corner[self.m.edge_he[e]] // self.bsize
-            self.cblock[i] = b
-            self.cflag[i] = 0
-            self.blk_start[b + 1] += 1
-        for b in range(self.n_blocks):
-            size = self.blk_start[b + 1]
-            self.blk_start[b] = acc
-            acc += size
-        self.blk_start[self.n_blocks] = acc
-        for i in range(n_sel):
-            b = self.cblock[i]
-            self.blk_order[self.blk_start[b]] = i
-            self.blk_edge[self.blk_start[b]] = self.keyed_buf[i].edge
-            self.blk_start[b] += 1
-        for b in range(self.n_blocks - 1, 0, -1):
-            self.blk_start[b] = self.blk_start[b - 1]
-        self.blk_start[0] = 0
-        memset(&self.acc_i[0, 0], 0, self.n_blocks * 4 * sizeof(int))
-        memset(&self.acc_x[0, 0], 0, self.n_blocks * 2 * sizeof(double))
+        memset(&self.cflag[0], 0, n_sel * sizeof(unsigned char))
+        self.by_block(n_sel, self.n_blocks, 0, False)
         return 0
 
     cdef inline bint in_block(self, int v, int lo) noexcept nogil:
@@ -1122,11 +1101,19 @@ cdef class PassDriver:
         that reached over a border of the blocks before lies inside one of these; clears
         their tallies and marks them CF_PENDING_B (try_inside makes those that still reach
         out CF_DEFER again).  Returns the number of blocks."""
-        cdef int i, b, acc = 0, size
         cdef int nb = (self.c.hm.n_vertices + half) // self.bsize + 1
+        self.by_block(n_sel, nb, half, True)
+        return nb
+
+    cdef void by_block(self, int n_sel, int nb, int half, bint deferred) noexcept nogil:
+        """Group the pass's candidates (``deferred``: only those CF_DEFER, which become
+        CF_PENDING_B) by the block of ``bsize`` slots, shifted by ``half``, of their first end:
+        a counting sort, cost order kept within a block, into cblock, blk_order, blk_edge and
+        blk_start; and clear the ``nb`` blocks' tallies."""
+        cdef int i, b, acc = 0, size
         memset(&self.blk_start[0], 0, (nb + 1) * sizeof(int))
         for i in range(n_sel):
-            if self.cflag[i] != CF_DEFER:
+            if deferred and self.cflag[i] != CF_DEFER:
                 continue
             b = (self.m.corner[self.m.edge_he[self.keyed_buf[i].edge]] + half) // self.bsize
             self.cblock[i] = b
@@ -1137,9 +1124,10 @@ cdef class PassDriver:
             acc += size
         self.blk_start[nb] = acc
         for i in range(n_sel):
-            if self.cflag[i] != CF_DEFER:
-                continue
-            self.cflag[i] = CF_PENDING_B
+            if deferred:
+                if self.cflag[i] != CF_DEFER:
+                    continue
+                self.cflag[i] = CF_PENDING_B
             b = self.cblock[i]
             self.blk_order[self.blk_start[b]] = i
             self.blk_edge[self.blk_start[b]] = self.keyed_buf[i].edge
@@ -1149,7 +1137,6 @@ cdef class PassDriver:
         self.blk_start[0] = 0
         memset(&self.acc_i[0, 0], 0, nb * 4 * sizeof(int))
         memset(&self.acc_x[0, 0], 0, nb * 2 * sizeof(double))
-        return nb
 
     cdef int walk_pass(self, int n_sel, int target_faces, int* done) noexcept nogil:
         """One pass over the K cheapest candidates (keyed_buf[:n_sel]), in two stages.

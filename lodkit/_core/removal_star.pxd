@@ -94,19 +94,30 @@ cdef inline double point_triangle_dist2(const double* p, const double* a, const 
     return (p[0] - q[0]) ** 2 + (p[1] - q[1]) ** 2 + (p[2] - q[2]) ** 2
 
 
+cdef inline double _nearest_tri2(const double* positions, int stride, const double* x, const int* link,
+                                 const int* tri, int n_tris, double floor) noexcept nogil:
+    """The squared distance of x to its nearest triangle of ``tri`` (-1 with none), or some
+    value <= ``floor`` as soon as one triangle is that near (the caller keeps a maximum that
+    such a point cannot raise; a negative floor: the nearest)."""
+    cdef int t
+    cdef double d2, best = -1.0
+    for t in range(n_tris):
+        d2 = point_triangle_dist2(x, &positions[stride * link[tri[3 * t]]],
+                                  &positions[stride * link[tri[3 * t + 1]]],
+                                  &positions[stride * link[tri[3 * t + 2]]])
+        if best < 0.0 or d2 < best:
+            best = d2
+            if best <= floor:
+                break
+    return best
+
+
 cdef inline double patch_distance(const double* positions, int stride, const double* p, const int* link,
                                   const int* tri, int n_tris) noexcept nogil:
     """The distance of p to the nearest of the ``n_tris`` triangles ``tri`` (indices into
     ``link``, whose entries index ``positions``): how far a removed vertex lies from the
     patch that replaces its star (0 when there is no triangle)."""
-    cdef int t
-    cdef double d2, best = -1.0
-    for t in range(n_tris):
-        d2 = point_triangle_dist2(p, &positions[stride * link[tri[3 * t]]],
-                                  &positions[stride * link[tri[3 * t + 1]]],
-                                  &positions[stride * link[tri[3 * t + 2]]])
-        if best < 0.0 or d2 < best:
-            best = d2
+    cdef double best = _nearest_tri2(positions, stride, p, link, tri, n_tris, -1.0)
     return sqrt(best) if best > 0.0 else 0.0
 
 
@@ -120,24 +131,6 @@ cdef inline double patch_distance(const double* positions, int stride, const dou
 # the nearest face of the new patch.  A removed vertex then always lies within the
 # recorded distance of its face, so the largest recorded distance bounds how far any input
 # vertex lies from the output.
-
-cdef inline double _nearest_tri2(const double* positions, int stride, const double* x, const int* link,
-                                 const int* tri, int n_tris, double floor) noexcept nogil:
-    """The squared distance of x to its nearest triangle of ``tri``, or some value <=
-    ``floor`` as soon as one triangle is that near (the caller keeps a maximum that such a
-    point cannot raise)."""
-    cdef int t
-    cdef double d2, best = -1.0
-    for t in range(n_tris):
-        d2 = point_triangle_dist2(x, &positions[stride * link[tri[3 * t]]],
-                                  &positions[stride * link[tri[3 * t + 1]]],
-                                  &positions[stride * link[tri[3 * t + 2]]])
-        if best < 0.0 or d2 < best:
-            best = d2
-            if best <= floor:
-                break
-    return best
-
 
 cdef inline const double* carried_point(const double* positions, int stride, const double* cent,
                                         int nv, int q) noexcept nogil:

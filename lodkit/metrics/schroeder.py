@@ -13,6 +13,7 @@ formulas, the defaults' sources and the readings where the sources are terse.
 from __future__ import annotations
 
 from .._core.schroeder_kernel import DEFAULT_FEATURE_ANGLE, DEFAULT_MIN_ASPECT, SchroederKernel
+from ._removal import accumulate_option
 from .base import Option, RemovalMetric
 
 
@@ -42,11 +43,5 @@ class Schroeder(RemovalMetric):
                                     "removed vertex (none that folds; also when no loop split is "
                                     "valid); 'split' = the paper's recursive loop splitting; 'auto' "
                                     "= 'split' with accumulate='off', else 'nearest'"),
-        "accumulate": Option("points", choices=("points", "bound", "off"),
-                             doc="lodkit's addition: 'bound' = carry what each removal took away to "
-                                 "the vertices that remain: a vertex's error e is the larger of d "
-                                 "and its distance to the patch that would replace its star, plus "
-                                 "the largest e of a removed neighbour (an accumulated distance "
-                                 "bound; ranked by e, held to max_error); 'off' = the paper's "
-                                 "memory-less rule"),
+        "accumulate": accumulate_option("d", "e"),
     }

@@ -22,6 +22,7 @@ docs/metrics/volume.md gives the formulas as implemented and the readings chosen
 from __future__ import annotations
 
 from .._core.volume_kernel import VolumeKernel
+from ._removal import accumulate_option
 from .base import Option, RemovalMetric
 
 
@@ -58,11 +59,5 @@ class Volume(RemovalMetric):
                                     "least-volume triangulation, the one nearer to "
                                     "the removed vertex (none that folds); 'closest_line' = the paper's "
                                     "fan; 'auto' = 'closest_line' with accumulate='off', else 'nearest'"),
-        "accumulate": Option("points", choices=("points", "bound", "off"),
-                             doc="lodkit's addition: 'bound' = carry what each removal took away to "
-                                 "the vertices that remain: a vertex's error e is the larger of ht(V) "
-                                 "and its distance to the patch that would replace its star, plus "
-                                 "the largest e of a removed neighbour (an accumulated distance "
-                                 "bound; ranked by angle * e^3, held to max_error); 'off' = the paper's "
-                                 "memory-less rule"),
+        "accumulate": accumulate_option("ht(V)", "angle * e^3"),
     }
