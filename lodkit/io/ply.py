@@ -123,6 +123,8 @@ def _read_binary_element(el: _Element, buf: memoryview, pos: int, order: str):
             fields.append((name, order + t))
             p0 += np.dtype(t).itemsize
         else:
+            if p0 + np.dtype(t).itemsize > len(buf):
+                raise FileFormatError(f"element '{el.name}' row 0 runs past the end of the file")
             c = int(np.frombuffer(buf, dtype=order + t, count=1, offset=p0)[0])
             if c < 0:
                 raise FileFormatError(f"element '{el.name}' row 0: negative list length {c}")
