@@ -37,7 +37,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 CORPUS = ROOT / "tests" / "fuzz_corpus"
 READERS = ("ply", "obj", "off", "stl", "glb", "gltf")
-TARGETS = READERS + ("simplify",)
+BLOCK_READERS = ("obj-blocks", "off-blocks")     # lodkit.io.stream: text read in blocks (simplify_large)
+TARGETS = READERS + BLOCK_READERS + ("simplify",)
 METRICS = ("qem", "qem_native", "melod", "curvature", "appearance", "schroeder", "volume",
            ("normal_qem", {"normals": "estimate"}), ["qem", ("importance", {"values": "height"})])
 
@@ -55,6 +56,25 @@ def check_reader(fmt: str, data: bytes) -> None:
         Mesh(got.vertices, got.faces, normals=got.normals, colors=got.colors, uvs=got.uvs)
     except (FileFormatError, LodkitError):
         pass
+
+
+def check_blocks(target: str, data: bytes) -> None:
+    """Convert ``data`` as an OBJ / OFF file into a binary PLY the way simplify_large does,
+    in blocks of 1-64 bytes (the first byte chooses: every cut position gets tried); raise
+    if it crashes."""
+    import tempfile
+
+    from lodkit.io.common import FileFormatError
+    from lodkit.io.stream import to_binary_ply
+
+    fmt = target.split("-")[0]
+    with tempfile.TemporaryDirectory() as tmp:
+        src = Path(tmp) / f"in.{fmt}"
+        src.write_bytes(data)
+        try:
+            to_binary_ply(src, Path(tmp) / "out.ply", size=1 + (data[0] % 64 if data else 0))
+        except FileFormatError:
+            pass
 
 
 class Bytes:
@@ -168,6 +188,8 @@ def check_simplify(data: bytes) -> None:
 def check(target: str, data: bytes) -> None:
     if target == "simplify":
         check_simplify(data)
+    elif target in BLOCK_READERS:
+        check_blocks(target, data)
     else:
         check_reader(target, data)
 
@@ -177,6 +199,8 @@ def seeds(target: str) -> list[bytes]:
     """Valid inputs to mutate: small meshes lodkit wrote in the format (every attribute
     combination), plus the corpus kept in tests/fuzz_corpus/<target>/."""
     out = []
+    if target in BLOCK_READERS:
+        return seeds(target.split("-")[0]) + _corpus(target)
     if target in READERS:
         import tempfile
         import warnings
@@ -205,10 +229,12 @@ def seeds(target: str) -> list[bytes]:
     else:
         for i in range(8):
             out.append(hashlib.sha256(str(i).encode()).digest() * 4)
+    return out + _corpus(target)
+
+
+def _corpus(target: str) -> list[bytes]:
     d = CORPUS / target
-    if d.is_dir():
-        out += [p.read_bytes() for p in sorted(d.iterdir()) if p.is_file()]
-    return out
+    return [p.read_bytes() for p in sorted(d.iterdir()) if p.is_file()] if d.is_dir() else []
 
 
 def corpus_files(target: str) -> list[Path]:

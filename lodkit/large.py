@@ -1,6 +1,7 @@
 """``simplify_large()``: simplify a mesh too large for one process, tile by tile, on Dask.
 
-read the input without building the mesh (binary PLY through a memory map) -> partition
+read the input without building the mesh (binary PLY through a memory map; OBJ and OFF
+converted once, in blocks, into such a PLY: lodkit.io.stream) -> partition
 the faces into spatial tiles in one streaming pass, noting the vertices that tiles share
 -> write each tile as a compact part (positions, local faces, local-to-global vertex ids,
 the shared ones) -> simplify the parts on the workers with the shared vertices and their
@@ -33,6 +34,8 @@ import numpy as np
 
 from ._executor import open_executor
 from .errors import MeshError, MeshIOError, OptionError
+from .io.common import FileFormatError
+from .io.stream import STREAMED, to_binary_ply
 
 __all__ = ["LargeResult", "simplify_large", "default_in_core_faces", "open_source", "CHUNK_FACES"]
 
@@ -84,8 +87,12 @@ def simplify_large(in_path, out_path, *, target_faces: int | None = None, target
     a scheduler address).  ``work_dir`` holds the parts (default: a temporary folder next
     to ``out_path``); on a multi-machine cluster it must be a folder every worker sees.
 
-    Binary little-endian PLY inputs are read through a memory map; other formats are loaded
-    once with :func:`lodkit.load`.  Positions only: normals, colours and uvs are not carried.
+    Binary PLY inputs are read through memory maps, and OBJ and OFF inputs are first
+    converted in blocks into such a PLY in the work folder (:mod:`lodkit.io.stream`), so the
+    driving process never holds the whole mesh; other formats (ASCII PLY, STL, glTF) are
+    loaded once with :func:`lodkit.load`.  Positions only: normals, colours and uvs are not
+    carried, and ``vertex_map`` gives the file's own vertex numbers (OBJ: its 'v' lines,
+    0-based; not :func:`lodkit.load`'s vertices, which split positions at uv seams).
     """
     from .io import save
     from .mesh import Mesh
@@ -99,22 +106,21 @@ def simplify_large(in_path, out_path, *, target_faces: int | None = None, target
         raise OptionError(f"in_core_faces must be a positive integer, got {in_core_faces!r}")
     _check_output_path(out_path)
 
-    source = open_source(in_path)
-    n_in = source.n_faces
-    target = resolve_target(n_in, target_faces, target_ratio, max_error)
-    if in_core_faces is None:
-        in_core_faces = default_in_core_faces(tile_faces, target)
-    lo, hi, area = source.bounds_and_area()
-    diag = float(np.linalg.norm(hi - lo))
-    error_limit = None if max_error is None else (max_error if absolute else max_error * diag)
-    options = {"metric": metric, "absolute": True}
-
     parts_dir = Path(tempfile.mkdtemp(prefix=".lodkit-tiles-", dir=work_dir or os.path.dirname(
         os.path.abspath(out_path))))
     rounds, origin = [], None          # origin: input vertex of each current vertex (None: identity)
     max_err = 0.0
-    engine = None
+    engine = source = None
     try:
+        source = open_source(in_path, parts_dir)
+        n_in = source.n_faces
+        target = resolve_target(n_in, target_faces, target_ratio, max_error)
+        if in_core_faces is None:
+            in_core_faces = default_in_core_faces(tile_faces, target)
+        lo, hi, area = source.bounds_and_area()
+        diag = float(np.linalg.norm(hi - lo))
+        error_limit = None if max_error is None else (max_error if absolute else max_error * diag)
+        options = {"metric": metric, "absolute": True}
         k = 0
         while source.n_faces > in_core_faces and k < MAX_ROUNDS:
             if engine is None:
@@ -162,7 +168,8 @@ def simplify_large(in_path, out_path, *, target_faces: int | None = None, target
     finally:
         if engine is not None:
             engine.close()
-        source.close()
+        if source is not None:
+            source.close()
         shutil.rmtree(parts_dir, ignore_errors=True)
     error = max_err if absolute else (max_err / diag if diag > 0 else 0.0)
     return LargeResult(mesh=mesh, vertex_map=origin[vertex_map].astype(np.int64), error=float(error),
@@ -376,9 +383,11 @@ def _weld(results):
 
 
 # ---------------------------------------------------------------------- inputs
-def open_source(path):
-    """A reader of ``path``'s positions and faces in chunks: a memory map of a binary
-    little-endian PLY of triangles, else the arrays :func:`lodkit.load` gives."""
+def open_source(path, work_dir=None):
+    """A reader of ``path``'s positions and faces in chunks: memory maps of a binary PLY of
+    triangles; an OBJ or OFF file converted in blocks into such a PLY in ``work_dir``
+    (:mod:`lodkit.io.stream`; None: loaded whole); other files (ASCII PLY, polygon PLY,
+    STL, glTF) the arrays :func:`lodkit.load` gives."""
     p = Path(os.fspath(path))
     if not p.is_file():
         raise MeshIOError(f"cannot load {p}: no such file")
@@ -386,6 +395,19 @@ def open_source(path):
         source = PlySource.open(p)
         if source is not None:
             return source
+    if work_dir is not None and p.suffix.lower() in STREAMED:
+        converted = Path(work_dir) / "input.ply"
+        try:
+            to_binary_ply(p, converted)
+        except FileFormatError as exc:
+            raise MeshIOError(f"cannot load {p}: {exc} (truncated or corrupt {p.suffix[1:].upper()} file)") from None
+        except (ValueError, OverflowError) as exc:
+            raise MeshIOError(f"cannot load {p}: malformed {p.suffix[1:].upper()} file ({exc})") from None
+        source = PlySource.open(converted)
+        source.path = p                      # errors name the file the caller gave
+        if source.n_faces == 0:
+            raise MeshIOError(f"cannot load {p}: the file holds no triangles")
+        return source
     from .io import load
 
     mesh = load(p)
@@ -461,8 +483,10 @@ class PlySource(ArraySource):
         if not head.startswith(b"ply") or end is None:
             return None
         lines = head[:end.start()].decode("ascii", "replace").splitlines()
-        if "format binary_little_endian 1.0" not in [ln.strip() for ln in lines]:
-            return None
+        formats = [ln.strip() for ln in lines if ln.startswith("format")]
+        if formats not in (["format binary_little_endian 1.0"], ["format binary_big_endian 1.0"]):
+            return None                      # ASCII: lodkit.load reads it
+        order = "<" if "little" in formats[0] else ">"
         elements = []
         for line in lines:
             words = line.split()
@@ -474,7 +498,7 @@ class PlySource(ArraySource):
             return None
         (_, n_v, vprops), (_, n_f, fprops) = elements[:2]
         try:
-            vdtype = np.dtype([(p[1], "<" + _PLY_TYPES[p[0]]) for p in vprops])
+            vdtype = np.dtype([(p[1], order + _PLY_TYPES[p[0]]) for p in vprops])
         except (KeyError, IndexError):
             return None
         if not {"x", "y", "z"} <= set(vdtype.names) or len(fprops) != 1 or fprops[0][0] != "list":
@@ -482,7 +506,7 @@ class PlySource(ArraySource):
         count_t, index_t = _PLY_TYPES.get(fprops[0][1]), _PLY_TYPES.get(fprops[0][2])
         if count_t is None or index_t is None or index_t[0] == "f":
             return None
-        fdtype = np.dtype([("n", "<" + count_t), ("v", "<" + index_t, (3,))])
+        fdtype = np.dtype([("n", order + count_t), ("v", order + index_t, (3,))])
         offset = end.end()
         size = path.stat().st_size
         if offset + n_v * vdtype.itemsize + n_f * fdtype.itemsize > size:

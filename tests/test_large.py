@@ -13,6 +13,7 @@ from conftest import shared_mesh
 from lodkit import cli
 from lodkit.demo import demo_mesh
 from lodkit.errors import MeshIOError, OptionError
+from lodkit.io.stream import to_binary_ply
 from lodkit.large import open_source, simplify_large
 from lodkit.topology import topology
 
@@ -175,3 +176,99 @@ def test_cli_tiles(tmp_path, capsys):
     assert "--tiles takes one --metric" in capsys.readouterr().err
     assert cli.main(args[:-5] + ["--workers", "2"]) == cli.EXIT_USAGE
     assert "go with --tiles" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------- text inputs in blocks
+def converted(path, tmp_path, size):
+    out = tmp_path / "converted.ply"
+    n = to_binary_ply(path, out, size=size)
+    source = open_source(out)
+    assert type(source).__name__ == "PlySource" and (source.n_vertices, source.n_faces) == n
+    return source.arrays()
+
+
+@pytest.mark.parametrize("size", [1, 97, 1 << 20])
+def test_off_in_blocks_is_what_load_reads(tmp_path, size):
+    """Blocks of 1 byte (every line its own block), odd sizes and one block: the same
+    positions (float32-rounded as load rounds them) and triangles as lodkit.load."""
+    mesh = torus(12, 8)
+    lodkit.save(mesh, tmp_path / "in.off")
+    v, f = converted(tmp_path / "in.off", tmp_path, size)
+    ref = lodkit.load(tmp_path / "in.off")
+    assert np.array_equal(v, ref.vertices) and np.array_equal(f, ref.faces)
+
+
+OBJ_TEXT = b"""# a hand-made OBJ: comments, blank lines, vt/vn corners, a quad, relative indices
+v 0 0 0
+v 1 0 0
+vt 0 0
+vn 0 0 1
+
+v 1 1 0   # a comment after values
+v 0 1 0
+vt 1 1
+f 1/1/1 2/1/1 3/2/1 4/2/1
+v 2 0 0.5
+o part
+f -4//1 -1//1 -3//1
+"""
+
+
+@pytest.mark.parametrize("size", [1, 13, 1 << 20])
+def test_obj_in_blocks_positions_and_triangles(tmp_path, size):
+    """Positions in 'v'-line order, the quad fan-triangulated, the relative indices of the
+    last face counted from the 'v' lines before it, across any block cut; the corners are
+    where lodkit.load puts them (load splits vertices at uv / normal changes, the block
+    reader keeps one vertex per position)."""
+    (tmp_path / "in.obj").write_bytes(OBJ_TEXT)
+    v, f = converted(tmp_path / "in.obj", tmp_path, size)
+    assert np.array_equal(v, [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0.5]])
+    assert np.array_equal(f, [[0, 1, 2], [0, 2, 3], [1, 4, 2]])
+    ref = lodkit.load(tmp_path / "in.obj")
+    assert np.array_equal(v[f], ref.vertices[ref.faces])
+
+
+@pytest.mark.parametrize("name, text, message", [
+    ("bad.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", "not defined before it"),
+    ("bad.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nv 0 0 x\n", "not a number"),
+    ("bad.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nbogus 1\n", "unknown statement"),
+    ("bad.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1e39 0 0\nf 1 2 3\n", "NaN or infinite"),
+    ("bad.off", b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n", "has 3 vertices"),
+    ("bad.off", b"OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n3 0 1 2\n", "truncated"),
+    ("bad.off", b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 2\n", "more data lines"),
+    ("bad.off", b"OFF\n", "counts"),
+])
+def test_malformed_text_inputs_fail_cleanly(tmp_path, monkeypatch, name, text, message):
+    """A malformed OBJ or OFF is one MeshIOError naming the file and what is wrong, also
+    when the fault lies in a later block; nothing is left in the output folder."""
+    (tmp_path / name).write_bytes(text)
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    for size in (5, 1 << 20):
+        monkeypatch.setattr(lodkit.io.stream, "BLOCK_BYTES", size)
+        with pytest.raises(MeshIOError, match=message) as info:
+            simplify_large(tmp_path / name, out_dir / "out.ply", target_ratio=0.5, tile_faces=100, scheduler="sync")
+        assert name in str(info.value)
+        assert list(out_dir.iterdir()) == []
+
+
+def test_text_input_in_tiles_vertex_map_is_the_files_numbering(tmp_path):
+    """An OBJ simplified in tiles (converted in blocks, never loaded whole): ``vertex_map``
+    numbers the file's 'v' lines.  The vertices are shuffled in the file, so that
+    lodkit.load's numbering (by first use in the faces) is another one."""
+    mesh = torus(60, 30)
+    perm = np.random.default_rng(1).permutation(mesh.n_vertices)
+    inverse = np.argsort(perm)
+    shuffled = lodkit.Mesh(mesh.vertices[perm], inverse[mesh.faces].astype(np.int32))
+    lodkit.save(shuffled, tmp_path / "in.obj")
+    result = simplify_large(tmp_path / "in.obj", tmp_path / "out.ply", target_ratio=0.2, tile_faces=800,
+                            scheduler="sync")
+    check_same_shape(mesh, result.mesh)
+    file_v = np.array([ln.split()[1:4] for ln in (tmp_path / "in.obj").read_bytes().splitlines()
+                       if ln.startswith(b"v ")], dtype=np.float32).astype(np.float64)
+    vm = result.vertex_map
+    assert len(np.unique(vm)) == len(vm) and vm.max() < len(file_v)
+    gap = np.linalg.norm(result.mesh.vertices - file_v[vm], axis=1)
+    assert gap.max() < 0.1 * mesh.bbox_diagonal()
+    loaded = lodkit.load(tmp_path / "in.obj").vertices
+    assert np.linalg.norm(result.mesh.vertices - loaded[vm], axis=1).max() > 0.3 * mesh.bbox_diagonal()

@@ -83,16 +83,28 @@ def counts(data: bytes) -> tuple[int, int]:
     return sum(1 for ln in lines if ln.startswith(b"v ")), sum(1 for ln in lines if ln.startswith(b"f "))
 
 
-def read(data: bytes) -> MeshData:
-    try:
-        data.decode("utf-8")
-    except UnicodeDecodeError:
-        if b"\0" in data:
-            raise FileFormatError("not an OBJ file (binary data)") from None
-    v_rows, vt_rows, vn_rows, f_rows = [], [], [], []
-    v_len, f_at = [], []                      # per v line its value count; per f line (nv, nvt, nvn) so far
-    skipped: dict[bytes, int] = {}
-    for number, line in enumerate(data.split(b"\n"), start=1):
+class _Statements:
+    """The statements of some OBJ lines, sorted by kind (:func:`_scan`)."""
+
+    def __init__(self, base=(0, 0, 0)):
+        self.v_rows: list[bytes] = []
+        self.v_len: list[int] = []            # per v line its value count
+        self.vt_rows: list[bytes] = []
+        self.vn_rows: list[bytes] = []
+        self.f_rows: list[tuple[int, bytes]] = []   # (line number, corners)
+        self.f_at: list[tuple[int, int, int]] = []  # per f line (v, vt, vn) defined before it
+        self.skipped: dict[bytes, int] = {}
+        self.base = base                      # (v, vt, vn) defined before these lines
+
+
+def _scan(data: bytes, first_line: int = 1, base=(0, 0, 0)) -> _Statements:
+    """Sort the lines of ``data`` (numbered from ``first_line``) by statement, checking each
+    line's value count; ``base``: the (v, vt, vn) elements defined before ``data`` (a file
+    read in blocks), so that the faces' counts of what is defined before them are the
+    file's."""
+    st = _Statements(base)
+    nv, nvt, nvn = base
+    for number, line in enumerate(data.split(b"\n"), start=first_line):
         hashpos = line.find(b"#")
         if hashpos >= 0:
             line = line[:hashpos]
@@ -105,31 +117,34 @@ def read(data: bytes) -> MeshData:
             k = len(rest.split())
             if k not in (3, 4, 6, 7):
                 raise FileFormatError(f"line {number}: a 'v' line needs 3, 4 (w) or 6 (rgb) values, has {k}")
-            v_rows.append(rest)
-            v_len.append(k)
+            st.v_rows.append(rest)
+            st.v_len.append(k)
+            nv += 1
         elif key == b"vt":
             k = len(rest.split())
             if k not in (1, 2, 3):
                 raise FileFormatError(f"line {number}: a 'vt' line needs 1 to 3 values, has {k}")
-            vt_rows.append(rest + b" 0" * (3 - k))
+            st.vt_rows.append(rest + b" 0" * (3 - k))
+            nvt += 1
         elif key == b"vn":
             if len(rest.split()) != 3:
                 raise FileFormatError(f"line {number}: a 'vn' line needs 3 values")
-            vn_rows.append(rest)
+            st.vn_rows.append(rest)
+            nvn += 1
         elif key == b"f":
-            f_rows.append((number, rest))
-            f_at.append((len(v_rows), len(vt_rows), len(vn_rows)))
+            st.f_rows.append((number, rest))
+            st.f_at.append((nv, nvt, nvn))
         elif key in _SKIP:
-            skipped[key] = skipped.get(key, 0) + 1
+            st.skipped[key] = st.skipped.get(key, 0) + 1
         else:
             raise FileFormatError(f"line {number}: unknown statement {key[:20]!r} (not an OBJ file?)")
-    notes: list[str] = []
-    if skipped.get(b"l") or skipped.get(b"p"):
-        notes.append(f"line ('l') and point ('p') elements not read: {skipped.get(b'l', 0)} and "
-                     f"{skipped.get(b'p', 0)}")
-    # positions (+ colours)
-    v_len_a = np.array(v_len, dtype=np.int64)
-    vals = _floats(v_rows, "v")
+    return st
+
+
+def _positions(st: _Statements):
+    """(positions, colours or None) of the v lines, rounded to float32 as Open3D read them."""
+    v_len_a = np.array(st.v_len, dtype=np.int64)
+    vals = _floats(st.v_rows, "v")
     if vals.size != int(v_len_a.sum()):
         raise FileFormatError("the 'v' lines could not be parsed")
     colors = None
@@ -149,23 +164,25 @@ def read(data: bytes) -> MeshData:
     positions = to_float32_precision(positions)
     if colors is not None:
         colors = to_float32_precision(colors)
-    tex = to_float32_precision(_floats(vt_rows, "vt").reshape(-1, 3)[:, :2]) if vt_rows else None
-    nrm = to_float32_precision(_floats(vn_rows, "vn").reshape(-1, 3)) if vn_rows else None
-    if not f_rows:
-        return MeshData(positions, np.zeros((0, 3), dtype=np.int64), notes=notes)
-    # faces: corners -> (v, vt, vn) triples
-    n_corners = np.empty(len(f_rows), dtype=np.int64)
+    return positions, colors
+
+
+def _face_corners(st: _Statements):
+    """(corners per face, (n, 3) 0-based (v, vt, vn) per corner, -1 where absent) of the f
+    lines; relative indices resolved and every index checked against the elements defined
+    before its face."""
+    n_corners = np.empty(len(st.f_rows), dtype=np.int64)
     corner_tokens: list[bytes] = []
-    for i, (_line, rest) in enumerate(f_rows):
+    for i, (_line, rest) in enumerate(st.f_rows):
         toks = rest.split()
         n_corners[i] = len(toks)
         corner_tokens.extend(toks)
     if n_corners.size and n_corners.min() < 3:
         bad = int(np.flatnonzero(n_corners < 3)[0])
-        raise FileFormatError(f"line {f_rows[bad][0]}: a face needs at least 3 corners, has {int(n_corners[bad])}")
+        raise FileFormatError(f"line {st.f_rows[bad][0]}: a face needs at least 3 corners, has {int(n_corners[bad])}")
     triples = _corner_triples(corner_tokens)
     # relative (negative) indices count back from the elements defined so far
-    seen = np.repeat(np.array(f_at, dtype=np.int64), n_corners, axis=0)
+    seen = np.repeat(np.array(st.f_at, dtype=np.int64).reshape(-1, 3), n_corners, axis=0)
     neg = triples < 0
     triples = np.where(neg, seen + 1 + triples, triples)
     absent = triples == 0
@@ -175,11 +192,35 @@ def read(data: bytes) -> MeshData:
         j = int(np.flatnonzero(bad.any(axis=1))[0])
         face = int(np.searchsorted(np.cumsum(n_corners), j, side="right"))
         kind = ("position", "texture coordinate", "normal")[int(np.flatnonzero(bad[j])[0])]
-        raise FileFormatError(f"line {f_rows[face][0]}: face corner {corner_tokens[j][:30].decode('latin-1')!r} "
+        raise FileFormatError(f"line {st.f_rows[face][0]}: face corner {corner_tokens[j][:30].decode('latin-1')!r} "
                               f"refers to a {kind} that is not defined before it")
     if absent[:, 0].any():
         raise FileFormatError("a face corner has no position index")
     triples -= 1                                          # absent -> -1
+    return n_corners, triples
+
+
+def _check_text(data: bytes) -> None:
+    try:
+        data.decode("utf-8")
+    except UnicodeDecodeError:
+        if b"\0" in data:
+            raise FileFormatError("not an OBJ file (binary data)") from None
+
+
+def read(data: bytes) -> MeshData:
+    _check_text(data)
+    st = _scan(data)
+    notes: list[str] = []
+    if st.skipped.get(b"l") or st.skipped.get(b"p"):
+        notes.append(f"line ('l') and point ('p') elements not read: {st.skipped.get(b'l', 0)} and "
+                     f"{st.skipped.get(b'p', 0)}")
+    positions, colors = _positions(st)
+    tex = to_float32_precision(_floats(st.vt_rows, "vt").reshape(-1, 3)[:, :2]) if st.vt_rows else None
+    nrm = to_float32_precision(_floats(st.vn_rows, "vn").reshape(-1, 3)) if st.vn_rows else None
+    if not st.f_rows:
+        return MeshData(positions, np.zeros((0, 3), dtype=np.int64), notes=notes)
+    n_corners, triples = _face_corners(st)
     # one vertex per distinct triple, in order of first use (as Open3D's reader)
     uniq, first, inverse = np.unique(triples, axis=0, return_index=True, return_inverse=True)
     order = np.argsort(first, kind="stable")
@@ -199,6 +240,26 @@ def read(data: bytes) -> MeshData:
     if dropped:
         notes.append(f"{dropped} position(s) no face uses were dropped")
     return MeshData(vertices, faces, normals, vcolors, uvs, notes)
+
+
+def read_blocks(blocks):
+    """Positions and triangles of an OBJ given as successive byte blocks that end at line
+    ends (a file too large to hold, :func:`lodkit.io.stream`): yields (positions, faces) per
+    block, positions as ``read`` rounds them, faces as 0-based indices of the file's 'v'
+    lines (not split by texture coordinate or normal: positions only), polygons
+    fan-triangulated.  Checks as ``read`` does, across blocks."""
+    base, line = (0, 0, 0), 1
+    for block in blocks:
+        _check_text(block)
+        st = _scan(block, line, base)
+        line += block.count(b"\n")
+        positions, _ = _positions(st)
+        faces = np.zeros((0, 3), dtype=np.int64)
+        if st.f_rows:
+            n_corners, triples = _face_corners(st)
+            faces = fan_triangulate(n_corners, triples[:, 0], [])
+        base = (base[0] + len(st.v_rows), base[1] + len(st.vt_rows), base[2] + len(st.vn_rows))
+        yield positions, faces
 
 
 def _fmt(a: np.ndarray) -> list[str]:
