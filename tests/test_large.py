@@ -272,3 +272,19 @@ def test_text_input_in_tiles_vertex_map_is_the_files_numbering(tmp_path):
     assert gap.max() < 0.1 * mesh.bbox_diagonal()
     loaded = lodkit.load(tmp_path / "in.obj").vertices
     assert np.linalg.norm(result.mesh.vertices - loaded[vm], axis=1).max() > 0.3 * mesh.bbox_diagonal()
+
+
+def test_big_endian_ply_is_memory_mapped(tmp_path):
+    """A binary big-endian PLY is mapped like a little-endian one, and reads as load reads it."""
+    mesh = torus(10, 6)
+    v = mesh.vertices.astype(">f4")
+    rec = np.empty(mesh.n_faces, dtype=[("n", "u1"), ("v", ">i4", (3,))])
+    rec["n"], rec["v"] = 3, mesh.faces
+    head = (f"ply\nformat binary_big_endian 1.0\nelement vertex {len(v)}\nproperty float x\nproperty float y\n"
+            f"property float z\nelement face {mesh.n_faces}\nproperty list uchar int vertex_indices\nend_header\n")
+    (tmp_path / "be.ply").write_bytes(head.encode() + v.tobytes() + rec.tobytes())
+    source = open_source(tmp_path / "be.ply")
+    assert type(source).__name__ == "PlySource"
+    got_v, got_f = source.arrays()
+    ref = lodkit.load(tmp_path / "be.ply")
+    assert np.array_equal(got_v, ref.vertices) and np.array_equal(got_f, ref.faces)
