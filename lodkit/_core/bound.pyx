@@ -33,7 +33,7 @@ and the kept vertex's ``last`` -- all inside the collapse's closed 1-rings.
 """
 import numpy as np
 cimport numpy as cnp
-from libc.math cimport sqrt, ceil, INFINITY
+from libc.math cimport sqrt, INFINITY
 
 from .halfedge cimport HalfEdgeMesh, he_prev, he_dest, he_ring_next
 from .vec3 cimport point_triangle_sqdist
@@ -90,48 +90,75 @@ def triangle_covering_radius(t):
     return covering_radius(&a[0])
 
 
-#: sample points Bound takes at most (about 36 bytes each): beyond, ValueError
-MAX_POINTS = 20_000_000
+#: pieces of the input Bound keeps at most (12 bytes each, in arrays the pages of which the
+#: system only commits once a piece is there): more are refused (OptionError)
+MAX_PIECES = 1 << 26
+
+# A piece of original triangle T = (a, b, c) is a triangle of the regular grid of level
+# N = 2**d on T (grid point (x, y) = a + (x / N)(b - a) + (y / N)(c - a)): "up" with corners
+# (i, j), (i + 1, j), (i, j + 1), or "down" with corners (i + 1, j), (i, j + 1), (i + 1, j + 1).
+# Its four children (its edges' midpoints) are the pieces of depth d + 1 in it.  A code
+# packs d, up/down and i, j into 31 bits.
+cdef enum:
+    PIECE_BITS = 13                       # i, j < 2**13: BOUND_PIECE_DEPTH at most 13
+    PIECE_MASK = (1 << PIECE_BITS) - 1
+    PIECE_DOWN = 1 << (2 * PIECE_BITS)
+    PIECE_DEPTH_SHIFT = 2 * PIECE_BITS + 1
 
 
-def sample_original(double[:, ::1] tris, double spacing):
-    """(points (k, 3), slack (k,), triangle (k,)): the grid points of each triangle of
-    ``tris`` (n, 9) at the level that brings its covering radius to ``spacing`` at most,
-    corners included; ``slack`` is the grid's covering radius.  ValueError when that takes
-    more than MAX_POINTS points."""
-    cdef int n = tris.shape[0], i, lev
-    cdef double h
-    levels = np.empty(n, dtype=np.int64)
-    hs = np.empty(n, dtype=np.float64)
-    cdef long[::1] L = levels
-    cdef double[::1] H = hs
-    for i in range(n):
-        h = covering_radius(&tris[i, 0])
-        H[i] = h
-        lev = 1
-        if spacing > 0.0 and h > spacing:
-            lev = <int>min(ceil(h / spacing), 1e6)
-        L[i] = lev
-    total = int(((levels + 1) * (levels + 2) // 2).sum())
-    if total > MAX_POINTS:
-        raise ValueError(f"the error bound would sample the input with {total} points (at most {MAX_POINTS}): "
-                         f"max_error is small next to the input's triangles; raise max_error or sample_spacing")
-    tri_np = np.asarray(tris)
-    out_p, out_s, out_t = [], [], []
-    for lev in np.unique(levels):
-        sel = np.flatnonzero(levels == lev)
-        ii, jj = np.meshgrid(np.arange(lev + 1), np.arange(lev + 1), indexing="ij")
-        keep = (ii + jj) <= lev
-        bu = ii[keep].astype(np.float64) / lev
-        bv = jj[keep].astype(np.float64) / lev
-        a = tri_np[sel, 0:3]
-        b = tri_np[sel, 3:6]
-        c = tri_np[sel, 6:9]
-        pts = (a[:, None, :] + bu[None, :, None] * (b - a)[:, None, :] + bv[None, :, None] * (c - a)[:, None, :])
-        out_p.append(pts.reshape(-1, 3))
-        out_s.append(np.repeat(hs[sel] / lev, bu.size))
-        out_t.append(np.repeat(sel, bu.size))
-    return (np.concatenate(out_p), np.concatenate(out_s), np.concatenate(out_t).astype(np.intc))
+cdef inline int piece_depth(int code) noexcept nogil:
+    return code >> PIECE_DEPTH_SHIFT
+
+
+cdef inline void piece_split(int code, int* out) noexcept nogil:
+    """The codes of the four children of piece ``code``: the three at its corners, then the
+    middle one (turned the other way)."""
+    cdef int d = (piece_depth(code) + 1) << PIECE_DEPTH_SHIFT
+    cdef int i = 2 * ((code >> PIECE_BITS) & PIECE_MASK)
+    cdef int j = 2 * (code & PIECE_MASK)
+    if code & PIECE_DOWN:
+        out[0] = d | PIECE_DOWN | ((i + 1) << PIECE_BITS) | j
+        out[1] = d | PIECE_DOWN | (i << PIECE_BITS) | (j + 1)
+        out[2] = d | PIECE_DOWN | ((i + 1) << PIECE_BITS) | (j + 1)
+        out[3] = d | ((i + 1) << PIECE_BITS) | (j + 1)
+    else:
+        out[0] = d | (i << PIECE_BITS) | j
+        out[1] = d | ((i + 1) << PIECE_BITS) | j
+        out[2] = d | (i << PIECE_BITS) | (j + 1)
+        out[3] = d | PIECE_DOWN | (i << PIECE_BITS) | j
+
+
+cdef inline double corners_sqdist(const double* x, const double* t, double lim2) noexcept nogil:
+    """The largest squared distance of the three points x (9 doubles) to triangle t -- or,
+    as soon as one is above ``lim2``, that one's."""
+    cdef double v = tri_sqdist(x, t), d
+    if v > lim2:
+        return v
+    d = tri_sqdist(&x[3], t)
+    if d > v:
+        v = d
+        if v > lim2:
+            return v
+    d = tri_sqdist(&x[6], t)
+    return d if d > v else v
+
+
+cdef extern from *:
+    """
+    /* slots for new pieces: taken by the pass driver's threads at once (relaxed: the
+       passes' barriers order the pieces' writes before any other thread reads them) */
+    #if defined(_MSC_VER)
+    #include <intrin.h>
+    static int lodkit_bound_take(int* counter, int n) {
+        return (int)_InterlockedExchangeAdd((volatile long*)counter, (long)n);
+    }
+    #else
+    static int lodkit_bound_take(int* counter, int n) {
+        return __atomic_fetch_add(counter, n, __ATOMIC_RELAXED);
+    }
+    #endif
+    """
+    int lodkit_bound_take(int* counter, int n) noexcept nogil
 
 
 cdef class Bound:
@@ -140,7 +167,7 @@ cdef class Bound:
     hm      : the half-edge mesh (its live faces are the original O)
     vdata   : the collapser's per-vertex rows; the position starts at column ``offset``
     eps     : the bound, in the units of the positions
-    spacing : the covering radius of the original's sample grids, as a fraction of eps
+    spacing : the finest pieces of the original: their covering radius at most ``spacing * eps``
     """
 
     def __init__(self, HalfEdgeMesh hm, double[:, ::1] vdata, int offset, double eps, double spacing=0.25):
@@ -159,29 +186,8 @@ cdef class Bound:
         corners = np.asarray(hm.corners)[faces]
         tris = np.ascontiguousarray(pos[corners].reshape(-1, 9))
         n_tri = tris.shape[0]
-        # the sample points, attached to their own triangle's face slot
-        pts, slack, owner = sample_original(tris, spacing * eps)
-        self.pts = np.ascontiguousarray(pts)
-        self.slack = slack
-        n_faces = hm.n_faces
-        order = np.argsort(owner, kind="stable")
-        face_of = faces[owner[order]]
-        nxt = np.full(order.size, -1, dtype=np.intc)
-        same = face_of[1:] == face_of[:face_of.size - 1]
-        nxt[order[:order.size - 1][same]] = order[1:][same]
-        head = np.full(max(n_faces, 1), -1, dtype=np.intc)
-        starts = np.ones(order.size, dtype=bool)
-        starts[1:] = ~same
-        head[face_of[starts]] = order[starts]
-        self.nxt = nxt if nxt.size else np.full(1, -1, dtype=np.intc)
-        self.head = head
-        self.sphere = np.zeros((max(n_faces, 1), 5))
-        self.cert = np.zeros(max(n_faces, 1))
-        self.pending = np.zeros(max(n_faces, 1))
-        self.last = np.zeros(max(hm.n_vertices, 1))
-        cdef int f
-        for f in faces:
-            self.fit_sphere(f)
+        if n_tri > MAX_PIECES:
+            raise ValueError(f"the error bound takes inputs of at most {MAX_PIECES} triangles, not {n_tri}")
         # the BVH
         cap = max(2 * n_tri, 1)
         self.box = np.zeros((cap, 6))
@@ -202,7 +208,46 @@ cdef class Bound:
                 self.n_nodes = self.build(&I[0], &C[0, 0], &TB[0, 0], nt)
         else:
             self.n_nodes = 0
-        self.tri = np.ascontiguousarray(tris[idx]) if n_tri else np.zeros((1, 9))
+        tri = np.ascontiguousarray(tris[idx]) if n_tri else np.zeros((1, 9))
+        self.tri = tri
+        # the pieces of the original: at first each triangle whole (a piece of depth 0, code
+        # 0), on its own face; triangle t splits down to depth tdepth[t] at most, where its
+        # pieces' covering radius is spacing * eps
+        base = tri.copy()
+        base[:, 3:6] -= tri[:, 0:3]
+        base[:, 6:9] -= tri[:, 0:3]
+        self.base = base
+        depth = np.zeros(max(n_tri, 1), dtype=np.intc)
+        self.tdepth = depth
+        cdef double s = spacing * eps, h
+        cdef int t
+        for t in range(nt):
+            h = covering_radius(&self.tri[t, 0])
+            while self.tdepth[t] < BOUND_PIECE_DEPTH and h > s * (1 << self.tdepth[t]):
+                self.tdepth[t] += 1
+        # slots: a triangle split all the way has 4**depth pieces; beyond MAX_PIECES in all
+        # the run may run out of them (the driver then raises OptionError)
+        self.capacity = int(min(MAX_PIECES, max(int((4 ** depth[:n_tri].astype(np.int64)).sum()), 1)))
+        self.ptri = np.empty(self.capacity, dtype=np.intc)
+        self.pcode = np.empty(self.capacity, dtype=np.intc)
+        self.nxt = np.empty(self.capacity, dtype=np.intc)
+        n_faces = hm.n_faces
+        head = np.full(max(n_faces, 1), -1, dtype=np.intc)
+        face_of = faces[idx]
+        head[face_of] = np.arange(n_tri, dtype=np.intc)
+        self.head = head
+        np.asarray(self.ptri)[:n_tri] = np.arange(n_tri, dtype=np.intc)
+        np.asarray(self.pcode)[:n_tri] = 0
+        np.asarray(self.nxt)[:n_tri] = -1
+        self.n_used = n_tri
+        self.overflow = False
+        self.sphere = np.zeros((max(n_faces, 1), 4))
+        self.cert = np.zeros(max(n_faces, 1))
+        self.pending = np.zeros(max(n_faces, 1))
+        self.last = np.zeros(max(hm.n_vertices, 1))
+        cdef int f
+        for f in faces:
+            self.fit_sphere(f)
 
     cdef int build(self, int* idx, const double* cent, const double* tb, int n) noexcept nogil:
         """Top-down BVH: split at the median centroid along the longest axis of the
@@ -499,8 +544,8 @@ cdef class Bound:
         cdef int fids[BOUND_MAX_FAN]
         cdef int fa = h // 3
         cdef int fb = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
-        cdef int n, i, pass_, center, start, y, f, q, own
-        cdef double lim, lim2, v
+        cdef int n, i, pass_, center, start, y, f, q, hint
+        cdef double lim, v
         cdef bint ok
         if not self.within(p, self.eps2):
             return False
@@ -510,9 +555,9 @@ cdef class Bound:
         n = self.collect(k, fa, fb, p, tris, fids, n)
         if n < 0:
             return False
-        # original -> simplified: the points of every face the collapse changes, each within
-        # eps - slack of a new face; a face whose ball of points lies so near one new face
-        # passes whole
+        # original -> simplified: the pieces on every face the collapse changes, each within
+        # eps of one new face; a face whose ball of pieces lies so near one new face passes
+        # whole
         for pass_ in range(2):
             center = r if pass_ == 0 else k
             start = self.m.v_he[center]
@@ -521,26 +566,17 @@ cdef class Bound:
                 f = y // 3
                 q = self.head[f]
                 if q >= 0 and (pass_ == 0 or (f != fa and f != fb)):
-                    own = -1
+                    hint = -1
                     ok = False
-                    lim = self.eps - self.sphere[f, 3] - self.sphere[f, 4]
+                    lim = self.eps - self.sphere[f, 3]
                     for i in range(n):
                         if fids[i] == f:
-                            own = i
+                            hint = i
                         if not ok and lim >= 0.0 and tri_sqdist(&self.sphere[f, 0], &tris[9 * i]) <= lim * lim:
                             ok = True
                     while q >= 0 and not ok:
-                        lim = self.eps - self.slack[q]
-                        if lim < 0.0:
+                        if not self.fits(self.ptri[q], self.pcode[q], tris, n, &hint):
                             return False
-                        lim2 = lim * lim
-                        # the face the point is on, if it stays, first
-                        if own < 0 or tri_sqdist(&self.pts[q, 0], &tris[9 * own]) > lim2:
-                            for i in range(n):
-                                if i != own and tri_sqdist(&self.pts[q, 0], &tris[9 * i]) <= lim2:
-                                    break
-                            else:
-                                return False
                         q = self.nxt[q]
                 y = he_ring_next(self.m, y)
                 if y < 0 or y == start:
@@ -554,7 +590,7 @@ cdef class Bound:
         return True
 
     cdef int commit_begin(self, int h, int r, int k) noexcept nogil:
-        """Before collapsing h: detach the points of the faces around r and k into one
+        """Before collapsing h: detach the pieces on the faces around r and k into one
         chain (returned); those faces' certificates are redone by commit_end."""
         cdef int fa = h // 3
         cdef int fb = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
@@ -580,13 +616,13 @@ cdef class Bound:
         return chain
 
     cdef double commit_end(self, int k, int chain) noexcept nogil:
-        """After the collapse (k at its new position): attach the chain's points to the
-        nearest face around k, set those faces' certificates; returns the largest (the
-        bound this collapse guarantees for what it changed), also kept in ``last[k]``."""
+        """After the collapse (k at its new position): place the chain's pieces on the
+        faces around k (:meth:`place`), set those faces' certificates; returns the largest
+        (the bound this collapse guarantees for what it changed), also kept in ``last[k]``."""
         cdef double tris[9 * BOUND_MAX_FAN]
         cdef int fids[BOUND_MAX_FAN]
-        cdef int n, i, best, q, nq
-        cdef double d, bd, v, worst = 0.0
+        cdef int n, i, q, nq
+        cdef double worst = 0.0
         n = self.collect(k, -1, -1, &self.P[self.stride * k], tris, fids, 0)
         if n < 0:
             n = 0
@@ -595,19 +631,7 @@ cdef class Bound:
         q = chain
         while q >= 0:
             nq = self.nxt[q]
-            best = -1
-            bd = INFINITY
-            for i in range(n):
-                d = tri_sqdist(&self.pts[q, 0], &tris[9 * i])
-                if d < bd:
-                    bd = d
-                    best = i
-            if best >= 0:
-                self.nxt[q] = self.head[fids[best]]
-                self.head[fids[best]] = q
-                v = sqrt(bd) + self.slack[q]
-                if v > self.cert[fids[best]]:
-                    self.cert[fids[best]] = v
+            self.place(q, tris, fids, n)
             q = nq
         for i in range(n):
             self.fit_sphere(fids[i])
@@ -616,43 +640,166 @@ cdef class Bound:
         self.last[k] = worst
         return worst
 
+    # ------------------------------------------------------------- the pieces
+    cdef void corners(self, int t, int code, double* x) noexcept nogil:
+        """The corners (9 doubles) of piece ``code`` of original triangle t."""
+        cdef double s = 1.0 / (1 << piece_depth(code))
+        cdef double i = (code >> PIECE_BITS) & PIECE_MASK
+        cdef double j = code & PIECE_MASK
+        cdef double u[3]
+        cdef double v[3]
+        cdef int c, a
+        if code & PIECE_DOWN:
+            u[0] = (i + 1.0) * s
+            u[1] = i * s
+            u[2] = (i + 1.0) * s
+            v[0] = j * s
+            v[1] = (j + 1.0) * s
+            v[2] = (j + 1.0) * s
+        else:
+            u[0] = i * s
+            u[1] = (i + 1.0) * s
+            u[2] = i * s
+            v[0] = j * s
+            v[1] = j * s
+            v[2] = (j + 1.0) * s
+        for c in range(3):
+            for a in range(3):
+                x[3 * c + a] = self.base[t, a] + u[c] * self.base[t, 3 + a] + v[c] * self.base[t, 6 + a]
+
+    cdef bint fits(self, int t, int code, const double* tris, int n, int* hint) noexcept nogil:
+        """Is piece ``code`` of original triangle t within eps of the new faces ``tris``
+        (n)?  A piece whose three corners are within eps of one face is (convexity); else
+        its four children are tried, down to depth tdepth[t], where a piece that fits no
+        face refuses.  ``hint``: the face to try first, -1 none; set to the last that fit
+        (neighbouring pieces mostly fit the same face)."""
+        cdef int stack[BOUND_PIECE_STACK]
+        cdef int sp = 1, c, i, j
+        cdef double x[9]
+        stack[0] = code
+        while sp > 0:
+            sp -= 1
+            c = stack[sp]
+            self.corners(t, c, x)
+            j = hint[0]
+            if j >= 0 and corners_sqdist(x, &tris[9 * j], self.eps2) <= self.eps2:
+                continue
+            for i in range(n):
+                if i != j and corners_sqdist(x, &tris[9 * i], self.eps2) <= self.eps2:
+                    hint[0] = i
+                    break
+            else:
+                if piece_depth(c) >= self.tdepth[t]:
+                    return False
+                piece_split(c, &stack[sp])
+                sp += 4
+        return True
+
+    cdef void place(self, int q, const double* tris, const int* fids, int n) noexcept nogil:
+        """Attach piece q (its face is gone) to the new face nearest its three corners, if
+        that holds them within eps; else split it as :meth:`fits` did (child 0 keeps slot
+        q, the others take new slots) and place the children.  Each face's certificate
+        takes the largest distance of its pieces' corners."""
+        cdef int stack[BOUND_PIECE_STACK]
+        cdef int kids[4]
+        cdef int sp = 1, s, c, i, best, slot, t = self.ptri[q]
+        cdef double x[9]
+        cdef double v, bv
+        stack[0] = q
+        while sp > 0:
+            sp -= 1
+            s = stack[sp]
+            c = self.pcode[s]
+            self.corners(t, c, x)
+            best = -1
+            bv = INFINITY
+            for i in range(n):
+                v = corners_sqdist(x, &tris[9 * i], bv)
+                if v < bv:
+                    bv = v
+                    best = i
+            if best < 0:
+                continue
+            if bv > self.eps2 and piece_depth(c) < self.tdepth[t] and not self.overflow:
+                slot = lodkit_bound_take(&self.n_used, 3)
+                if slot <= self.capacity - 3:
+                    piece_split(c, kids)
+                    self.pcode[s] = kids[0]
+                    stack[sp] = s
+                    for i in range(3):
+                        self.pcode[slot + i] = kids[1 + i]
+                        self.ptri[slot + i] = t
+                        stack[sp + 1 + i] = slot + i
+                    sp += 4
+                    continue
+                self.overflow = True         # placed whole: the driver raises OptionError
+            self.nxt[s] = self.head[fids[best]]
+            self.head[fids[best]] = s
+            v = sqrt(bv)
+            if v > self.cert[fids[best]]:
+                self.cert[fids[best]] = v
+
     cdef void fit_sphere(self, int f) noexcept nogil:
-        """sphere[f]: a ball around the points attached to f (their centroid, the farthest
-        one's distance) and their largest slack."""
-        cdef int q = self.head[f], cnt = 0, i
-        cdef double c[3]
-        cdef double r2 = 0.0, d, smax = 0.0
-        c[0] = c[1] = c[2] = 0.0
+        """sphere[f]: a ball around the pieces on f (the centroid of their corners, the
+        farthest corner's distance)."""
+        cdef int q = self.head[f], cnt = 0, i, c
+        cdef double x[9]
+        cdef double ctr[3]
+        cdef double r2 = 0.0, d
+        ctr[0] = ctr[1] = ctr[2] = 0.0
         while q >= 0:
-            for i in range(3):
-                c[i] += self.pts[q, i]
-            cnt += 1
+            self.corners(self.ptri[q], self.pcode[q], x)
+            for c in range(3):
+                for i in range(3):
+                    ctr[i] += x[3 * c + i]
+            cnt += 3
             q = self.nxt[q]
         if cnt == 0:
-            for i in range(5):
+            for i in range(4):
                 self.sphere[f, i] = 0.0
             return
         for i in range(3):
-            c[i] /= cnt
+            ctr[i] /= cnt
         q = self.head[f]
         while q >= 0:
-            d = sq(self.pts[q, 0] - c[0]) + sq(self.pts[q, 1] - c[1]) + sq(self.pts[q, 2] - c[2])
-            if d > r2:
-                r2 = d
-            if self.slack[q] > smax:
-                smax = self.slack[q]
+            self.corners(self.ptri[q], self.pcode[q], x)
+            for c in range(3):
+                d = sq(x[3 * c] - ctr[0]) + sq(x[3 * c + 1] - ctr[1]) + sq(x[3 * c + 2] - ctr[2])
+                if d > r2:
+                    r2 = d
             q = self.nxt[q]
         for i in range(3):
-            self.sphere[f, i] = c[i]
-        # a hair more than the largest distance: rounding never lets a point out
+            self.sphere[f, i] = ctr[i]
+        # a hair more than the largest distance: rounding never lets a corner out
         self.sphere[f, 3] = sqrt(r2) * (1.0 + 1e-12) + 1e-300
-        self.sphere[f, 4] = smax
 
     # ------------------------------------------------------------- Python API
     @property
-    def n_points(self):
-        """Sample points of the original."""
-        return self.pts.shape[0]
+    def n_pieces(self):
+        """Pieces of the original (its triangles at first; each split adds three)."""
+        return min(self.n_used, self.capacity)
+
+    @property
+    def overflowed(self):
+        """Whether a piece that had to split found no free slot (MAX_PIECES): it was placed
+        whole, and the certificate of its face may exceed eps."""
+        return bool(self.overflow)
+
+    def pieces(self, alive_faces):
+        """(faces (k,), corners (k, 9)): each piece of the original and the live face it is
+        attached to (tests)."""
+        cdef int f, q
+        cdef double[::1] x = np.empty(9)
+        out_f, out_x = [], []
+        alive = np.asarray(alive_faces, dtype=bool)
+        for f in np.flatnonzero(alive):
+            q = self.head[f]
+            while q >= 0:
+                self.corners(self.ptri[q], self.pcode[q], &x[0])
+                out_f.append(f)
+                out_x.append(np.asarray(x).copy())
+                q = self.nxt[q]
+        return np.asarray(out_f, dtype=np.intc), np.asarray(out_x).reshape(-1, 9)
 
     @property
     def n_nodes_bvh(self):
