@@ -35,6 +35,8 @@ cdef class Bound:
     cdef bint overflow                # a piece found no slot to split into
     cdef double[::1] cert             # (n_faces,) certified distance of the face (both ways)
     cdef double[::1] pending          # (n_faces,) the check's face-to-original value
+    cdef int[::1] ctri                # (n_faces,) the original triangle that covers the face whole, else one near it
+    cdef int[::1] pending_tri         # (n_faces,) the check's
     cdef double[:, ::1] sphere        # (n_faces, 4) a ball around the pieces on the face (centre, radius)
     cdef double[::1] last             # (n_vertices,) the bound of the last collapse that kept it
 
@@ -42,9 +44,10 @@ cdef class Bound:
     cdef int build(self, int* idx, const double* cent, const double* tb, int n) noexcept nogil
     cdef double sqdist_box(self, int node, const double* x) noexcept nogil
     cdef bint within(self, const double* x, double d2) noexcept nogil
-    cdef double nearest2(self, const double* x, double stop2) noexcept nogil
-    cdef double cover2(self, const double* t, double best2) noexcept nogil
-    cdef double face_value(self, const double* t) noexcept nogil
+    cdef double nearest2(self, const double* x, double stop2, int* near) noexcept nogil
+    cdef double cover2(self, const double* t, const int* hints, int* cover, bint least) noexcept nogil
+    cdef double pair_cover2(self, const double* t, int ta, int tb) noexcept nogil
+    cdef double face_value(self, const double* t, int* cover) noexcept nogil
     cdef int collect(self, int center, int fa, int fb, const double* p, double* tris, int* fids,
                      int n) noexcept nogil
     cdef bint check(self, int h, int r, int k, const double* p) noexcept nogil

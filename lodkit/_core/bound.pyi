@@ -21,8 +21,9 @@ class Bound:
     def n_pieces(self) -> int: ...
     @property
     def overflowed(self) -> bool: ...
-    def pieces(self, alive_faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(faces (k,), corners (k, 9)): each piece of the original and the face it is on."""
+    def pieces(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(pieces (k, 9), faces (k, 9), cert (k,)): each piece of the original, the face it
+        is on and that face's certificate."""
     @property
     def n_nodes_bvh(self) -> int: ...
     def bound(self, alive_faces: np.ndarray) -> float:

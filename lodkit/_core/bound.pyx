@@ -36,7 +36,7 @@ cimport numpy as cnp
 from libc.math cimport sqrt, INFINITY
 
 from .halfedge cimport HalfEdgeMesh, he_prev, he_dest, he_ring_next
-from .vec3 cimport point_triangle_sqdist
+from .vec3 cimport point_triangle_sqdist, same_point, sub3, dot3, norm3
 
 cnp.import_array()
 
@@ -236,6 +236,11 @@ cdef class Bound:
         face_of = faces[idx]
         head[face_of] = np.arange(n_tri, dtype=np.intc)
         self.head = head
+        # each face is covered by its own triangle, the first guess when a collapse moves it
+        ctri = np.full(max(n_faces, 1), -1, dtype=np.intc)
+        ctri[face_of] = np.arange(n_tri, dtype=np.intc)
+        self.ctri = ctri
+        self.pending_tri = np.full(max(n_faces, 1), -1, dtype=np.intc)
         np.asarray(self.ptri)[:n_tri] = np.arange(n_tri, dtype=np.intc)
         np.asarray(self.pcode)[:n_tri] = 0
         np.asarray(self.nxt)[:n_tri] = -1
@@ -327,14 +332,21 @@ cdef class Bound:
 
     cdef bint within(self, const double* x, double d2) noexcept nogil:
         """Is x within sqrt(d2) of the original?"""
-        return self.nearest2(x, d2) <= d2
+        cdef int near = -1
+        return self.nearest2(x, d2, &near) <= d2
 
-    cdef double nearest2(self, const double* x, double stop2) noexcept nogil:
+    cdef double nearest2(self, const double* x, double stop2, int* near) noexcept nogil:
         """The squared distance from x to the original -- or, as soon as a triangle within
-        ``stop2`` is found, that triangle's (an upper bound, <= stop2)."""
+        ``stop2`` is found, that triangle's (an upper bound, <= stop2).  ``near``: in, a
+        triangle to try first (its row in ``tri``; -1 none), out, the one found (-1 when
+        the original is empty)."""
         cdef int stack[BOUND_STACK]
         cdef int sp = 1, node, i, a
         cdef double best = INFINITY, d, da, db
+        if near[0] >= 0:
+            best = tri_sqdist(x, &self.tri[near[0], 0])
+            if best <= stop2:
+                return best
         if self.n_nodes == 0:
             return INFINITY
         stack[0] = 0
@@ -348,6 +360,7 @@ cdef class Bound:
                     d = tri_sqdist(x, &self.tri[i, 0])
                     if d < best:
                         best = d
+                        near[0] = i
                         if best <= stop2:
                             return best
                 continue
@@ -363,14 +376,26 @@ cdef class Bound:
             sp += 2
         return best
 
-    cdef double cover2(self, const double* t, double best2) noexcept nogil:
+    cdef double cover2(self, const double* t, const int* hints, int* cover, bint least) noexcept nogil:
         """min over original triangles T of max over t's corners of their squared distance
-        to T, if that is at most ``best2``; else INFINITY."""
+        to T, if that is at most eps**2 (``cover`` gets that T's row), else INFINITY (and
+        -1).  The three ``hints`` (rows, -1 none) are tried first: the best of them within
+        eps bounds the search from the start, which then prunes all the more; unless
+        ``least``, it is the answer (some T within eps, not the nearest: a certificate all
+        the same, found without searching)."""
         cdef int stack[BOUND_STACK]
         cdef int sp = 1, node, i, c, a
-        cdef double found = INFINITY, bound = best2, d, lb, v
-        if self.n_nodes == 0:
-            return INFINITY
+        cdef double found = INFINITY, bound = self.eps2, d, lb, v
+        cover[0] = -1
+        for c in range(3):
+            if hints[c] >= 0:
+                v = corners_sqdist(t, &self.tri[hints[c], 0], bound)
+                if v <= bound:
+                    bound = v
+                    found = v
+                    cover[0] = hints[c]
+        if self.n_nodes == 0 or (found <= self.eps2 and not least):
+            return found
         stack[0] = 0
         while sp > 0:
             sp -= 1
@@ -386,16 +411,11 @@ cdef class Bound:
                 continue
             if self.left[node] < 0:
                 for i in range(self.first[node], self.first[node] + self.count[node]):
-                    v = 0.0
-                    for c in range(3):
-                        d = tri_sqdist(&t[3 * c], &self.tri[i, 0])
-                        if d > v:
-                            v = d
-                            if v > bound:
-                                break
+                    v = corners_sqdist(t, &self.tri[i, 0], bound)
                     if v <= bound:
                         bound = v
                         found = v
+                        cover[0] = i
                 continue
             a = self.left[node]
             # the child nearer the first corner on top
@@ -408,47 +428,137 @@ cdef class Bound:
             sp += 2
         return found
 
-    cdef double face_value(self, const double* t) noexcept nogil:
+    cdef double pair_cover2(self, const double* t, int ta, int tb) noexcept nogil:
+        """The largest squared distance of triangle t's points to the union of original
+        triangles ta and tb, if they share an edge: the plane through that edge which
+        halves the angle between them (normal u_a - u_b, u the unit vector in each
+        triangle's plane from the edge to its third corner; a flat pair gives the plane
+        square to both) cuts t in two convex parts, each with its corners on the cut, and
+        the distance to ta on ta's side, to tb on tb's, is largest at those corners
+        (convexity).  INFINITY when they share no edge, or past eps**2."""
+        cdef const double* A = &self.tri[ta, 0]
+        cdef const double* B = &self.tri[tb, 0]
+        cdef int ia[2]
+        cdef int ib[2]
+        cdef int i, j, na = 0, oa, ob
+        cdef double e[3]
+        cdef double ua[3]
+        cdef double ub[3]
+        cdef double m[3]
+        cdef double x[3]
+        cdef double sd[3]
+        cdef double le, la, lb, w, v = 0.0, d
+        for i in range(3):
+            for j in range(3):
+                if same_point(&A[3 * i], &B[3 * j]):
+                    if na == 2:
+                        return INFINITY                # the same triangle twice
+                    ia[na] = i
+                    ib[na] = j
+                    na += 1
+        if na != 2:
+            return INFINITY
+        oa = 3 - ia[0] - ia[1]
+        ob = 3 - ib[0] - ib[1]
+        for i in range(3):
+            e[i] = A[3 * ia[1] + i] - A[3 * ia[0] + i]
+            ua[i] = A[3 * oa + i] - A[3 * ia[0] + i]
+            ub[i] = B[3 * ob + i] - A[3 * ia[0] + i]
+        le = dot3(e, e)
+        if not (le > 0.0):
+            return INFINITY
+        la = dot3(ua, e) / le
+        lb = dot3(ub, e) / le
+        for i in range(3):
+            ua[i] -= la * e[i]
+            ub[i] -= lb * e[i]
+        la = norm3(ua)
+        lb = norm3(ub)
+        if not (la > 0.0 and lb > 0.0):
+            return INFINITY
+        for i in range(3):
+            m[i] = ua[i] / la - ub[i] / lb
+        if not (dot3(m, m) > 1e-12):
+            return INFINITY                        # folded onto each other: no plane between
+        for i in range(3):
+            sub3(&t[3 * i], &A[3 * ia[0]], x)
+            sd[i] = dot3(x, m)
+            if sd[i] >= 0.0:
+                d = tri_sqdist(&t[3 * i], A)
+                if d > v:
+                    v = d
+            if sd[i] <= 0.0:
+                d = tri_sqdist(&t[3 * i], B)
+                if d > v:
+                    v = d
+            if v > self.eps2:
+                return INFINITY
+        for i in range(3):
+            j = (i + 1) % 3
+            if (sd[i] > 0.0 and sd[j] < 0.0) or (sd[i] < 0.0 and sd[j] > 0.0):
+                w = sd[i] / (sd[i] - sd[j])
+                for na in range(3):
+                    x[na] = t[3 * i + na] + w * (t[3 * j + na] - t[3 * i + na])
+                d = tri_sqdist(x, A)
+                if d > v:
+                    v = d
+                d = tri_sqdist(x, B)
+                if d > v:
+                    v = d
+                if v > self.eps2:
+                    return INFINITY
+        return v
+
+    cdef double face_value(self, const double* t, int* cover) noexcept nogil:
         """A certified upper bound (<= eps) on the distance of triangle ``t``'s points to
         the original, or -1 when none is found (a corner of a piece is farther than eps,
-        or the subdivision ran out of levels).
+        or the subdivision ran out of levels).  ``cover``: in, an original triangle to try
+        first (-1: none; the one that covered the face before the collapse); out, the one
+        that covers t whole, else one nearest a corner (the next collapse's first guess).
 
         Each piece is accepted by one of two certificates: (a) one original triangle within
         eps of its three corners (convexity: then of all of it; exact, tried first on the
         face itself), (b) its corners within eps - h of the original, h its covering
         radius (the triangle inequality).  Otherwise it splits in four at its edges'
-        midpoints.  The corners' distances go down to the pieces that share them."""
+        midpoints.  The corners' distances, and the triangles they were found on (the
+        first guesses for (a)), go down to the pieces that share them."""
         cdef double st[9 * (3 * BOUND_MAX_DEPTH + 4)]
         cdef double du[3 * (3 * BOUND_MAX_DEPTH + 4)]   # the corners' squared distances (see nearest2)
-        cdef int dep[3 * BOUND_MAX_DEPTH + 4]
+        cdef int dt[3 * (3 * BOUND_MAX_DEPTH + 4)]      # the triangles they were found on
+        cdef int dep[3 * (3 * BOUND_MAX_DEPTH + 4)]
         cdef double mid[9]
         cdef double dm[3]
         cdef double pd[3]
+        cdef int tm[3]
+        cdef int pt[3]
+        cdef int hint[3]
         cdef double* s
         cdef double* o
         cdef double* u
-        cdef int n = 1, d, i, c
+        cdef int n = 1, d, i, c, found
         cdef double worst2 = 0.0, b, hs, lim2, mx, v
+        # (a) on the face itself first: most faces pass whole, and need nothing else
+        hint[0] = cover[0]
+        hint[1] = hint[2] = -1
+        b = self.cover2(t, hint, cover, True)
+        if b <= self.eps2:
+            return sqrt(b)
         for i in range(9):
             st[i] = t[i]
         # the face's corners: the caller's p was found within eps; the others are vertices
         # of the current mesh (certified already) -- measured all the same
         for c in range(3):
-            du[c] = self.nearest2(&t[3 * c], 0.0)
+            dt[c] = -1
+            du[c] = self.nearest2(&t[3 * c], 0.0, &dt[c])
             if du[c] > self.eps2:
                 return -1.0
+        cover[0] = dt[0]
         dep[0] = 0
         while n > 0:
             n -= 1
             s = &st[9 * n]
             u = &du[3 * n]
             d = dep[n]
-            if d == 0:
-                b = self.cover2(s, self.eps2)
-                if b <= self.eps2:
-                    if b > worst2:
-                        worst2 = b
-                    continue
             hs = covering_radius(s)
             mx = u[0]
             if u[1] > mx:
@@ -461,11 +571,25 @@ cdef class Bound:
                     worst2 = v
                 continue
             if d > 0:
-                b = self.cover2(s, self.eps2)
+                b = self.cover2(s, &dt[3 * n], &found, False)
                 if b <= self.eps2:
                     if b > worst2:
                         worst2 = b
                     continue
+            # (c) two original triangles that share an edge, each for its side of the
+            # plane between them (a piece across a ridge of the original)
+            b = INFINITY
+            for c in range(3):
+                i = dt[3 * n + c]
+                found = dt[3 * n + (c + 1) % 3]
+                if i >= 0 and found >= 0 and i != found:
+                    b = self.pair_cover2(s, i, found)
+                    if b <= self.eps2:
+                        break
+            if b <= self.eps2:
+                if b > worst2:
+                    worst2 = b
+                continue
             if d >= BOUND_MAX_DEPTH:
                 return -1.0
             for i in range(3):
@@ -475,12 +599,14 @@ cdef class Bound:
             # the children's covering radius is half this one's: the distances they need
             lim2 = sq(self.eps - 0.5 * hs) if 0.5 * hs < self.eps else 0.0
             for c in range(3):
-                dm[c] = self.nearest2(&mid[3 * c], lim2)
+                # the triangle an end of the edge was found on first: often near enough
+                tm[c] = dt[3 * n + c]
+                dm[c] = self.nearest2(&mid[3 * c], lim2, &tm[c])
                 if dm[c] > self.eps2:
                     return -1.0                       # a point of the face is too far
-            pd[0] = u[0]
-            pd[1] = u[1]
-            pd[2] = u[2]
+            for c in range(3):
+                pd[c] = u[c]
+                pt[c] = dt[3 * n + c]
             # four children over slot n..n+3 (slot n is s itself: copy its corners first)
             o = &st[9 * (n + 1)]
             for i in range(3):
@@ -498,15 +624,26 @@ cdef class Bound:
                 s[6 + i] = mid[6 + i]
             u[1] = dm[0]
             u[2] = dm[2]
+            dt[3 * n + 1] = tm[0]
+            dt[3 * n + 2] = tm[2]
             du[3 * (n + 1)] = dm[0]
             du[3 * (n + 1) + 1] = pd[1]
             du[3 * (n + 1) + 2] = dm[1]
+            dt[3 * (n + 1)] = tm[0]
+            dt[3 * (n + 1) + 1] = pt[1]
+            dt[3 * (n + 1) + 2] = tm[1]
             du[3 * (n + 2)] = dm[2]
             du[3 * (n + 2) + 1] = dm[1]
             du[3 * (n + 2) + 2] = pd[2]
+            dt[3 * (n + 2)] = tm[2]
+            dt[3 * (n + 2) + 1] = tm[1]
+            dt[3 * (n + 2) + 2] = pt[2]
             du[3 * (n + 3)] = dm[0]
             du[3 * (n + 3) + 1] = dm[1]
             du[3 * (n + 3) + 2] = dm[2]
+            dt[3 * (n + 3)] = tm[0]
+            dt[3 * (n + 3) + 1] = tm[1]
+            dt[3 * (n + 3) + 2] = tm[2]
             for i in range(4):
                 dep[n + i] = d + 1
             n += 4
@@ -544,7 +681,7 @@ cdef class Bound:
         cdef int fids[BOUND_MAX_FAN]
         cdef int fa = h // 3
         cdef int fb = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
-        cdef int n, i, pass_, center, start, y, f, q, hint
+        cdef int n, i, pass_, center, start, y, f, q, hint, cover
         cdef double lim, v
         cdef bint ok
         if not self.within(p, self.eps2):
@@ -583,10 +720,12 @@ cdef class Bound:
                     break
         # simplified -> original: every new face
         for i in range(n):
-            v = self.face_value(&tris[9 * i])
+            cover = self.ctri[fids[i]]
+            v = self.face_value(&tris[9 * i], &cover)
             if v < 0.0:
                 return False
             self.pending[fids[i]] = v
+            self.pending_tri[fids[i]] = cover
         return True
 
     cdef int commit_begin(self, int h, int r, int k) noexcept nogil:
@@ -628,6 +767,7 @@ cdef class Bound:
             n = 0
         for i in range(n):
             self.cert[fids[i]] = self.pending[fids[i]]
+            self.ctri[fids[i]] = self.pending_tri[fids[i]]
         q = chain
         while q >= 0:
             nq = self.nxt[q]
@@ -785,21 +925,22 @@ cdef class Bound:
         whole, and the certificate of its face may exceed eps."""
         return bool(self.overflow)
 
-    def pieces(self, alive_faces):
-        """(faces (k,), corners (k, 9)): each piece of the original and the live face it is
-        attached to (tests)."""
-        cdef int f, q
+    def pieces(self):
+        """(pieces (k, 9), faces (k, 9), cert (k,)): the corners of each piece of the
+        original, of the face of the current mesh it is on, and that face's certificate
+        (tests)."""
+        cdef int f, q, a, c
         cdef double[::1] x = np.empty(9)
-        out_f, out_x = [], []
-        alive = np.asarray(alive_faces, dtype=bool)
-        for f in np.flatnonzero(alive):
+        out_p, out_f, out_c = [], [], []
+        for f in range(self.head.shape[0]):
             q = self.head[f]
             while q >= 0:
                 self.corners(self.ptri[q], self.pcode[q], &x[0])
-                out_f.append(f)
-                out_x.append(np.asarray(x).copy())
+                out_p.append(np.asarray(x).copy())
+                out_f.append([self.P[self.stride * self.m.corner[3 * f + c] + a] for c in range(3) for a in range(3)])
+                out_c.append(self.cert[f])
                 q = self.nxt[q]
-        return np.asarray(out_f, dtype=np.intc), np.asarray(out_x).reshape(-1, 9)
+        return np.asarray(out_p).reshape(-1, 9), np.asarray(out_f, dtype=np.float64).reshape(-1, 9), np.asarray(out_c)
 
     @property
     def n_nodes_bvh(self):
@@ -816,15 +957,17 @@ cdef class Bound:
         """Distance from each point of x (k, 3) to the original (tests)."""
         cdef double[:, ::1] X = np.ascontiguousarray(x, dtype=np.float64).reshape(-1, 3)
         out = np.empty(X.shape[0])
-        cdef int i
+        cdef int i, near
         for i in range(X.shape[0]):
-            out[i] = sqrt(self.nearest2(&X[i, 0], -1.0))
+            near = -1
+            out[i] = sqrt(self.nearest2(&X[i, 0], -1.0, &near))
         return out
 
     def face_distance(self, t):
         """face_value for one triangle (9,) (tests): its certified distance, or -1."""
         cdef double[::1] a = np.ascontiguousarray(t, dtype=np.float64).reshape(-1)
-        return self.face_value(&a[0])
+        cdef int cover = -1
+        return self.face_value(&a[0], &cover)
 
 
 cdef void select_nth(int* idx, const double* cent, int ax, int lo, int hi, int k) noexcept nogil:
