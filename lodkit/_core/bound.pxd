@@ -39,6 +39,8 @@ cdef class Bound:
     cdef int[::1] pending_tri         # (n_faces,) the check's
     cdef double[:, ::1] sphere        # (n_faces, 4) a ball around the pieces on the face (centre, radius)
     cdef double[::1] last             # (n_vertices,) the bound of the last collapse that kept it
+    cdef double[::1] vd2              # (n_vertices,) squared distance to the original, -1 not known
+    cdef int[::1] vtri                # (n_vertices,) the triangle it was found on
 
     cdef object keep                  # the half-edge mesh and the rows the pointers see
     cdef int build(self, int* idx, const double* cent, const double* tb, int n) noexcept nogil
@@ -47,13 +49,15 @@ cdef class Bound:
     cdef double nearest2(self, const double* x, double stop2, int* near) noexcept nogil
     cdef double cover2(self, const double* t, const int* hints, int* cover, bint least) noexcept nogil
     cdef double pair_cover2(self, const double* t, int ta, int tb) noexcept nogil
-    cdef double face_value(self, const double* t, int* cover) noexcept nogil
+    cdef double vertex_dist2(self, int v, const double* x, int* near) noexcept nogil
+    cdef double face_value(self, const double* t, int* cover, const int* vids, double* p2,
+                           int* p_near) noexcept nogil
     cdef int collect(self, int center, int fa, int fb, const double* p, double* tris, int* fids,
-                     int n) noexcept nogil
+                     int* vids, int n) noexcept nogil
     cdef bint check(self, int h, int r, int k, const double* p) noexcept nogil
     cdef int commit_begin(self, int h, int r, int k) noexcept nogil
     cdef double commit_end(self, int k, int chain) noexcept nogil
     cdef void corners(self, int t, int code, double* x) noexcept nogil
     cdef bint fits(self, int t, int code, const double* tris, int n, int* hint) noexcept nogil
-    cdef void place(self, int q, const double* tris, const int* fids, int n) noexcept nogil
+    cdef void place(self, int q, const double* tris, const int* fids, int n, int* hint) noexcept nogil
     cdef void fit_sphere(self, int f) noexcept nogil

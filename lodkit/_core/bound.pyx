@@ -250,6 +250,8 @@ cdef class Bound:
         self.cert = np.zeros(max(n_faces, 1))
         self.pending = np.zeros(max(n_faces, 1))
         self.last = np.zeros(max(hm.n_vertices, 1))
+        self.vd2 = np.full(max(hm.n_vertices, 1), -1.0)
+        self.vtri = np.full(max(hm.n_vertices, 1), -1, dtype=np.intc)
         cdef int f
         for f in faces:
             self.fit_sphere(f)
@@ -428,6 +430,19 @@ cdef class Bound:
             sp += 2
         return found
 
+    cdef double vertex_dist2(self, int v, const double* x, int* near) noexcept nogil:
+        """The squared distance of vertex v, at x, to the original (and the triangle it is
+        found on, in ``near``): kept until v moves (commit_end forgets it), as only the
+        kept vertex of a collapse does.  Written by the check of a collapse whose 1-ring
+        holds v: the pass driver's threads never share one."""
+        if self.vd2[v] < 0.0:
+            # no first guess: the triangle found then depends on v's position alone (ties
+            # alike), so the first guesses made from it do not depend on when it was asked
+            self.vtri[v] = -1
+            self.vd2[v] = self.nearest2(x, 0.0, &self.vtri[v])
+        near[0] = self.vtri[v]
+        return self.vd2[v]
+
     cdef double pair_cover2(self, const double* t, int ta, int tb) noexcept nogil:
         """The largest squared distance of triangle t's points to the union of original
         triangles ta and tb, if they share an edge: the plane through that edge which
@@ -509,12 +524,16 @@ cdef class Bound:
                     return INFINITY
         return v
 
-    cdef double face_value(self, const double* t, int* cover) noexcept nogil:
+    cdef double face_value(self, const double* t, int* cover, const int* vids, double* p2,
+                           int* p_near) noexcept nogil:
         """A certified upper bound (<= eps) on the distance of triangle ``t``'s points to
         the original, or -1 when none is found (a corner of a piece is farther than eps,
         or the subdivision ran out of levels).  ``cover``: in, an original triangle to try
         first (-1: none; the one that covered the face before the collapse); out, the one
         that covers t whole, else one nearest a corner (the next collapse's first guess).
+        ``vids``: the corners' vertices (:meth:`collect`; NULL: none), whose distances to
+        the original are kept (:meth:`vertex_dist2`), -1 for the collapse's new point,
+        whose distance the caller keeps in ``p2`` / ``p_near`` (< 0: not known yet).
 
         Each piece is accepted by one of two certificates: (a) one original triangle within
         eps of its three corners (convexity: then of all of it; exact, tried first on the
@@ -549,7 +568,15 @@ cdef class Bound:
         # of the current mesh (certified already) -- measured all the same
         for c in range(3):
             dt[c] = -1
-            du[c] = self.nearest2(&t[3 * c], 0.0, &dt[c])
+            if vids == NULL:
+                du[c] = self.nearest2(&t[3 * c], 0.0, &dt[c])
+            elif vids[c] >= 0:
+                du[c] = self.vertex_dist2(vids[c], &t[3 * c], &dt[c])
+            else:
+                if p2[0] < 0.0:
+                    p2[0] = self.nearest2(&t[3 * c], 0.0, p_near)
+                du[c] = p2[0]
+                dt[c] = p_near[0]
             if du[c] > self.eps2:
                 return -1.0
         cover[0] = dt[0]
@@ -651,9 +678,10 @@ cdef class Bound:
 
     # ------------------------------------------------------------- a collapse
     cdef int collect(self, int center, int fa, int fb, const double* p, double* tris, int* fids,
-                     int n) noexcept nogil:
+                     int* vids, int n) noexcept nogil:
         """Append the faces around ``center`` but fa, fb, with ``center`` at ``p``, to
-        tris / fids from row n on; returns the new count, -1 past BOUND_MAX_FAN."""
+        tris / fids (and, unless NULL, their corners' vertices to vids: -1 for ``center``)
+        from row n on; returns the new count, -1 past BOUND_MAX_FAN."""
         cdef int start = self.m.v_he[center]
         cdef int y = start
         cdef int f, b, c, i
@@ -669,6 +697,10 @@ cdef class Bound:
                     tris[9 * n + 3 + i] = self.P[self.stride * b + i]
                     tris[9 * n + 6 + i] = self.P[self.stride * c + i]
                 fids[n] = f
+                if vids != NULL:
+                    vids[3 * n] = -1
+                    vids[3 * n + 1] = b
+                    vids[3 * n + 2] = c
                 n += 1
             y = he_ring_next(self.m, y)
             if y < 0 or y == start:
@@ -679,17 +711,18 @@ cdef class Bound:
         within eps of the original both ways?  Writes ``pending`` of the new faces."""
         cdef double tris[9 * BOUND_MAX_FAN]
         cdef int fids[BOUND_MAX_FAN]
+        cdef int vids[3 * BOUND_MAX_FAN]
         cdef int fa = h // 3
         cdef int fb = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
-        cdef int n, i, pass_, center, start, y, f, q, hint, cover
-        cdef double lim, v
+        cdef int n, i, pass_, center, start, y, f, q, hint, cover, p_near = -1
+        cdef double lim, v, p2 = -1.0
         cdef bint ok
         if not self.within(p, self.eps2):
             return False
-        n = self.collect(r, fa, fb, p, tris, fids, 0)
+        n = self.collect(r, fa, fb, p, tris, fids, vids, 0)
         if n < 0:
             return False
-        n = self.collect(k, fa, fb, p, tris, fids, n)
+        n = self.collect(k, fa, fb, p, tris, fids, vids, n)
         if n < 0:
             return False
         # original -> simplified: the pieces on every face the collapse changes, each within
@@ -721,7 +754,7 @@ cdef class Bound:
         # simplified -> original: every new face
         for i in range(n):
             cover = self.ctri[fids[i]]
-            v = self.face_value(&tris[9 * i], &cover)
+            v = self.face_value(&tris[9 * i], &cover, &vids[3 * i], &p2, &p_near)
             if v < 0.0:
                 return False
             self.pending[fids[i]] = v
@@ -760,18 +793,19 @@ cdef class Bound:
         (the bound this collapse guarantees for what it changed), also kept in ``last[k]``."""
         cdef double tris[9 * BOUND_MAX_FAN]
         cdef int fids[BOUND_MAX_FAN]
-        cdef int n, i, q, nq
+        cdef int n, i, q, nq, hint = -1
         cdef double worst = 0.0
-        n = self.collect(k, -1, -1, &self.P[self.stride * k], tris, fids, 0)
+        n = self.collect(k, -1, -1, &self.P[self.stride * k], tris, fids, NULL, 0)
         if n < 0:
             n = 0
         for i in range(n):
             self.cert[fids[i]] = self.pending[fids[i]]
             self.ctri[fids[i]] = self.pending_tri[fids[i]]
+        self.vd2[k] = -1.0                   # k moved
         q = chain
         while q >= 0:
             nq = self.nxt[q]
-            self.place(q, tris, fids, n)
+            self.place(q, tris, fids, n, &hint)
             q = nq
         for i in range(n):
             self.fit_sphere(fids[i])
@@ -835,11 +869,12 @@ cdef class Bound:
                 sp += 4
         return True
 
-    cdef void place(self, int q, const double* tris, const int* fids, int n) noexcept nogil:
+    cdef void place(self, int q, const double* tris, const int* fids, int n, int* hint) noexcept nogil:
         """Attach piece q (its face is gone) to the new face nearest its three corners, if
         that holds them within eps; else split it as :meth:`fits` did (child 0 keeps slot
         q, the others take new slots) and place the children.  Each face's certificate
-        takes the largest distance of its pieces' corners."""
+        takes the largest distance of its pieces' corners.  ``hint``: the face to measure
+        first (-1 none), set to the last one a piece went to."""
         cdef int stack[BOUND_PIECE_STACK]
         cdef int kids[4]
         cdef int sp = 1, s, c, i, best, slot, t = self.ptri[q]
@@ -851,15 +886,19 @@ cdef class Bound:
             s = stack[sp]
             c = self.pcode[s]
             self.corners(t, c, x)
-            best = -1
-            bv = INFINITY
+            # the face the last piece went to first: with its distance to prune by, the
+            # others mostly stop at their first corner
+            best = hint[0]
+            bv = corners_sqdist(x, &tris[9 * best], INFINITY) if best >= 0 else INFINITY
             for i in range(n):
-                v = corners_sqdist(x, &tris[9 * i], bv)
-                if v < bv:
-                    bv = v
-                    best = i
+                if i != hint[0]:
+                    v = corners_sqdist(x, &tris[9 * i], bv)
+                    if v < bv:
+                        bv = v
+                        best = i
             if best < 0:
                 continue
+            hint[0] = best
             if bv > self.eps2 and piece_depth(c) < self.tdepth[t] and not self.overflow:
                 slot = lodkit_bound_take(&self.n_used, 3)
                 if slot <= self.capacity - 3:
@@ -967,7 +1006,7 @@ cdef class Bound:
         """face_value for one triangle (9,) (tests): its certified distance, or -1."""
         cdef double[::1] a = np.ascontiguousarray(t, dtype=np.float64).reshape(-1)
         cdef int cover = -1
-        return self.face_value(&a[0], &cover)
+        return self.face_value(&a[0], &cover, NULL, NULL, NULL)
 
 
 cdef void select_nth(int* idx, const double* cent, int ax, int lo, int hi, int k) noexcept nogil:
