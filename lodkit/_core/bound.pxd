@@ -44,7 +44,6 @@ cdef class Bound:
 
     cdef object keep                  # the half-edge mesh and the rows the pointers see
     cdef int build(self, int* idx, const double* cent, const double* tb, int n) noexcept nogil
-    cdef double sqdist_box(self, int node, const double* x) noexcept nogil
     cdef bint within(self, const double* x, double d2) noexcept nogil
     cdef double nearest2(self, const double* x, double stop2, int* near) noexcept nogil
     cdef double cover2(self, const double* t, const int* hints, int* cover, bint least) noexcept nogil

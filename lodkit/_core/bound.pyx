@@ -8,28 +8,31 @@ simplified -> original
     GIL).  The distance to one triangle T is a convex function of the point, so on a
     triangle t its largest value is at a corner: if the three corners of t are within
     ``eps`` of one T, all of t is.  A new face is accepted if it, or each of the pieces of
-    its midpoint subdivision (up to BOUND_MAX_DEPTH levels), is covered so -- or, for a
+    its midpoint subdivision (up to BOUND_MAX_DEPTH levels), is covered so -- or by two
+    triangles that share an edge, each on its side of the plane between them, or, for a
     piece t of covering radius h(t) (the farthest a point of t is from its nearest
     corner), if each corner is within ``eps - h(t)`` of O (triangle inequality).  A corner
     farther than ``eps`` from O refuses the collapse outright.
 
 original -> simplified
-    Sample points of O: each original triangle T carries the points of its regular grid of
-    level n_T (its corners included), n_T the least that brings the grid's covering
-    radius s_T = h(T) / n_T down to ``spacing * eps``.  Every point is attached to a face
-    of the current mesh; a collapse re-attaches the points of the faces it changes to the
-    nearest face of the new 1-ring and is refused if one would be farther than
-    ``eps - s_T``: then every point of O is within ``eps`` of the mesh (its nearest grid
-    point is within s_T of it).  While T's face is untouched its points lie on it.
+    The same convexity the other way: each triangle T of O is attached to a face F of the
+    current mesh, whole while its three corners are within ``eps`` of F (then all of T
+    is), else as pieces -- its midpoint subdivision, as deep as needed, each piece on a face
+    that holds its corners so, down to pieces of covering radius ``spacing * eps``.  A
+    collapse re-attaches the pieces of the faces it changes to the faces of the new
+    1-ring (splitting them where needed) and is refused if a piece of the finest level
+    fits no face.  While T's face is untouched it lies on it.
 
 Every face carries the distance it is certified for (``cert``: the larger of its own
-distance to O found by the check and its points' distances plus their slack), so the
-largest ``cert`` over the live faces bounds the two-sided Hausdorff distance, and a
-collapse's record carries the largest of its new faces'.
+distance to O found by the check and its pieces' corners' distances to it), so the largest
+``cert`` over the live faces bounds the two-sided Hausdorff distance, and a collapse's
+record carries the largest of its new faces'.
 
 Thread-safety (the pass driver's blocks): ``check`` only reads, except ``pending`` of the
-faces of the collapse's fans; ``commit_*`` write only the faces of those fans, their points
-and the kept vertex's ``last`` -- all inside the collapse's closed 1-rings.
+faces of the collapse's fans and the distances kept for the vertices of its 1-rings;
+``commit_*`` write only the faces of those fans, their pieces (new pieces take slots from
+a counter shared atomically; no result depends on which slots) and the kept vertex's --
+all inside the collapse's closed 1-rings.
 """
 import numpy as np
 cimport numpy as cnp
@@ -51,6 +54,21 @@ cdef inline double sq(double x) noexcept nogil:
 cdef inline double tri_sqdist(const double* x, const double* t) noexcept nogil:
     """Squared distance from x to the triangle t (9 doubles): vec3.point_triangle_sqdist."""
     return point_triangle_sqdist(x, t, &t[3], &t[6])
+
+
+cdef inline double box_sqdist(const double* b, const double* x) noexcept nogil:
+    """Squared distance from x to the box b (6 doubles: lo xyz, hi xyz)."""
+    cdef double d = 0.0, t
+    cdef int j
+    for j in range(3):
+        t = b[j] - x[j]
+        if t > 0.0:
+            d += t * t
+        else:
+            t = x[j] - b[3 + j]
+            if t > 0.0:
+                d += t * t
+    return d
 
 
 cdef double covering_radius(const double* t) noexcept nogil:
@@ -319,19 +337,6 @@ cdef class Bound:
         return nn
 
     # ------------------------------------------------------------- queries
-    cdef double sqdist_box(self, int node, const double* x) noexcept nogil:
-        cdef double d = 0.0, t
-        cdef int j
-        for j in range(3):
-            t = self.box[node, j] - x[j]
-            if t > 0.0:
-                d += t * t
-            else:
-                t = x[j] - self.box[node, 3 + j]
-                if t > 0.0:
-                    d += t * t
-        return d
-
     cdef bint within(self, const double* x, double d2) noexcept nogil:
         """Is x within sqrt(d2) of the original?"""
         cdef int near = -1
@@ -355,7 +360,7 @@ cdef class Bound:
         while sp > 0:
             sp -= 1
             node = stack[sp]
-            if self.sqdist_box(node, x) >= best:
+            if box_sqdist(&self.box[node, 0], x) >= best:
                 continue
             if self.left[node] < 0:
                 for i in range(self.first[node], self.first[node] + self.count[node]):
@@ -367,8 +372,8 @@ cdef class Bound:
                             return best
                 continue
             a = self.left[node]
-            da = self.sqdist_box(a, x)
-            db = self.sqdist_box(a + 1, x)
+            da = box_sqdist(&self.box[a, 0], x)
+            db = box_sqdist(&self.box[a + 1, 0], x)
             if da <= db:               # the nearer child on top
                 stack[sp] = a + 1
                 stack[sp + 1] = a
@@ -404,7 +409,7 @@ cdef class Bound:
             node = stack[sp]
             lb = 0.0
             for c in range(3):
-                d = self.sqdist_box(node, &t[3 * c])
+                d = box_sqdist(&self.box[node, 0], &t[3 * c])
                 if d > lb:
                     lb = d
                     if lb > bound:
@@ -421,7 +426,7 @@ cdef class Bound:
                 continue
             a = self.left[node]
             # the child nearer the first corner on top
-            if self.sqdist_box(a, t) <= self.sqdist_box(a + 1, t):
+            if box_sqdist(&self.box[a, 0], t) <= box_sqdist(&self.box[a + 1, 0], t):
                 stack[sp] = a + 1
                 stack[sp + 1] = a
             else:
