@@ -18,6 +18,7 @@ cdef class Bound:
     cdef int stride
     # the BVH over the original triangles (static)
     cdef double[:, ::1] tri           # (n_tri, 9) the triangles, in leaf order
+    cdef double[:, ::1] tbox          # (n_tri, 6) their boxes: lo xyz, hi xyz
     cdef double[:, ::1] box           # (n_nodes, 6) lo xyz, hi xyz
     cdef int[::1] left                # inner node: its first child (the second is left + 1); leaf: -1
     cdef int[::1] first               # leaf: first triangle

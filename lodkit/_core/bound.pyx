@@ -228,6 +228,8 @@ cdef class Bound:
             self.n_nodes = 0
         tri = np.ascontiguousarray(tris[idx]) if n_tri else np.zeros((1, 9))
         self.tri = tri
+        # each triangle's own box, a cheap test before its distance
+        self.tbox = np.ascontiguousarray(tb[idx]) if n_tri else np.zeros((1, 6))
         # the pieces of the original: at first each triangle whole (a piece of depth 0, code
         # 0), on its own face; triangle t splits down to depth tdepth[t] at most, where its
         # pieces' covering radius is spacing * eps
@@ -364,6 +366,8 @@ cdef class Bound:
                 continue
             if self.left[node] < 0:
                 for i in range(self.first[node], self.first[node] + self.count[node]):
+                    if box_sqdist(&self.tbox[i, 0], x) >= best:
+                        continue               # no nearer than the best yet
                     d = tri_sqdist(x, &self.tri[i, 0])
                     if d < best:
                         best = d
@@ -418,6 +422,13 @@ cdef class Bound:
                 continue
             if self.left[node] < 0:
                 for i in range(self.first[node], self.first[node] + self.count[node]):
+                    lb = 0.0
+                    for c in range(3):
+                        d = box_sqdist(&self.tbox[i, 0], &t[3 * c])
+                        if d > lb:
+                            lb = d
+                    if lb > bound:
+                        continue               # a corner is farther than the bound
                     v = corners_sqdist(t, &self.tri[i, 0], bound)
                     if v <= bound:
                         bound = v
