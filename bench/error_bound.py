@@ -109,7 +109,7 @@ def run(args) -> dict:
                 "mesh": name, "input_faces": mesh.n_faces, "eps": eps, "faces": res.mesh.n_faces,
                 "certified": res.bound.relative, "hausdorff": h.hausdorff, "hausdorff_fwd": h.hausdorff_fwd,
                 "hausdorff_bwd": h.hausdorff_bwd, "within": bool(h.hausdorff <= eps + EVAL_TOL),
-                "stop": res.stop_reason, "sample_points": res.report["error_bound"]["sample_points"],
+                "stop": res.stop_reason, "pieces": res.report["error_bound"]["pieces"],
                 "wall": wall, "cpu": cpu, "qem_wall": qwall, "qem_cpu": qcpu,
                 "qem_faces_same_hausdorff": faces_at(curves[name], h.hausdorff),
                 "samples": args.samples,

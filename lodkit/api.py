@@ -125,10 +125,12 @@ def simplify(
                        ``result.bound`` says the distance the output is certified for
                        (docs/error-bound.md).  Edge collapse only (the pass and greedy
                        drivers, any edge-collapse metric); needs ``max_error``
-    sample_spacing   : with ``error="hausdorff"``: the input is sampled on a grid per
-                       triangle whose points are at most this fraction of ``max_error`` from
-                       any point of it (default 0.25); smaller costs more memory and time
-                       and refuses fewer collapses near the bound
+    sample_spacing   : with ``error="hausdorff"``: how finely the input's triangles may be
+                       split (at their edges' midpoints, where one face of the output does
+                       not hold a whole triangle within ``max_error``): down to pieces whose
+                       points are at most this fraction of ``max_error`` from a corner
+                       (default 0.25); smaller refuses fewer collapses near the bound and
+                       may take more pieces and time
 
     metric           : the cost: a registered name ("qem", see ``lodkit.metrics.available()``),
                        ``(name, {options})``, a Metric instance, or a list of those to combine

@@ -163,7 +163,8 @@ def check_settings(settings: dict, max_error) -> None:
 #: simplify(error=): what max_error limits -- the collapse error ("qem") or a guaranteed
 #: two-sided distance to the input ("hausdorff", docs/error-bound.md)
 ERRORS = ("qem", "hausdorff")
-#: simplify(sample_spacing=)'s default: the input's sample grids cover it to a quarter of max_error
+#: simplify(sample_spacing=)'s default: the input's triangles split down to pieces whose points are
+#: within a quarter of max_error of a corner
 SAMPLE_SPACING = 0.25
 
 

@@ -151,6 +151,34 @@ def test_face_certificate_is_an_upper_bound():
     assert checked > 0
 
 
+def test_face_certificate_across_a_ridge():
+    """Triangles across the ridge of a roof whose two slopes are single input triangles
+    near them: certified (two triangles sharing an edge, each for its side of the plane
+    between them), and never below their true distance."""
+    x, y = np.meshgrid(np.linspace(0.0, 1.0, 3), np.linspace(0.0, 1.0, 3), indexing="ij")
+    mesh = grid(3, 0.3 * (0.5 - np.abs(x - 0.5)))
+    b, _ = core_bound(mesh, 0.03)
+    rng = np.random.default_rng(7)
+    prep = prepare(mesh)
+    ridge_z = prep.positions[:, 2].max()
+    lo, hi = prep.positions.min(0), prep.positions.max(0)
+    mid = 0.5 * (lo + hi)
+    checked = 0
+    for _ in range(60):
+        t = np.empty((3, 3))
+        t[:, 0] = mid[0] + rng.uniform(-0.15, 0.15, 3) * (hi[0] - lo[0])
+        t[:, 1] = mid[1] + rng.uniform(-0.3, 0.3, 3) * (hi[1] - lo[1])
+        t[:, 2] = ridge_z + rng.uniform(-1.0, 0.8, 3) * b.eps
+        cert = b.face_distance(t.reshape(-1))
+        if cert < 0:
+            continue
+        w = rng.dirichlet([1, 1, 1], size=2000)
+        assert b.distance(w @ t).max() <= cert * (1 + REL_TOL) + 1e-15
+        assert cert <= b.eps * (1 + REL_TOL)
+        checked += 1
+    assert checked >= 20
+
+
 # ----------------------------------------------------------------- known distances
 
 
@@ -218,6 +246,92 @@ def test_sphere_analytic_distance(eps):
     assert ev.distance.hausdorff <= res.bound.relative * (1 + REL_TOL) + EVAL_TOL
 
 
+def bump(n: int, height: float) -> Mesh:
+    """An n x n grid over the unit square, flat but for its middle vertex at ``height``."""
+    z = np.zeros((n, n))
+    z[n // 2, n // 2] = height
+    return grid(n, z)
+
+
+@pytest.mark.parametrize("n, height", [(9, 0.01), (65, 0.1)])
+def test_bump_flattened_just_above_its_height(n, height):
+    """A single-vertex bump, on triangles 12 to 17 times longer than eps (n=9: the input's
+    triangles split where the output's edges cross them) or 5 to 7 times shorter (n=65:
+    whole triangles suffice).  Input triangles need no slack: a bound 2 % above the height
+    flattens the bump -- the apex is then the height away, so the bound is all but reached
+    -- and one 2 % below does not."""
+    mesh = bump(n, height)
+    diag = float(np.linalg.norm(mesh.vertices.max(0) - mesh.vertices.min(0)))
+    above = lodkit.simplify(mesh, max_error=1.02 * height, absolute=True, error="hausdorff", boundary="lock")
+    assert above.bound.absolute <= 1.02 * height * (1 + REL_TOL)
+    assert np.abs(above.mesh.vertices[:, 2]).max() <= 1e-3 * height
+    h_above = hausdorff(mesh, above)
+    assert 0.95 * height <= h_above <= above.bound.absolute * (1 + REL_TOL) + EVAL_TOL * diag
+    if n == 9:
+        assert above.report["error_bound"]["pieces"] > mesh.n_faces
+    else:
+        assert above.report["error_bound"]["pieces"] == mesh.n_faces
+    below = lodkit.simplify(mesh, max_error=0.98 * height, absolute=True, error="hausdorff", boundary="lock")
+    assert below.bound.absolute <= 0.98 * height * (1 + REL_TOL)
+    assert below.mesh.vertices[:, 2].max() >= 0.1 * height       # lowered, not gone
+    assert hausdorff(mesh, below) <= below.bound.absolute * (1 + REL_TOL) + EVAL_TOL * diag
+
+
+def keep_collapsers(monkeypatch) -> list:
+    """The EdgeCollapsers simplify() builds from now on, kept: their Bound stays readable
+    after the run."""
+    import lodkit.drivers.edge as edge_driver
+
+    made = []
+    build = edge_driver.EdgeCollapser
+
+    def keep(*args, **kwargs):
+        made.append(build(*args, **kwargs))
+        return made[-1]
+
+    monkeypatch.setattr(edge_driver, "EdgeCollapser", keep)
+    return made
+
+
+def triangle_areas(t):
+    return 0.5 * np.linalg.norm(np.cross(t[:, 3:6] - t[:, 0:3], t[:, 6:9] - t[:, 0:3]), axis=1)
+
+
+@pytest.mark.parametrize("eps", [0.004, 0.02])
+def test_pieces_tile_the_input_within_their_faces(monkeypatch, eps):
+    """After a run the pieces of the input cover it exactly (their areas add up to its
+    area) and each lies within its face's certificate of that face, at its corners and
+    so everywhere (convexity)."""
+    rng = np.random.default_rng(6)
+    mesh = grid(12, 0.04 * rng.uniform(size=(12, 12)))
+    made = keep_collapsers(monkeypatch)
+    res = lodkit.simplify(mesh, max_error=eps, error="hausdorff", threads=1)
+    b = made[-1].bound
+    pieces, faces, cert = b.pieces()
+    assert len(pieces) == b.n_pieces == res.report["error_bound"]["pieces"]
+    prep = prepare(mesh)
+    tris = prep.positions[np.asarray(prep.hm.corners)].reshape(-1, 9)
+    np.testing.assert_allclose(triangle_areas(pieces).sum(), triangle_areas(tris).sum(), rtol=1e-12)
+    assert cert.max() <= b.eps * (1 + REL_TOL)
+    for corner in range(3):
+        d = np.array([brute_distance(p[None, 3 * corner:3 * corner + 3], f[None])[0] for p, f in zip(pieces, faces)])
+        assert np.all(d <= cert * (1 + REL_TOL) + 1e-15)
+
+
+def test_too_many_pieces(monkeypatch):
+    """More pieces than MAX_PIECES: an OptionError, before the run when the input's own
+    triangles are too many, after it when splitting them needed more."""
+    import lodkit._core.bound as bound_module
+
+    mesh = bump(9, 0.05)
+    monkeypatch.setattr(bound_module, "MAX_PIECES", 100)
+    with pytest.raises(OptionError, match="at most 100 triangles"):
+        lodkit.simplify(mesh, max_error=0.005, error="hausdorff")
+    monkeypatch.setattr(bound_module, "MAX_PIECES", 140)
+    with pytest.raises(OptionError, match="pieces of the input"):
+        lodkit.simplify(mesh, max_error=0.005, error="hausdorff")
+
+
 # ----------------------------------------------------------------- property tests
 
 
@@ -276,7 +390,7 @@ def test_off_by_default_and_options():
     assert "error" not in plain.report["settings"]
     res = lodkit.simplify(mesh, max_error=0.01, error="hausdorff")
     assert res.report["settings"]["error"]["value"] == "hausdorff"
-    assert res.report["error_bound"]["sample_points"] > 0
+    assert res.report["error_bound"]["pieces"] > 0
     with pytest.raises(OptionError, match="needs max_error"):
         lodkit.simplify(mesh, target_faces=10, error="hausdorff")
     with pytest.raises(OptionError, match="error must be one of"):

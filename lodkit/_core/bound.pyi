@@ -4,24 +4,26 @@ import numpy as np
 
 from .halfedge import HalfEdgeMesh
 
-#: sample points Bound takes at most (beyond, ValueError)
-MAX_POINTS: int
+#: pieces of the original Bound keeps at most (beyond, ``overflowed``)
+MAX_PIECES: int
 
 def triangle_covering_radius(t: np.ndarray) -> float:
     """The farthest a point of triangle ``t`` (9,) is from its nearest corner."""
 
-def sample_original(tris: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(points, slack, triangle): the grid points of each triangle (n, 9), covering it to ``spacing``."""
-
 class Bound:
-    """The error-bound state of one run: a BVH over the original, its sample points
-    attached to the current faces, each face's certified distance."""
+    """The error-bound state of one run: a BVH over the original, its triangles (split
+    where needed) attached to the current faces, each face's certified distance."""
 
     eps: float
     def __init__(self, hm: HalfEdgeMesh, vdata: np.ndarray, offset: int, eps: float,
                  spacing: float = 0.25) -> None: ...
     @property
-    def n_points(self) -> int: ...
+    def n_pieces(self) -> int: ...
+    @property
+    def overflowed(self) -> bool: ...
+    def pieces(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(pieces (k, 9), faces (k, 9), cert (k,)): each piece of the original, the face it
+        is on and that face's certificate."""
     @property
     def n_nodes_bvh(self) -> int: ...
     def bound(self, alive_faces: np.ndarray) -> float:

@@ -8,35 +8,38 @@ simplified -> original
     GIL).  The distance to one triangle T is a convex function of the point, so on a
     triangle t its largest value is at a corner: if the three corners of t are within
     ``eps`` of one T, all of t is.  A new face is accepted if it, or each of the pieces of
-    its midpoint subdivision (up to BOUND_MAX_DEPTH levels), is covered so -- or, for a
+    its midpoint subdivision (up to BOUND_MAX_DEPTH levels), is covered so -- or by two
+    triangles that share an edge, each on its side of the plane between them, or, for a
     piece t of covering radius h(t) (the farthest a point of t is from its nearest
     corner), if each corner is within ``eps - h(t)`` of O (triangle inequality).  A corner
     farther than ``eps`` from O refuses the collapse outright.
 
 original -> simplified
-    Sample points of O: each original triangle T carries the points of its regular grid of
-    level n_T (its corners included), n_T the least that brings the grid's covering
-    radius s_T = h(T) / n_T down to ``spacing * eps``.  Every point is attached to a face
-    of the current mesh; a collapse re-attaches the points of the faces it changes to the
-    nearest face of the new 1-ring and is refused if one would be farther than
-    ``eps - s_T``: then every point of O is within ``eps`` of the mesh (its nearest grid
-    point is within s_T of it).  While T's face is untouched its points lie on it.
+    The same convexity the other way: each triangle T of O is attached to a face F of the
+    current mesh, whole while its three corners are within ``eps`` of F (then all of T
+    is), else as pieces -- its midpoint subdivision, as deep as needed, each piece on a face
+    that holds its corners so, down to pieces of covering radius ``spacing * eps``.  A
+    collapse re-attaches the pieces of the faces it changes to the faces of the new
+    1-ring (splitting them where needed) and is refused if a piece of the finest level
+    fits no face.  While T's face is untouched it lies on it.
 
 Every face carries the distance it is certified for (``cert``: the larger of its own
-distance to O found by the check and its points' distances plus their slack), so the
-largest ``cert`` over the live faces bounds the two-sided Hausdorff distance, and a
-collapse's record carries the largest of its new faces'.
+distance to O found by the check and its pieces' corners' distances to it), so the largest
+``cert`` over the live faces bounds the two-sided Hausdorff distance, and a collapse's
+record carries the largest of its new faces'.
 
 Thread-safety (the pass driver's blocks): ``check`` only reads, except ``pending`` of the
-faces of the collapse's fans; ``commit_*`` write only the faces of those fans, their points
-and the kept vertex's ``last`` -- all inside the collapse's closed 1-rings.
+faces of the collapse's fans and the distances kept for the vertices of its 1-rings;
+``commit_*`` write only the faces of those fans, their pieces (new pieces take slots from
+a counter shared atomically; no result depends on which slots) and the kept vertex's --
+all inside the collapse's closed 1-rings.
 """
 import numpy as np
 cimport numpy as cnp
-from libc.math cimport sqrt, ceil, INFINITY
+from libc.math cimport sqrt, INFINITY
 
 from .halfedge cimport HalfEdgeMesh, he_prev, he_dest, he_ring_next
-from .vec3 cimport point_triangle_sqdist
+from .vec3 cimport point_triangle_sqdist, same_point, sub3, dot3, norm3
 
 cnp.import_array()
 
@@ -51,6 +54,21 @@ cdef inline double sq(double x) noexcept nogil:
 cdef inline double tri_sqdist(const double* x, const double* t) noexcept nogil:
     """Squared distance from x to the triangle t (9 doubles): vec3.point_triangle_sqdist."""
     return point_triangle_sqdist(x, t, &t[3], &t[6])
+
+
+cdef inline double box_sqdist(const double* b, const double* x) noexcept nogil:
+    """Squared distance from x to the box b (6 doubles: lo xyz, hi xyz)."""
+    cdef double d = 0.0, t
+    cdef int j
+    for j in range(3):
+        t = b[j] - x[j]
+        if t > 0.0:
+            d += t * t
+        else:
+            t = x[j] - b[3 + j]
+            if t > 0.0:
+                d += t * t
+    return d
 
 
 cdef double covering_radius(const double* t) noexcept nogil:
@@ -90,48 +108,75 @@ def triangle_covering_radius(t):
     return covering_radius(&a[0])
 
 
-#: sample points Bound takes at most (about 36 bytes each): beyond, ValueError
-MAX_POINTS = 20_000_000
+#: pieces of the input Bound keeps at most (12 bytes each, in arrays the pages of which the
+#: system only commits once a piece is there): more are refused (OptionError)
+MAX_PIECES = 1 << 26
+
+# A piece of original triangle T = (a, b, c) is a triangle of the regular grid of level
+# N = 2**d on T (grid point (x, y) = a + (x / N)(b - a) + (y / N)(c - a)): "up" with corners
+# (i, j), (i + 1, j), (i, j + 1), or "down" with corners (i + 1, j), (i, j + 1), (i + 1, j + 1).
+# Its four children (its edges' midpoints) are the pieces of depth d + 1 in it.  A code
+# packs d, up/down and i, j into 31 bits.
+cdef enum:
+    PIECE_BITS = 13                       # i, j < 2**13: BOUND_PIECE_DEPTH at most 13
+    PIECE_MASK = (1 << PIECE_BITS) - 1
+    PIECE_DOWN = 1 << (2 * PIECE_BITS)
+    PIECE_DEPTH_SHIFT = 2 * PIECE_BITS + 1
 
 
-def sample_original(double[:, ::1] tris, double spacing):
-    """(points (k, 3), slack (k,), triangle (k,)): the grid points of each triangle of
-    ``tris`` (n, 9) at the level that brings its covering radius to ``spacing`` at most,
-    corners included; ``slack`` is the grid's covering radius.  ValueError when that takes
-    more than MAX_POINTS points."""
-    cdef int n = tris.shape[0], i, lev
-    cdef double h
-    levels = np.empty(n, dtype=np.int64)
-    hs = np.empty(n, dtype=np.float64)
-    cdef long[::1] L = levels
-    cdef double[::1] H = hs
-    for i in range(n):
-        h = covering_radius(&tris[i, 0])
-        H[i] = h
-        lev = 1
-        if spacing > 0.0 and h > spacing:
-            lev = <int>min(ceil(h / spacing), 1e6)
-        L[i] = lev
-    total = int(((levels + 1) * (levels + 2) // 2).sum())
-    if total > MAX_POINTS:
-        raise ValueError(f"the error bound would sample the input with {total} points (at most {MAX_POINTS}): "
-                         f"max_error is small next to the input's triangles; raise max_error or sample_spacing")
-    tri_np = np.asarray(tris)
-    out_p, out_s, out_t = [], [], []
-    for lev in np.unique(levels):
-        sel = np.flatnonzero(levels == lev)
-        ii, jj = np.meshgrid(np.arange(lev + 1), np.arange(lev + 1), indexing="ij")
-        keep = (ii + jj) <= lev
-        bu = ii[keep].astype(np.float64) / lev
-        bv = jj[keep].astype(np.float64) / lev
-        a = tri_np[sel, 0:3]
-        b = tri_np[sel, 3:6]
-        c = tri_np[sel, 6:9]
-        pts = (a[:, None, :] + bu[None, :, None] * (b - a)[:, None, :] + bv[None, :, None] * (c - a)[:, None, :])
-        out_p.append(pts.reshape(-1, 3))
-        out_s.append(np.repeat(hs[sel] / lev, bu.size))
-        out_t.append(np.repeat(sel, bu.size))
-    return (np.concatenate(out_p), np.concatenate(out_s), np.concatenate(out_t).astype(np.intc))
+cdef inline int piece_depth(int code) noexcept nogil:
+    return code >> PIECE_DEPTH_SHIFT
+
+
+cdef inline void piece_split(int code, int* out) noexcept nogil:
+    """The codes of the four children of piece ``code``: the three at its corners, then the
+    middle one (turned the other way)."""
+    cdef int d = (piece_depth(code) + 1) << PIECE_DEPTH_SHIFT
+    cdef int i = 2 * ((code >> PIECE_BITS) & PIECE_MASK)
+    cdef int j = 2 * (code & PIECE_MASK)
+    if code & PIECE_DOWN:
+        out[0] = d | PIECE_DOWN | ((i + 1) << PIECE_BITS) | j
+        out[1] = d | PIECE_DOWN | (i << PIECE_BITS) | (j + 1)
+        out[2] = d | PIECE_DOWN | ((i + 1) << PIECE_BITS) | (j + 1)
+        out[3] = d | ((i + 1) << PIECE_BITS) | (j + 1)
+    else:
+        out[0] = d | (i << PIECE_BITS) | j
+        out[1] = d | ((i + 1) << PIECE_BITS) | j
+        out[2] = d | (i << PIECE_BITS) | (j + 1)
+        out[3] = d | PIECE_DOWN | (i << PIECE_BITS) | j
+
+
+cdef inline double corners_sqdist(const double* x, const double* t, double lim2) noexcept nogil:
+    """The largest squared distance of the three points x (9 doubles) to triangle t -- or,
+    as soon as one is above ``lim2``, that one's."""
+    cdef double v = tri_sqdist(x, t), d
+    if v > lim2:
+        return v
+    d = tri_sqdist(&x[3], t)
+    if d > v:
+        v = d
+        if v > lim2:
+            return v
+    d = tri_sqdist(&x[6], t)
+    return d if d > v else v
+
+
+cdef extern from *:
+    """
+    /* slots for new pieces: taken by the pass driver's threads at once (relaxed: the
+       passes' barriers order the pieces' writes before any other thread reads them) */
+    #if defined(_MSC_VER)
+    #include <intrin.h>
+    static int lodkit_bound_take(int* counter, int n) {
+        return (int)_InterlockedExchangeAdd((volatile long*)counter, (long)n);
+    }
+    #else
+    static int lodkit_bound_take(int* counter, int n) {
+        return __atomic_fetch_add(counter, n, __ATOMIC_RELAXED);
+    }
+    #endif
+    """
+    int lodkit_bound_take(int* counter, int n) noexcept nogil
 
 
 cdef class Bound:
@@ -140,7 +185,7 @@ cdef class Bound:
     hm      : the half-edge mesh (its live faces are the original O)
     vdata   : the collapser's per-vertex rows; the position starts at column ``offset``
     eps     : the bound, in the units of the positions
-    spacing : the covering radius of the original's sample grids, as a fraction of eps
+    spacing : the finest pieces of the original: their covering radius at most ``spacing * eps``
     """
 
     def __init__(self, HalfEdgeMesh hm, double[:, ::1] vdata, int offset, double eps, double spacing=0.25):
@@ -159,29 +204,8 @@ cdef class Bound:
         corners = np.asarray(hm.corners)[faces]
         tris = np.ascontiguousarray(pos[corners].reshape(-1, 9))
         n_tri = tris.shape[0]
-        # the sample points, attached to their own triangle's face slot
-        pts, slack, owner = sample_original(tris, spacing * eps)
-        self.pts = np.ascontiguousarray(pts)
-        self.slack = slack
-        n_faces = hm.n_faces
-        order = np.argsort(owner, kind="stable")
-        face_of = faces[owner[order]]
-        nxt = np.full(order.size, -1, dtype=np.intc)
-        same = face_of[1:] == face_of[:face_of.size - 1]
-        nxt[order[:order.size - 1][same]] = order[1:][same]
-        head = np.full(max(n_faces, 1), -1, dtype=np.intc)
-        starts = np.ones(order.size, dtype=bool)
-        starts[1:] = ~same
-        head[face_of[starts]] = order[starts]
-        self.nxt = nxt if nxt.size else np.full(1, -1, dtype=np.intc)
-        self.head = head
-        self.sphere = np.zeros((max(n_faces, 1), 5))
-        self.cert = np.zeros(max(n_faces, 1))
-        self.pending = np.zeros(max(n_faces, 1))
-        self.last = np.zeros(max(hm.n_vertices, 1))
-        cdef int f
-        for f in faces:
-            self.fit_sphere(f)
+        if n_tri > MAX_PIECES:
+            raise ValueError(f"the error bound takes inputs of at most {MAX_PIECES} triangles, not {n_tri}")
         # the BVH
         cap = max(2 * n_tri, 1)
         self.box = np.zeros((cap, 6))
@@ -202,7 +226,55 @@ cdef class Bound:
                 self.n_nodes = self.build(&I[0], &C[0, 0], &TB[0, 0], nt)
         else:
             self.n_nodes = 0
-        self.tri = np.ascontiguousarray(tris[idx]) if n_tri else np.zeros((1, 9))
+        tri = np.ascontiguousarray(tris[idx]) if n_tri else np.zeros((1, 9))
+        self.tri = tri
+        # each triangle's own box, a cheap test before its distance
+        self.tbox = np.ascontiguousarray(tb[idx]) if n_tri else np.zeros((1, 6))
+        # the pieces of the original: at first each triangle whole (a piece of depth 0, code
+        # 0), on its own face; triangle t splits down to depth tdepth[t] at most, where its
+        # pieces' covering radius is spacing * eps
+        base = tri.copy()
+        base[:, 3:6] -= tri[:, 0:3]
+        base[:, 6:9] -= tri[:, 0:3]
+        self.base = base
+        depth = np.zeros(max(n_tri, 1), dtype=np.intc)
+        self.tdepth = depth
+        cdef double s = spacing * eps, h
+        cdef int t
+        for t in range(nt):
+            h = covering_radius(&self.tri[t, 0])
+            while self.tdepth[t] < BOUND_PIECE_DEPTH and h > s * (1 << self.tdepth[t]):
+                self.tdepth[t] += 1
+        # slots: a triangle split all the way has 4**depth pieces; beyond MAX_PIECES in all
+        # the run may run out of them (the driver then raises OptionError)
+        self.capacity = int(min(MAX_PIECES, max(int((4 ** depth[:n_tri].astype(np.int64)).sum()), 1)))
+        self.ptri = np.empty(self.capacity, dtype=np.intc)
+        self.pcode = np.empty(self.capacity, dtype=np.intc)
+        self.nxt = np.empty(self.capacity, dtype=np.intc)
+        n_faces = hm.n_faces
+        head = np.full(max(n_faces, 1), -1, dtype=np.intc)
+        face_of = faces[idx]
+        head[face_of] = np.arange(n_tri, dtype=np.intc)
+        self.head = head
+        # each face is covered by its own triangle, the first guess when a collapse moves it
+        ctri = np.full(max(n_faces, 1), -1, dtype=np.intc)
+        ctri[face_of] = np.arange(n_tri, dtype=np.intc)
+        self.ctri = ctri
+        self.pending_tri = np.full(max(n_faces, 1), -1, dtype=np.intc)
+        np.asarray(self.ptri)[:n_tri] = np.arange(n_tri, dtype=np.intc)
+        np.asarray(self.pcode)[:n_tri] = 0
+        np.asarray(self.nxt)[:n_tri] = -1
+        self.n_used = n_tri
+        self.overflow = False
+        self.sphere = np.zeros((max(n_faces, 1), 4))
+        self.cert = np.zeros(max(n_faces, 1))
+        self.pending = np.zeros(max(n_faces, 1))
+        self.last = np.zeros(max(hm.n_vertices, 1))
+        self.vd2 = np.full(max(hm.n_vertices, 1), -1.0)
+        self.vtri = np.full(max(hm.n_vertices, 1), -1, dtype=np.intc)
+        cdef int f
+        for f in faces:
+            self.fit_sphere(f)
 
     cdef int build(self, int* idx, const double* cent, const double* tb, int n) noexcept nogil:
         """Top-down BVH: split at the median centroid along the longest axis of the
@@ -267,48 +339,45 @@ cdef class Bound:
         return nn
 
     # ------------------------------------------------------------- queries
-    cdef double sqdist_box(self, int node, const double* x) noexcept nogil:
-        cdef double d = 0.0, t
-        cdef int j
-        for j in range(3):
-            t = self.box[node, j] - x[j]
-            if t > 0.0:
-                d += t * t
-            else:
-                t = x[j] - self.box[node, 3 + j]
-                if t > 0.0:
-                    d += t * t
-        return d
-
     cdef bint within(self, const double* x, double d2) noexcept nogil:
         """Is x within sqrt(d2) of the original?"""
-        return self.nearest2(x, d2) <= d2
+        cdef int near = -1
+        return self.nearest2(x, d2, &near) <= d2
 
-    cdef double nearest2(self, const double* x, double stop2) noexcept nogil:
+    cdef double nearest2(self, const double* x, double stop2, int* near) noexcept nogil:
         """The squared distance from x to the original -- or, as soon as a triangle within
-        ``stop2`` is found, that triangle's (an upper bound, <= stop2)."""
+        ``stop2`` is found, that triangle's (an upper bound, <= stop2).  ``near``: in, a
+        triangle to try first (its row in ``tri``; -1 none), out, the one found (-1 when
+        the original is empty)."""
         cdef int stack[BOUND_STACK]
         cdef int sp = 1, node, i, a
         cdef double best = INFINITY, d, da, db
+        if near[0] >= 0:
+            best = tri_sqdist(x, &self.tri[near[0], 0])
+            if best <= stop2:
+                return best
         if self.n_nodes == 0:
             return INFINITY
         stack[0] = 0
         while sp > 0:
             sp -= 1
             node = stack[sp]
-            if self.sqdist_box(node, x) >= best:
+            if box_sqdist(&self.box[node, 0], x) >= best:
                 continue
             if self.left[node] < 0:
                 for i in range(self.first[node], self.first[node] + self.count[node]):
+                    if box_sqdist(&self.tbox[i, 0], x) >= best:
+                        continue               # no nearer than the best yet
                     d = tri_sqdist(x, &self.tri[i, 0])
                     if d < best:
                         best = d
+                        near[0] = i
                         if best <= stop2:
                             return best
                 continue
             a = self.left[node]
-            da = self.sqdist_box(a, x)
-            db = self.sqdist_box(a + 1, x)
+            da = box_sqdist(&self.box[a, 0], x)
+            db = box_sqdist(&self.box[a + 1, 0], x)
             if da <= db:               # the nearer child on top
                 stack[sp] = a + 1
                 stack[sp + 1] = a
@@ -318,21 +387,33 @@ cdef class Bound:
             sp += 2
         return best
 
-    cdef double cover2(self, const double* t, double best2) noexcept nogil:
+    cdef double cover2(self, const double* t, const int* hints, int* cover, bint least) noexcept nogil:
         """min over original triangles T of max over t's corners of their squared distance
-        to T, if that is at most ``best2``; else INFINITY."""
+        to T, if that is at most eps**2 (``cover`` gets that T's row), else INFINITY (and
+        -1).  The three ``hints`` (rows, -1 none) are tried first: the best of them within
+        eps bounds the search from the start, which then prunes all the more; unless
+        ``least``, it is the answer (some T within eps, not the nearest: a certificate all
+        the same, found without searching)."""
         cdef int stack[BOUND_STACK]
         cdef int sp = 1, node, i, c, a
-        cdef double found = INFINITY, bound = best2, d, lb, v
-        if self.n_nodes == 0:
-            return INFINITY
+        cdef double found = INFINITY, bound = self.eps2, d, lb, v
+        cover[0] = -1
+        for c in range(3):
+            if hints[c] >= 0:
+                v = corners_sqdist(t, &self.tri[hints[c], 0], bound)
+                if v <= bound:
+                    bound = v
+                    found = v
+                    cover[0] = hints[c]
+        if self.n_nodes == 0 or (found <= self.eps2 and not least):
+            return found
         stack[0] = 0
         while sp > 0:
             sp -= 1
             node = stack[sp]
             lb = 0.0
             for c in range(3):
-                d = self.sqdist_box(node, &t[3 * c])
+                d = box_sqdist(&self.box[node, 0], &t[3 * c])
                 if d > lb:
                     lb = d
                     if lb > bound:
@@ -341,20 +422,22 @@ cdef class Bound:
                 continue
             if self.left[node] < 0:
                 for i in range(self.first[node], self.first[node] + self.count[node]):
-                    v = 0.0
+                    lb = 0.0
                     for c in range(3):
-                        d = tri_sqdist(&t[3 * c], &self.tri[i, 0])
-                        if d > v:
-                            v = d
-                            if v > bound:
-                                break
+                        d = box_sqdist(&self.tbox[i, 0], &t[3 * c])
+                        if d > lb:
+                            lb = d
+                    if lb > bound:
+                        continue               # a corner is farther than the bound
+                    v = corners_sqdist(t, &self.tri[i, 0], bound)
                     if v <= bound:
                         bound = v
                         found = v
+                        cover[0] = i
                 continue
             a = self.left[node]
             # the child nearer the first corner on top
-            if self.sqdist_box(a, t) <= self.sqdist_box(a + 1, t):
+            if box_sqdist(&self.box[a, 0], t) <= box_sqdist(&self.box[a + 1, 0], t):
                 stack[sp] = a + 1
                 stack[sp + 1] = a
             else:
@@ -363,47 +446,162 @@ cdef class Bound:
             sp += 2
         return found
 
-    cdef double face_value(self, const double* t) noexcept nogil:
+    cdef double vertex_dist2(self, int v, const double* x, int* near) noexcept nogil:
+        """The squared distance of vertex v, at x, to the original (and the triangle it is
+        found on, in ``near``): kept until v moves (commit_end forgets it), as only the
+        kept vertex of a collapse does.  Written by the check of a collapse whose 1-ring
+        holds v: the pass driver's threads never share one."""
+        if self.vd2[v] < 0.0:
+            # no first guess: the triangle found then depends on v's position alone (ties
+            # alike), so the first guesses made from it do not depend on when it was asked
+            self.vtri[v] = -1
+            self.vd2[v] = self.nearest2(x, 0.0, &self.vtri[v])
+        near[0] = self.vtri[v]
+        return self.vd2[v]
+
+    cdef double pair_cover2(self, const double* t, int ta, int tb) noexcept nogil:
+        """The largest squared distance of triangle t's points to the union of original
+        triangles ta and tb, if they share an edge: the plane through that edge which
+        halves the angle between them (normal u_a - u_b, u the unit vector in each
+        triangle's plane from the edge to its third corner; a flat pair gives the plane
+        square to both) cuts t in two convex parts, each with its corners on the cut, and
+        the distance to ta on ta's side, to tb on tb's, is largest at those corners
+        (convexity).  INFINITY when they share no edge, or past eps**2."""
+        cdef const double* A = &self.tri[ta, 0]
+        cdef const double* B = &self.tri[tb, 0]
+        cdef int ia[2]
+        cdef int ib[2]
+        cdef int i, j, na = 0, oa, ob
+        cdef double e[3]
+        cdef double ua[3]
+        cdef double ub[3]
+        cdef double m[3]
+        cdef double x[3]
+        cdef double sd[3]
+        cdef double le, la, lb, w, v = 0.0, d
+        for i in range(3):
+            for j in range(3):
+                if same_point(&A[3 * i], &B[3 * j]):
+                    if na == 2:
+                        return INFINITY                # the same triangle twice
+                    ia[na] = i
+                    ib[na] = j
+                    na += 1
+        if na != 2:
+            return INFINITY
+        oa = 3 - ia[0] - ia[1]
+        ob = 3 - ib[0] - ib[1]
+        for i in range(3):
+            e[i] = A[3 * ia[1] + i] - A[3 * ia[0] + i]
+            ua[i] = A[3 * oa + i] - A[3 * ia[0] + i]
+            ub[i] = B[3 * ob + i] - A[3 * ia[0] + i]
+        le = dot3(e, e)
+        if not (le > 0.0):
+            return INFINITY
+        la = dot3(ua, e) / le
+        lb = dot3(ub, e) / le
+        for i in range(3):
+            ua[i] -= la * e[i]
+            ub[i] -= lb * e[i]
+        la = norm3(ua)
+        lb = norm3(ub)
+        if not (la > 0.0 and lb > 0.0):
+            return INFINITY
+        for i in range(3):
+            m[i] = ua[i] / la - ub[i] / lb
+        if not (dot3(m, m) > 1e-12):
+            return INFINITY                        # folded onto each other: no plane between
+        for i in range(3):
+            sub3(&t[3 * i], &A[3 * ia[0]], x)
+            sd[i] = dot3(x, m)
+            if sd[i] >= 0.0:
+                d = tri_sqdist(&t[3 * i], A)
+                if d > v:
+                    v = d
+            if sd[i] <= 0.0:
+                d = tri_sqdist(&t[3 * i], B)
+                if d > v:
+                    v = d
+            if v > self.eps2:
+                return INFINITY
+        for i in range(3):
+            j = (i + 1) % 3
+            if (sd[i] > 0.0 and sd[j] < 0.0) or (sd[i] < 0.0 and sd[j] > 0.0):
+                w = sd[i] / (sd[i] - sd[j])
+                for na in range(3):
+                    x[na] = t[3 * i + na] + w * (t[3 * j + na] - t[3 * i + na])
+                d = tri_sqdist(x, A)
+                if d > v:
+                    v = d
+                d = tri_sqdist(x, B)
+                if d > v:
+                    v = d
+                if v > self.eps2:
+                    return INFINITY
+        return v
+
+    cdef double face_value(self, const double* t, int* cover, const int* vids, double* p2,
+                           int* p_near) noexcept nogil:
         """A certified upper bound (<= eps) on the distance of triangle ``t``'s points to
         the original, or -1 when none is found (a corner of a piece is farther than eps,
-        or the subdivision ran out of levels).
+        or the subdivision ran out of levels).  ``cover``: in, an original triangle to try
+        first (-1: none; the one that covered the face before the collapse); out, the one
+        that covers t whole, else one nearest a corner (the next collapse's first guess).
+        ``vids``: the corners' vertices (:meth:`collect`; NULL: none), whose distances to
+        the original are kept (:meth:`vertex_dist2`), -1 for the collapse's new point,
+        whose distance the caller keeps in ``p2`` / ``p_near`` (< 0: not known yet).
 
         Each piece is accepted by one of two certificates: (a) one original triangle within
         eps of its three corners (convexity: then of all of it; exact, tried first on the
         face itself), (b) its corners within eps - h of the original, h its covering
         radius (the triangle inequality).  Otherwise it splits in four at its edges'
-        midpoints.  The corners' distances go down to the pieces that share them."""
+        midpoints.  The corners' distances, and the triangles they were found on (the
+        first guesses for (a)), go down to the pieces that share them."""
         cdef double st[9 * (3 * BOUND_MAX_DEPTH + 4)]
         cdef double du[3 * (3 * BOUND_MAX_DEPTH + 4)]   # the corners' squared distances (see nearest2)
-        cdef int dep[3 * BOUND_MAX_DEPTH + 4]
+        cdef int dt[3 * (3 * BOUND_MAX_DEPTH + 4)]      # the triangles they were found on
+        cdef int dep[3 * (3 * BOUND_MAX_DEPTH + 4)]
         cdef double mid[9]
         cdef double dm[3]
         cdef double pd[3]
+        cdef int tm[3]
+        cdef int pt[3]
+        cdef int hint[3]
         cdef double* s
         cdef double* o
         cdef double* u
-        cdef int n = 1, d, i, c
+        cdef int n = 1, d, i, c, found
         cdef double worst2 = 0.0, b, hs, lim2, mx, v
+        # (a) on the face itself first: most faces pass whole, and need nothing else
+        hint[0] = cover[0]
+        hint[1] = hint[2] = -1
+        b = self.cover2(t, hint, cover, True)
+        if b <= self.eps2:
+            return sqrt(b)
         for i in range(9):
             st[i] = t[i]
         # the face's corners: the caller's p was found within eps; the others are vertices
         # of the current mesh (certified already) -- measured all the same
         for c in range(3):
-            du[c] = self.nearest2(&t[3 * c], 0.0)
+            dt[c] = -1
+            if vids == NULL:
+                du[c] = self.nearest2(&t[3 * c], 0.0, &dt[c])
+            elif vids[c] >= 0:
+                du[c] = self.vertex_dist2(vids[c], &t[3 * c], &dt[c])
+            else:
+                if p2[0] < 0.0:
+                    p2[0] = self.nearest2(&t[3 * c], 0.0, p_near)
+                du[c] = p2[0]
+                dt[c] = p_near[0]
             if du[c] > self.eps2:
                 return -1.0
+        cover[0] = dt[0]
         dep[0] = 0
         while n > 0:
             n -= 1
             s = &st[9 * n]
             u = &du[3 * n]
             d = dep[n]
-            if d == 0:
-                b = self.cover2(s, self.eps2)
-                if b <= self.eps2:
-                    if b > worst2:
-                        worst2 = b
-                    continue
             hs = covering_radius(s)
             mx = u[0]
             if u[1] > mx:
@@ -416,11 +614,25 @@ cdef class Bound:
                     worst2 = v
                 continue
             if d > 0:
-                b = self.cover2(s, self.eps2)
+                b = self.cover2(s, &dt[3 * n], &found, False)
                 if b <= self.eps2:
                     if b > worst2:
                         worst2 = b
                     continue
+            # (c) two original triangles that share an edge, each for its side of the
+            # plane between them (a piece across a ridge of the original)
+            b = INFINITY
+            for c in range(3):
+                i = dt[3 * n + c]
+                found = dt[3 * n + (c + 1) % 3]
+                if i >= 0 and found >= 0 and i != found:
+                    b = self.pair_cover2(s, i, found)
+                    if b <= self.eps2:
+                        break
+            if b <= self.eps2:
+                if b > worst2:
+                    worst2 = b
+                continue
             if d >= BOUND_MAX_DEPTH:
                 return -1.0
             for i in range(3):
@@ -430,12 +642,14 @@ cdef class Bound:
             # the children's covering radius is half this one's: the distances they need
             lim2 = sq(self.eps - 0.5 * hs) if 0.5 * hs < self.eps else 0.0
             for c in range(3):
-                dm[c] = self.nearest2(&mid[3 * c], lim2)
+                # the triangle an end of the edge was found on first: often near enough
+                tm[c] = dt[3 * n + c]
+                dm[c] = self.nearest2(&mid[3 * c], lim2, &tm[c])
                 if dm[c] > self.eps2:
                     return -1.0                       # a point of the face is too far
-            pd[0] = u[0]
-            pd[1] = u[1]
-            pd[2] = u[2]
+            for c in range(3):
+                pd[c] = u[c]
+                pt[c] = dt[3 * n + c]
             # four children over slot n..n+3 (slot n is s itself: copy its corners first)
             o = &st[9 * (n + 1)]
             for i in range(3):
@@ -453,15 +667,26 @@ cdef class Bound:
                 s[6 + i] = mid[6 + i]
             u[1] = dm[0]
             u[2] = dm[2]
+            dt[3 * n + 1] = tm[0]
+            dt[3 * n + 2] = tm[2]
             du[3 * (n + 1)] = dm[0]
             du[3 * (n + 1) + 1] = pd[1]
             du[3 * (n + 1) + 2] = dm[1]
+            dt[3 * (n + 1)] = tm[0]
+            dt[3 * (n + 1) + 1] = pt[1]
+            dt[3 * (n + 1) + 2] = tm[1]
             du[3 * (n + 2)] = dm[2]
             du[3 * (n + 2) + 1] = dm[1]
             du[3 * (n + 2) + 2] = pd[2]
+            dt[3 * (n + 2)] = tm[2]
+            dt[3 * (n + 2) + 1] = tm[1]
+            dt[3 * (n + 2) + 2] = pt[2]
             du[3 * (n + 3)] = dm[0]
             du[3 * (n + 3) + 1] = dm[1]
             du[3 * (n + 3) + 2] = dm[2]
+            dt[3 * (n + 3)] = tm[0]
+            dt[3 * (n + 3) + 1] = tm[1]
+            dt[3 * (n + 3) + 2] = tm[2]
             for i in range(4):
                 dep[n + i] = d + 1
             n += 4
@@ -469,9 +694,10 @@ cdef class Bound:
 
     # ------------------------------------------------------------- a collapse
     cdef int collect(self, int center, int fa, int fb, const double* p, double* tris, int* fids,
-                     int n) noexcept nogil:
+                     int* vids, int n) noexcept nogil:
         """Append the faces around ``center`` but fa, fb, with ``center`` at ``p``, to
-        tris / fids from row n on; returns the new count, -1 past BOUND_MAX_FAN."""
+        tris / fids (and, unless NULL, their corners' vertices to vids: -1 for ``center``)
+        from row n on; returns the new count, -1 past BOUND_MAX_FAN."""
         cdef int start = self.m.v_he[center]
         cdef int y = start
         cdef int f, b, c, i
@@ -487,6 +713,10 @@ cdef class Bound:
                     tris[9 * n + 3 + i] = self.P[self.stride * b + i]
                     tris[9 * n + 6 + i] = self.P[self.stride * c + i]
                 fids[n] = f
+                if vids != NULL:
+                    vids[3 * n] = -1
+                    vids[3 * n + 1] = b
+                    vids[3 * n + 2] = c
                 n += 1
             y = he_ring_next(self.m, y)
             if y < 0 or y == start:
@@ -497,22 +727,23 @@ cdef class Bound:
         within eps of the original both ways?  Writes ``pending`` of the new faces."""
         cdef double tris[9 * BOUND_MAX_FAN]
         cdef int fids[BOUND_MAX_FAN]
+        cdef int vids[3 * BOUND_MAX_FAN]
         cdef int fa = h // 3
         cdef int fb = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
-        cdef int n, i, pass_, center, start, y, f, q, own
-        cdef double lim, lim2, v
+        cdef int n, i, pass_, center, start, y, f, q, hint, cover, p_near = -1
+        cdef double lim, v, p2 = -1.0
         cdef bint ok
         if not self.within(p, self.eps2):
             return False
-        n = self.collect(r, fa, fb, p, tris, fids, 0)
+        n = self.collect(r, fa, fb, p, tris, fids, vids, 0)
         if n < 0:
             return False
-        n = self.collect(k, fa, fb, p, tris, fids, n)
+        n = self.collect(k, fa, fb, p, tris, fids, vids, n)
         if n < 0:
             return False
-        # original -> simplified: the points of every face the collapse changes, each within
-        # eps - slack of a new face; a face whose ball of points lies so near one new face
-        # passes whole
+        # original -> simplified: the pieces on every face the collapse changes, each within
+        # eps of one new face; a face whose ball of pieces lies so near one new face passes
+        # whole
         for pass_ in range(2):
             center = r if pass_ == 0 else k
             start = self.m.v_he[center]
@@ -521,40 +752,33 @@ cdef class Bound:
                 f = y // 3
                 q = self.head[f]
                 if q >= 0 and (pass_ == 0 or (f != fa and f != fb)):
-                    own = -1
+                    hint = -1
                     ok = False
-                    lim = self.eps - self.sphere[f, 3] - self.sphere[f, 4]
+                    lim = self.eps - self.sphere[f, 3]
                     for i in range(n):
                         if fids[i] == f:
-                            own = i
+                            hint = i
                         if not ok and lim >= 0.0 and tri_sqdist(&self.sphere[f, 0], &tris[9 * i]) <= lim * lim:
                             ok = True
                     while q >= 0 and not ok:
-                        lim = self.eps - self.slack[q]
-                        if lim < 0.0:
+                        if not self.fits(self.ptri[q], self.pcode[q], tris, n, &hint):
                             return False
-                        lim2 = lim * lim
-                        # the face the point is on, if it stays, first
-                        if own < 0 or tri_sqdist(&self.pts[q, 0], &tris[9 * own]) > lim2:
-                            for i in range(n):
-                                if i != own and tri_sqdist(&self.pts[q, 0], &tris[9 * i]) <= lim2:
-                                    break
-                            else:
-                                return False
                         q = self.nxt[q]
                 y = he_ring_next(self.m, y)
                 if y < 0 or y == start:
                     break
         # simplified -> original: every new face
         for i in range(n):
-            v = self.face_value(&tris[9 * i])
+            cover = self.ctri[fids[i]]
+            v = self.face_value(&tris[9 * i], &cover, &vids[3 * i], &p2, &p_near)
             if v < 0.0:
                 return False
             self.pending[fids[i]] = v
+            self.pending_tri[fids[i]] = cover
         return True
 
     cdef int commit_begin(self, int h, int r, int k) noexcept nogil:
-        """Before collapsing h: detach the points of the faces around r and k into one
+        """Before collapsing h: detach the pieces on the faces around r and k into one
         chain (returned); those faces' certificates are redone by commit_end."""
         cdef int fa = h // 3
         cdef int fb = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
@@ -580,34 +804,24 @@ cdef class Bound:
         return chain
 
     cdef double commit_end(self, int k, int chain) noexcept nogil:
-        """After the collapse (k at its new position): attach the chain's points to the
-        nearest face around k, set those faces' certificates; returns the largest (the
-        bound this collapse guarantees for what it changed), also kept in ``last[k]``."""
+        """After the collapse (k at its new position): place the chain's pieces on the
+        faces around k (:meth:`place`), set those faces' certificates; returns the largest
+        (the bound this collapse guarantees for what it changed), also kept in ``last[k]``."""
         cdef double tris[9 * BOUND_MAX_FAN]
         cdef int fids[BOUND_MAX_FAN]
-        cdef int n, i, best, q, nq
-        cdef double d, bd, v, worst = 0.0
-        n = self.collect(k, -1, -1, &self.P[self.stride * k], tris, fids, 0)
+        cdef int n, i, q, nq, hint = -1
+        cdef double worst = 0.0
+        n = self.collect(k, -1, -1, &self.P[self.stride * k], tris, fids, NULL, 0)
         if n < 0:
             n = 0
         for i in range(n):
             self.cert[fids[i]] = self.pending[fids[i]]
+            self.ctri[fids[i]] = self.pending_tri[fids[i]]
+        self.vd2[k] = -1.0                   # k moved
         q = chain
         while q >= 0:
             nq = self.nxt[q]
-            best = -1
-            bd = INFINITY
-            for i in range(n):
-                d = tri_sqdist(&self.pts[q, 0], &tris[9 * i])
-                if d < bd:
-                    bd = d
-                    best = i
-            if best >= 0:
-                self.nxt[q] = self.head[fids[best]]
-                self.head[fids[best]] = q
-                v = sqrt(bd) + self.slack[q]
-                if v > self.cert[fids[best]]:
-                    self.cert[fids[best]] = v
+            self.place(q, tris, fids, n, &hint)
             q = nq
         for i in range(n):
             self.fit_sphere(fids[i])
@@ -616,43 +830,172 @@ cdef class Bound:
         self.last[k] = worst
         return worst
 
+    # ------------------------------------------------------------- the pieces
+    cdef void corners(self, int t, int code, double* x) noexcept nogil:
+        """The corners (9 doubles) of piece ``code`` of original triangle t."""
+        cdef double s = 1.0 / (1 << piece_depth(code))
+        cdef double i = (code >> PIECE_BITS) & PIECE_MASK
+        cdef double j = code & PIECE_MASK
+        cdef double u[3]
+        cdef double v[3]
+        cdef int c, a
+        if code & PIECE_DOWN:
+            u[0] = (i + 1.0) * s
+            u[1] = i * s
+            u[2] = (i + 1.0) * s
+            v[0] = j * s
+            v[1] = (j + 1.0) * s
+            v[2] = (j + 1.0) * s
+        else:
+            u[0] = i * s
+            u[1] = (i + 1.0) * s
+            u[2] = i * s
+            v[0] = j * s
+            v[1] = j * s
+            v[2] = (j + 1.0) * s
+        for c in range(3):
+            for a in range(3):
+                x[3 * c + a] = self.base[t, a] + u[c] * self.base[t, 3 + a] + v[c] * self.base[t, 6 + a]
+
+    cdef bint fits(self, int t, int code, const double* tris, int n, int* hint) noexcept nogil:
+        """Is piece ``code`` of original triangle t within eps of the new faces ``tris``
+        (n)?  A piece whose three corners are within eps of one face is (convexity); else
+        its four children are tried, down to depth tdepth[t], where a piece that fits no
+        face refuses.  ``hint``: the face to try first, -1 none; set to the last that fit
+        (neighbouring pieces mostly fit the same face)."""
+        cdef int stack[BOUND_PIECE_STACK]
+        cdef int sp = 1, c, i, j
+        cdef double x[9]
+        stack[0] = code
+        while sp > 0:
+            sp -= 1
+            c = stack[sp]
+            self.corners(t, c, x)
+            j = hint[0]
+            if j >= 0 and corners_sqdist(x, &tris[9 * j], self.eps2) <= self.eps2:
+                continue
+            for i in range(n):
+                if i != j and corners_sqdist(x, &tris[9 * i], self.eps2) <= self.eps2:
+                    hint[0] = i
+                    break
+            else:
+                if piece_depth(c) >= self.tdepth[t]:
+                    return False
+                piece_split(c, &stack[sp])
+                sp += 4
+        return True
+
+    cdef void place(self, int q, const double* tris, const int* fids, int n, int* hint) noexcept nogil:
+        """Attach piece q (its face is gone) to the new face nearest its three corners, if
+        that holds them within eps; else split it as :meth:`fits` did (child 0 keeps slot
+        q, the others take new slots) and place the children.  Each face's certificate
+        takes the largest distance of its pieces' corners.  ``hint``: the face to measure
+        first (-1 none), set to the last one a piece went to."""
+        cdef int stack[BOUND_PIECE_STACK]
+        cdef int kids[4]
+        cdef int sp = 1, s, c, i, best, slot, t = self.ptri[q]
+        cdef double x[9]
+        cdef double v, bv
+        stack[0] = q
+        while sp > 0:
+            sp -= 1
+            s = stack[sp]
+            c = self.pcode[s]
+            self.corners(t, c, x)
+            # the face the last piece went to first: with its distance to prune by, the
+            # others mostly stop at their first corner
+            best = hint[0]
+            bv = corners_sqdist(x, &tris[9 * best], INFINITY) if best >= 0 else INFINITY
+            for i in range(n):
+                if i != hint[0]:
+                    v = corners_sqdist(x, &tris[9 * i], bv)
+                    if v < bv:
+                        bv = v
+                        best = i
+            if best < 0:
+                continue
+            hint[0] = best
+            if bv > self.eps2 and piece_depth(c) < self.tdepth[t] and not self.overflow:
+                slot = lodkit_bound_take(&self.n_used, 3)
+                if slot <= self.capacity - 3:
+                    piece_split(c, kids)
+                    self.pcode[s] = kids[0]
+                    stack[sp] = s
+                    for i in range(3):
+                        self.pcode[slot + i] = kids[1 + i]
+                        self.ptri[slot + i] = t
+                        stack[sp + 1 + i] = slot + i
+                    sp += 4
+                    continue
+                self.overflow = True         # placed whole: the driver raises OptionError
+            self.nxt[s] = self.head[fids[best]]
+            self.head[fids[best]] = s
+            v = sqrt(bv)
+            if v > self.cert[fids[best]]:
+                self.cert[fids[best]] = v
+
     cdef void fit_sphere(self, int f) noexcept nogil:
-        """sphere[f]: a ball around the points attached to f (their centroid, the farthest
-        one's distance) and their largest slack."""
-        cdef int q = self.head[f], cnt = 0, i
-        cdef double c[3]
-        cdef double r2 = 0.0, d, smax = 0.0
-        c[0] = c[1] = c[2] = 0.0
+        """sphere[f]: a ball around the pieces on f (the centroid of their corners, the
+        farthest corner's distance)."""
+        cdef int q = self.head[f], cnt = 0, i, c
+        cdef double x[9]
+        cdef double ctr[3]
+        cdef double r2 = 0.0, d
+        ctr[0] = ctr[1] = ctr[2] = 0.0
         while q >= 0:
-            for i in range(3):
-                c[i] += self.pts[q, i]
-            cnt += 1
+            self.corners(self.ptri[q], self.pcode[q], x)
+            for c in range(3):
+                for i in range(3):
+                    ctr[i] += x[3 * c + i]
+            cnt += 3
             q = self.nxt[q]
         if cnt == 0:
-            for i in range(5):
+            for i in range(4):
                 self.sphere[f, i] = 0.0
             return
         for i in range(3):
-            c[i] /= cnt
+            ctr[i] /= cnt
         q = self.head[f]
         while q >= 0:
-            d = sq(self.pts[q, 0] - c[0]) + sq(self.pts[q, 1] - c[1]) + sq(self.pts[q, 2] - c[2])
-            if d > r2:
-                r2 = d
-            if self.slack[q] > smax:
-                smax = self.slack[q]
+            self.corners(self.ptri[q], self.pcode[q], x)
+            for c in range(3):
+                d = sq(x[3 * c] - ctr[0]) + sq(x[3 * c + 1] - ctr[1]) + sq(x[3 * c + 2] - ctr[2])
+                if d > r2:
+                    r2 = d
             q = self.nxt[q]
         for i in range(3):
-            self.sphere[f, i] = c[i]
-        # a hair more than the largest distance: rounding never lets a point out
+            self.sphere[f, i] = ctr[i]
+        # a hair more than the largest distance: rounding never lets a corner out
         self.sphere[f, 3] = sqrt(r2) * (1.0 + 1e-12) + 1e-300
-        self.sphere[f, 4] = smax
 
     # ------------------------------------------------------------- Python API
     @property
-    def n_points(self):
-        """Sample points of the original."""
-        return self.pts.shape[0]
+    def n_pieces(self):
+        """Pieces of the original (its triangles at first; each split adds three)."""
+        return min(self.n_used, self.capacity)
+
+    @property
+    def overflowed(self):
+        """Whether a piece that had to split found no free slot (MAX_PIECES): it was placed
+        whole, and the certificate of its face may exceed eps."""
+        return bool(self.overflow)
+
+    def pieces(self):
+        """(pieces (k, 9), faces (k, 9), cert (k,)): the corners of each piece of the
+        original, of the face of the current mesh it is on, and that face's certificate
+        (tests)."""
+        cdef int f, q, a, c
+        cdef double[::1] x = np.empty(9)
+        out_p, out_f, out_c = [], [], []
+        for f in range(self.head.shape[0]):
+            q = self.head[f]
+            while q >= 0:
+                self.corners(self.ptri[q], self.pcode[q], &x[0])
+                out_p.append(np.asarray(x).copy())
+                out_f.append([self.P[self.stride * self.m.corner[3 * f + c] + a] for c in range(3) for a in range(3)])
+                out_c.append(self.cert[f])
+                q = self.nxt[q]
+        return np.asarray(out_p).reshape(-1, 9), np.asarray(out_f, dtype=np.float64).reshape(-1, 9), np.asarray(out_c)
 
     @property
     def n_nodes_bvh(self):
@@ -669,15 +1012,17 @@ cdef class Bound:
         """Distance from each point of x (k, 3) to the original (tests)."""
         cdef double[:, ::1] X = np.ascontiguousarray(x, dtype=np.float64).reshape(-1, 3)
         out = np.empty(X.shape[0])
-        cdef int i
+        cdef int i, near
         for i in range(X.shape[0]):
-            out[i] = sqrt(self.nearest2(&X[i, 0], -1.0))
+            near = -1
+            out[i] = sqrt(self.nearest2(&X[i, 0], -1.0, &near))
         return out
 
     def face_distance(self, t):
         """face_value for one triangle (9,) (tests): its certified distance, or -1."""
         cdef double[::1] a = np.ascontiguousarray(t, dtype=np.float64).reshape(-1)
-        return self.face_value(&a[0])
+        cdef int cover = -1
+        return self.face_value(&a[0], &cover, NULL, NULL, NULL)
 
 
 cdef void select_nth(int* idx, const double* cent, int ax, int lo, int hi, int k) noexcept nogil:

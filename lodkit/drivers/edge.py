@@ -10,6 +10,7 @@ import math
 import numpy as np
 
 from .._compile import Compiled, batch_result, compile_metrics
+from .._core.bound import MAX_PIECES
 from .._core.decimate import EdgeCollapser
 from .._core.passes import PassDriver
 from .._pipeline import (
@@ -130,6 +131,12 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
     if bar:
         bar.close()
     raise_if_failed(collapser, compiled)
+    if error_bound is not None and collapser.bound.overflowed:
+        # a piece of the input that had to split found no slot: its face's certificate may
+        # exceed max_error, so the run cannot stand (the same for any thread count: the
+        # pieces a run needs do not depend on the threads)
+        raise OptionError(f"the error bound needed more than {MAX_PIECES} pieces of the input: max_error is "
+                          f"small next to the input's triangles; raise max_error or sample_spacing")
 
     bound_refused = collapser.count_bound_refusals() if error_bound is not None and status != RUN_TARGET else 0
     if status == RUN_TARGET:
@@ -153,7 +160,7 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
     counters = {}
     if error_bound is not None:
         counters["error_bound"] = {"max_error": error_bound[0], "certified": bound,
-                                   "sample_points": int(collapser.bound.n_points),
+                                   "pieces": int(collapser.bound.n_pieces),
                                    "sample_spacing": error_bound[1]}
     collapser.release()          # the heap and quadrics are not needed to build the output
     return Run(
