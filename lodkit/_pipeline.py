@@ -179,7 +179,8 @@ def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolu
     if prune is not None:
         src, kept_faces, prune_report = prune_debris(src, prune)
         welded_faces = kept_faces if welded_faces is None else welded_faces[kept_faces]
-    prep = prepare(src, memory_order=memory_order, threads=int(settings.get("threads", (1,))[0]))
+    threads = int(settings.get("threads", (1,))[0])
+    prep = prepare(src, memory_order=memory_order, threads=threads)
     hm = prep.hm
     fixed = hm.locked_vertices.copy()
     if locked is not None:
@@ -194,7 +195,7 @@ def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolu
     vdata = np.empty((hm.n_vertices, VSTRIDE), dtype=np.float64)
     vdata[:, QSIZE:] = prep.positions
     prep.positions = None
-    vertex_quadrics(hm, vdata[:, QSIZE:], 0.0, out=vdata)
+    vertex_quadrics(hm, vdata[:, QSIZE:], 0.0, out=vdata, threads=threads)
     n_seam_fixed = 0
     seams = seam_partners(src, prep, fixed)
     if settings["boundary"][0] == "lock":

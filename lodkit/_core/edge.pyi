@@ -75,6 +75,7 @@ class EdgeCollapser:
         steps: ArrayLike | None = ...,
         seam_partners: ArrayLike | None = ...,
         error_bound: tuple[float, float] | None = ...,
+        threads: int = ...,
     ) -> None:
         """quadric_weight: factor of the quadric in the cost (0: the quadric only places);
         error_scale: error = sqrt(error_scale * Q(p) / area); vertex_fields (n, k) and

@@ -20,6 +20,7 @@ Quadric maths: quadric.pxd; the checks' expressions: checks.pxd; fields: fields.
 """
 import numpy as np
 cimport numpy as cnp
+from cython.parallel cimport prange
 from libc.math cimport sqrt, INFINITY
 
 from .halfedge cimport HalfEdgeMesh, he_next, he_prev, he_dest, he_ring_next, he_is_boundary
@@ -36,7 +37,7 @@ from .quadric cimport (AttributeQuadrics, sq, collapse_error, quadric_eval, quad
 from .checks cimport (CheckLimits, check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality,
                       face_volume, turns_inside_out, sides_of_a_sheet)
 from .fields cimport FieldSet, STEP_VFIELD, STEP_EFIELD
-from .common cimport RUN_INTERRUPTED
+from .common cimport RUN_INTERRUPTED, PARALLEL_MIN_VERTICES
 from .interrupt cimport signal_pending, raise_pending, INTERRUPT_EVERY
 from .quadric import face_unit_normals
 
@@ -98,6 +99,8 @@ cdef class EdgeCollapser:
                 attributes; a seam edge collapses only together with its partner edge,
                 keeping the same end on both sides (``perform_pair``); any other collapse
                 keeps a seam vertex in place.
+    threads   : OpenMP threads of the set-up's loops over faces and vertices (from
+                PARALLEL_MIN_VERTICES vertex slots); the state is the same for any number
     """
 
     def __init__(self, HalfEdgeMesh hm, positions, quadrics, attributes, fixed,
@@ -107,7 +110,7 @@ cdef class EdgeCollapser:
                  double quadric_weight=1.0, double error_scale=1.0,
                  vertex_fields=None, vertex_rules=None, edge_fields=None, edge_rules=None,
                  kernels=(), bint use_heap=True, attribute_quadrics=None, attribute_columns=None,
-                 steps=None, seam_partners=None, error_bound=None):
+                 steps=None, seam_partners=None, error_bound=None, int threads=1):
         cdef int n = hm.n_vertices
         self.hm = hm
         # One row per vertex: the quadric (11 doubles) then the position (3), so that a
@@ -158,7 +161,9 @@ cdef class EdgeCollapser:
         self.rec = Records(n, self.n_attr, record)
         self.n_collapses = 0
         self.max_error_done = 0.0
-        self.face_n0 = face_unit_normals(hm, np.asarray(self.vdata)[:, QSIZE:])
+        if threads < 1 or n < PARALLEL_MIN_VERTICES:
+            threads = 1
+        self.face_n0 = face_unit_normals(hm, np.asarray(self.vdata)[:, QSIZE:], threads)
         self.N0 = &self.face_n0[0] if hm.n_faces else NULL
         # the pass driver needs none; triangle collapse ranks faces
         self.heap = IndexedHeap(self.n_candidates() if use_heap else 0)
@@ -169,9 +174,10 @@ cdef class EdgeCollapser:
         self.Q = &self.vdata[0, 0] if n else NULL
         self.P = &self.vdata[0, QSIZE] if n else NULL
         cdef int v
-        for v in range(n):
-            if self.m.v_he[v] >= 0 and he_is_boundary(self.m, v):
-                self.vflags[v] |= VERTEX_BOUNDARY
+        with nogil:
+            for v in prange(n, num_threads=threads, schedule="static"):
+                if self.m.v_he[v] >= 0 and he_is_boundary(self.m, v):
+                    self.vflags[v] |= VERTEX_BOUNDARY
         self.A = &self.attr[0, 0] if n and self.n_attr else NULL
         self._setup_seams(seam_partners)
         if boundary == BOUNDARY_LOCK:
@@ -184,10 +190,17 @@ cdef class EdgeCollapser:
                            edge_fields, edge_rules, kernels, use_heap, steps)
         self.aq = AttributeQuadrics(hm, self.attr, attribute_quadrics, attribute_columns)
         cdef int f
-        if closed_connected and n:
-            for f in range(hm.n_faces):
-                if hm.face_alive[f]:
-                    self.closed_volume += self.face_volume6(f)
+        cdef double[::1] vol6
+        if closed_connected and n and hm.n_faces:
+            # the faces' volumes on threads, their sum in face order (one sum, the same bits
+            # for any number of threads)
+            vol6 = np.empty(hm.n_faces, dtype=np.float64)
+            with nogil:
+                for f in prange(hm.n_faces, num_threads=threads, schedule="static"):
+                    vol6[f] = self.face_volume6(f)
+                for f in range(hm.n_faces):
+                    if self.m.face_alive[f]:
+                        self.closed_volume += vol6[f]
         # error_bound=(eps, spacing): the two-sided bound (bound.pyx); built on the input as
         # it is now, before any collapse
         self.bound = None

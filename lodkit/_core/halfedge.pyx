@@ -12,7 +12,7 @@ from libc.stdlib cimport qsort
 import numpy as np
 cimport numpy as cnp
 
-from .common cimport MAX_VALENCE
+from .common cimport MAX_VALENCE, PARALLEL_MIN_VERTICES
 
 cnp.import_array()
 
@@ -761,10 +761,6 @@ cdef int pair_at(const int* corner, const int* first, const int* out_he, int v, 
                 nm_he[x0] = 1
         i = j
     return ne
-
-
-cdef enum:
-    PARALLEL_MIN_VERTICES = 16384     # build() runs on threads from this many vertices
 
 
 cdef inline int fan_first(const int* twin, int h) noexcept nogil:
