@@ -20,7 +20,14 @@ import numpy as np
 
 from . import _progress
 from ._core.decimate import vertex_quadrics
-from ._core.halfedge import bounding_box, build, count_face_components, faces_by_first_slot, morton_permutation
+from ._core.halfedge import (
+    bounding_box,
+    build,
+    count_face_components,
+    faces_by_first_slot,
+    morton_permutation,
+    normalised_positions,
+)
 from .errors import MeshError
 from .geometry import box_diagonal
 from .mesh import Mesh
@@ -63,7 +70,8 @@ class Prepared:
     """A mesh cleaned and turned into half-edge arrays, ready for a driver."""
 
     hm: Any                      # lodkit._core.halfedge.HalfEdgeMesh
-    positions: np.ndarray | None  # (n_slots, 3) normalised positions (dropped once copied)
+    positions: np.ndarray | None  # (n_slots, 3) normalised positions: the last columns of ``rows``
+    rows: np.ndarray | None      # (n_slots, width) the array that holds them (start(): the core's rows)
     input_vertex: np.ndarray     # (n_slots,) input vertex index of each slot
     input_face: np.ndarray       # (m_kept,) input face index of each face slot
     center: np.ndarray
@@ -73,7 +81,7 @@ class Prepared:
     memory_order: bool = False   # vertex and face slots sorted along a Morton curve
 
 
-def prepare(mesh: Mesh, *, memory_order: bool = False, threads: int = 1) -> Prepared:
+def prepare(mesh: Mesh, *, memory_order: bool = False, threads: int = 1, width: int = 3) -> Prepared:
     """Drop faces with a repeated index and unreferenced vertices, normalise positions
     (centre of the bbox at the origin, unit diagonal) and build the half-edge arrays.
 
@@ -81,8 +89,10 @@ def prepare(mesh: Mesh, *, memory_order: bool = False, threads: int = 1) -> Prep
     the face slots by their first vertex slot, so that vertices and faces close on the
     surface are close in memory (the pass driver walks them in slot order); the maps
     (``input_vertex``, ``input_face``) take the permutations, so nothing downstream sees
-    them but the speed.  ``threads``: OpenMP threads of the half-edge build (the arrays
-    are the same for any number)."""
+    them but the speed.  ``threads``: OpenMP threads of the half-edge build and of the
+    positions (the arrays are the same for any number).  ``width``: the positions are the
+    last three columns of a (n_slots, width) array (``rows``), so that :func:`start` gets
+    the core's vertex rows without copying them."""
     faces = mesh.faces
     if faces.shape[0] == 0:
         raise MeshError("the mesh has no faces")
@@ -119,7 +129,7 @@ def prepare(mesh: Mesh, *, memory_order: bool = False, threads: int = 1) -> Prep
     if memory_order:
         # (geometry.morton_order and a stable argsort of the faces' smallest slot, in
         # the core: the same permutations, by radix and counting sorts)
-        perm = morton_permutation(mesh.vertices, input_vertex)
+        perm = morton_permutation(mesh.vertices, input_vertex, (lo, hi), threads)
         slot_of = np.empty_like(perm)
         slot_of[perm] = np.arange(perm.size, dtype=np.int32)
         input_vertex = input_vertex[perm]
@@ -130,10 +140,10 @@ def prepare(mesh: Mesh, *, memory_order: bool = False, threads: int = 1) -> Prep
     hm = build(compact, int(input_vertex.size), threads)
     del compact, faces
     slot_input = input_vertex[hm.vertex_sources] if hm.n_split_vertices else input_vertex
-    positions = mesh.vertices[slot_input]
-    positions -= center
-    positions /= scale
-    return Prepared(hm, positions, slot_input, input_face, center, scale,
+    rows = np.empty((slot_input.size, width), dtype=np.float64)
+    positions = rows[:, width - 3:]
+    normalised_positions(mesh.vertices, slot_input, center, scale, positions, threads)
+    return Prepared(hm, positions, rows, slot_input, input_face, center, scale,
                     n_degenerate, int(mesh.n_vertices - input_vertex.size), bool(memory_order))
 
 
@@ -180,7 +190,7 @@ def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolu
         src, kept_faces, prune_report = prune_debris(src, prune)
         welded_faces = kept_faces if welded_faces is None else welded_faces[kept_faces]
     threads = int(settings.get("threads", (1,))[0])
-    prep = prepare(src, memory_order=memory_order, threads=threads)
+    prep = prepare(src, memory_order=memory_order, threads=threads, width=VSTRIDE)
     hm = prep.hm
     fixed = hm.locked_vertices.copy()
     if locked is not None:
@@ -192,9 +202,8 @@ def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolu
         layout[name] = col
         col += arr.shape[1]
     attributes = np.concatenate([arr[prep.input_vertex] for arr in attrs.values()], axis=1) if attrs else None
-    vdata = np.empty((hm.n_vertices, VSTRIDE), dtype=np.float64)
-    vdata[:, QSIZE:] = prep.positions
-    prep.positions = None
+    vdata = prep.rows                            # the positions are in place; the quadrics follow
+    prep.positions = prep.rows = None
     vertex_quadrics(hm, vdata[:, QSIZE:], 0.0, out=vdata, threads=threads)
     n_seam_fixed = 0
     seams = seam_partners(src, prep, fixed)

@@ -65,9 +65,15 @@ def triangulation_ok(triangles: ArrayLike, k: int, closed: bool) -> bool:
 def count_face_components(hm: HalfEdgeMesh) -> int:
     """Number of components of the live faces (joined across twin half-edges)."""
 
-def morton_permutation(points: ArrayLike, index: ArrayLike | None = ...) -> NDArray[np.int32]:
+def morton_permutation(
+    points: ArrayLike,
+    index: ArrayLike | None = ...,
+    box: tuple[ArrayLike, ArrayLike] | None = ...,
+    threads: int = ...,
+) -> NDArray[np.int32]:
     """(n,) permutation sorting (n, 3) points (or points[index]) along their Morton curve
-    (as ``lodkit.geometry.morton_order``, by a radix sort)."""
+    (as ``lodkit.geometry.morton_order``, by a radix sort); ``box`` their (lo, hi) when
+    known; the same for any number of ``threads``."""
 
 def faces_by_first_slot(faces: ArrayLike, n_vertices: int, reorder: bool = ...):
     """(m,) permutation ordering faces by their smallest vertex index, ties in input order;
@@ -75,3 +81,9 @@ def faces_by_first_slot(faces: ArrayLike, n_vertices: int, reorder: bool = ...):
 
 def bounding_box(points: ArrayLike, index: ArrayLike | None = ...) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(lo, hi) corners of the bounding box of points (or points[index]), without a copy."""
+
+def normalised_positions(
+    points: ArrayLike, index: ArrayLike, center: ArrayLike, scale: float, out: NDArray[np.float64], threads: int = 1
+) -> None:
+    """``out`` ((n, 3), rows may be spaced) = (points[index] - center) / scale, in place, as
+    numpy computes it; the same for any number of ``threads``."""

@@ -1032,11 +1032,32 @@ cdef inline unsigned long long spread_bits(unsigned long long x) noexcept nogil:
     return x
 
 
-def morton_permutation(points, index=None):
+cdef inline unsigned long long morton_code(const double* p, const double* lo, const double* ext,
+                                           double top) noexcept nogil:
+    """The Morton code of point ``p`` in the box from ``lo`` of size ``ext``, ``top`` + 1
+    steps an axis (a coordinate outside, or NaN, clamped)."""
+    cdef unsigned long long q[3]
+    cdef double x
+    cdef int k
+    for k in range(3):
+        x = (p[k] - lo[k]) / ext[k] * top
+        if not (x >= 0.0):
+            x = 0.0
+        elif x > top:
+            x = top
+        q[k] = <unsigned long long>x
+    return spread_bits(q[0]) | (spread_bits(q[1]) << 1) | (spread_bits(q[2]) << 2)
+
+
+def morton_permutation(points, index=None, box=None, int threads=1):
     """(n,) int32 permutation sorting (n, 3) ``points`` (or ``points[index]``, without the
     copy) along their Morton curve: the same as ``lodkit.geometry.morton_order`` (21 bits
     per axis over the bounding box, ties in input order), by one pass for the codes and a
-    stable radix sort (16-bit digits) instead of numpy's comparison sort."""
+    stable radix sort (16-bit digits) instead of numpy's comparison sort.
+
+    ``box``: the points' (lo, hi) from :func:`bounding_box` when the caller has it (not
+    measured again); ``threads``: OpenMP threads of the codes (from PARALLEL_MIN_VERTICES
+    points; each point's own), the sort is serial."""
     cdef const double[:, ::1] P = np.ascontiguousarray(points, dtype=np.float64)
     if P.shape[1] != 3:
         raise ValueError("points must have shape (n, 3)")
@@ -1061,7 +1082,6 @@ def morton_permutation(points, index=None):
     cdef double ext[3]
     cdef double hi, x
     cdef double top = <double>((1 << 21) - 1)
-    cdef unsigned long long q[3]
     cdef unsigned long long d
     cdef Py_ssize_t i, acc, size
     cdef int k, shift
@@ -1069,26 +1089,27 @@ def morton_permutation(points, index=None):
     cdef unsigned long long* dst
     cdef int* isrc
     cdef int* idst
-    with nogil:
+    if threads < 1 or n < PARALLEL_MIN_VERTICES:
+        threads = 1
+    if box is not None:
         for k in range(3):
-            lo[k] = P[X[0], k]
-            hi = P[X[0], k]
-            for i in range(1, n):
-                x = P[X[i], k]
-                if x < lo[k]:
-                    lo[k] = x
-                if x > hi:
-                    hi = x
+            lo[k] = box[0][k]
+            hi = box[1][k]
             ext[k] = hi - lo[k] if hi > lo[k] else 1.0
-        for i in range(n):
+    with nogil:
+        if box is None:
             for k in range(3):
-                x = (P[X[i], k] - lo[k]) / ext[k] * top
-                if not (x >= 0.0):
-                    x = 0.0
-                elif x > top:
-                    x = top
-                q[k] = <unsigned long long>x
-            C[i] = spread_bits(q[0]) | (spread_bits(q[1]) << 1) | (spread_bits(q[2]) << 2)
+                lo[k] = P[X[0], k]
+                hi = P[X[0], k]
+                for i in range(1, n):
+                    x = P[X[i], k]
+                    if x < lo[k]:
+                        lo[k] = x
+                    if x > hi:
+                        hi = x
+                ext[k] = hi - lo[k] if hi > lo[k] else 1.0
+        for i in prange(n, num_threads=threads, schedule="static"):
+            C[i] = morton_code(&P[X[i], 0], lo, ext, top)
         src, dst, isrc, idst = &C[0], &C2[0], &I[0], &I2[0]
         for shift in range(0, 64, 16):
             for i in range(65537):
@@ -1197,3 +1218,26 @@ def bounding_box(points, index=None):
                 if x > hi[k]:
                     hi[k] = x
     return lo_a, hi_a
+
+
+def normalised_positions(points, index, center, double scale, out, int threads=1):
+    """``out`` = ``(points[index] - center) / scale``: (n, 3) float64, written in place (its
+    rows may be spaced: the position columns of the core's (n, 14) vertex rows), as numpy
+    computes it (one subtraction and one division a coordinate), without the gathered
+    copy; per point on ``threads`` OpenMP threads (from PARALLEL_MIN_VERTICES points)."""
+    cdef const double[:, ::1] P = np.ascontiguousarray(points, dtype=np.float64)
+    cdef const int[::1] X = np.ascontiguousarray(index, dtype=np.intc)
+    cdef const double[::1] c = np.ascontiguousarray(center, dtype=np.float64).reshape(-1)
+    cdef double[:, :] O = out
+    cdef Py_ssize_t n = X.shape[0], i
+    cdef int k
+    if P.shape[1] != 3 or O.shape[0] != n or O.shape[1] != 3 or c.shape[0] != 3:
+        raise ValueError("points must have shape (m, 3), out (n, 3) for n indices, center (3,)")
+    if n and (np.min(X) < 0 or np.max(X) >= P.shape[0]):
+        raise ValueError("index out of range")
+    if threads < 1 or n < PARALLEL_MIN_VERTICES:
+        threads = 1
+    with nogil:
+        for i in prange(n, num_threads=threads, schedule="static"):
+            for k in range(3):
+                O[i, k] = (P[X[i], k] - c[k]) / scale

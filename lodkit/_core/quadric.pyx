@@ -413,25 +413,46 @@ def general_quadric_marginal(g, int D, p=None):
     return q, attrs
 
 
-cdef inline double face_cross(const double* P, int a, int b, int c, double* nrm) noexcept nogil:
-    """(b - a) x (c - a) into ``nrm`` (twice the area vector of face a b c, ``P`` the (n, 3)
-    positions); returns its length."""
+cdef struct Rows:
+    # (n, 3) positions read in place: row v's x y z at p[s * v], p[s * v + 1], p[s * v + 2]
+    const double* p
+    Py_ssize_t s
+
+
+cdef object readable_positions(positions):
+    """(n, 3) float64 ``positions`` that :func:`rows_of` reads in place: as given when
+    each row's x y z are adjacent (a view of the position columns of the (n, 14) vertex
+    rows is not copied), else a C-contiguous copy."""
+    arr = np.asarray(positions)
+    if (arr.dtype == np.float64 and arr.ndim == 2 and arr.shape[1] == 3 and arr.strides[1] == sizeof(double)
+            and arr.strides[0] >= 3 * <Py_ssize_t>sizeof(double) and arr.strides[0] % sizeof(double) == 0):
+        return arr
+    return np.ascontiguousarray(arr, dtype=np.float64)
+
+
+cdef inline Rows rows_of(const double[:, :] P) noexcept nogil:
+    """The rows of (n, 3) positions from :func:`readable_positions` (p NULL when there are
+    none)."""
+    cdef Rows r
+    r.p = &P[0, 0] if P.shape[0] else NULL
+    r.s = P.strides[0] // sizeof(double)
+    return r
+
+
+cdef inline double face_cross(Rows P, int a, int b, int c, double* nrm) noexcept nogil:
+    """(b - a) x (c - a) into ``nrm`` (twice the area vector of face a b c); returns its
+    length."""
     cdef double e1[3]
     cdef double e2[3]
     cdef int i
     for i in range(3):
-        e1[i] = P[3 * b + i] - P[3 * a + i]
-        e2[i] = P[3 * c + i] - P[3 * a + i]
+        e1[i] = P.p[P.s * b + i] - P.p[P.s * a + i]
+        e2[i] = P.p[P.s * c + i] - P.p[P.s * a + i]
     cross3(e1, e2, nrm)
     return sqrt(dot3(nrm, nrm))
 
 
-cdef inline const double* rows_of(const double[:, ::1] P) noexcept nogil:
-    """The data of (n, 3) positions, NULL when there are none."""
-    return &P[0, 0] if P.shape[0] else NULL
-
-
-cdef inline void face_normal16(const HEArrays* m, const double* P, int f, short* N) noexcept nogil:
+cdef inline void face_normal16(const HEArrays* m, Rows P, int f, short* N) noexcept nogil:
     """``N[0:3]`` = face slot ``f``'s unit normal scaled by 32767 and rounded (left alone for
     a degenerate face)."""
     cdef double nrm[3]
@@ -449,12 +470,12 @@ def face_unit_normals(HalfEdgeMesh hm, positions, int threads=1):
     Taken before any collapse: each face slot keeps its identity through the collapses, so
     these are the normals of the input faces the live faces stand for.  ``threads``: OpenMP
     threads (from PARALLEL_MIN_VERTICES vertex slots; each face is its own)."""
-    cdef const double[:, ::1] P = np.ascontiguousarray(positions, dtype=np.float64)
+    cdef const double[:, :] P = readable_positions(positions)
     if threads < 1 or hm.n_vertices < PARALLEL_MIN_VERTICES:
         threads = 1
     out = np.zeros(3 * hm.n_faces, dtype=np.int16)
     cdef short[::1] N = out
-    cdef const double* X = rows_of(P)
+    cdef Rows X = rows_of(P)
     cdef const HEArrays* m = &hm.c
     cdef int f
     with nogil:
@@ -495,7 +516,7 @@ cdef inline int ring_faces(const HEArrays* m, int v, int* out, int room) noexcep
             return k
 
 
-cdef inline void face_plane(const HEArrays* m, const double* P, int f, double* pl) noexcept nogil:
+cdef inline void face_plane(const HEArrays* m, Rows P, int f, double* pl) noexcept nogil:
     """``pl[0:5]`` = the plane of face slot ``f`` as the serial scatter of vertex_quadrics
     computes it: unit normal nx ny nz, offset d, then the length of the cross product
     (twice the area; <= 0 for a face that adds nothing, 0 for a dead one, the plane then
@@ -514,7 +535,7 @@ cdef inline void face_plane(const HEArrays* m, const double* P, int f, double* p
     for i in range(3):
         nrm[i] /= length
         pl[i] = nrm[i]
-    pl[3] = -(nrm[0] * P[3 * a] + nrm[1] * P[3 * a + 1] + nrm[2] * P[3 * a + 2])
+    pl[3] = -(nrm[0] * P.p[P.s * a] + nrm[1] * P.p[P.s * a + 1] + nrm[2] * P.p[P.s * a + 2])
 
 
 cdef void gather_quadric(const HEArrays* m, const double* planes, int v, double* q) noexcept nogil:
@@ -566,7 +587,8 @@ def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=
     then gather each vertex's planes in the same face order (a 1-ring walk, sorted): the
     same sums bit for bit, for 5 doubles a face of scratch.
     """
-    cdef double[:, ::1] P = np.ascontiguousarray(positions, dtype=np.float64)
+    positions = readable_positions(positions)
+    cdef const double[:, :] P = positions
     if P.shape[0] != hm.n_vertices or P.shape[1] != 3:
         raise ValueError(f"positions must have shape ({hm.n_vertices}, 3)")
     if threads < 1 or hm.n_vertices < PARALLEL_MIN_VERTICES:
@@ -580,7 +602,7 @@ def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=
         out[:, :QSIZE] = 0.0             # (the gather writes every row whole)
     cdef double[:, ::1] Q = out
     cdef double[:, ::1] planes
-    cdef const double* X = rows_of(P)
+    cdef Rows X = rows_of(P)
     cdef const HEArrays* m = &hm.c
     cdef int f, i, a, v
     cdef double nrm[3]
@@ -597,7 +619,7 @@ def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=
                 area = 0.5 * length
                 for i in range(3):
                     nrm[i] /= length
-                d = -(nrm[0] * X[3 * a] + nrm[1] * X[3 * a + 1] + nrm[2] * X[3 * a + 2])
+                d = -(nrm[0] * X.p[X.s * a] + nrm[1] * X.p[X.s * a + 1] + nrm[2] * X.p[X.s * a + 2])
                 for i in range(3):
                     add_plane(&Q[m.corner[3 * f + i], 0], nrm[0], nrm[1], nrm[2], d, area)
                     Q[m.corner[3 * f + i], 10] += area
@@ -611,7 +633,7 @@ def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=
     else:
         out[:, :QSIZE] = 0.0
     if boundary_weight > 0.0:
-        add_boundary_planes(hm, P, boundary_weight, out)
+        add_boundary_planes(hm, positions, boundary_weight, out)
     return out
 
 
@@ -620,10 +642,11 @@ def add_boundary_planes(HalfEdgeMesh hm, positions, double weight, out):
     ends, the plane through the edge perpendicular to its face, weighted by
     ``weight * length^2`` (a length^2 weight keeps the constraint scale-invariant, like the
     area weight of faces)."""
-    cdef double[:, ::1] P = np.ascontiguousarray(positions, dtype=np.float64)
+    cdef const double[:, :] P = readable_positions(positions)
     cdef double[:, ::1] Q = out
     if P.shape[0] != hm.n_vertices or Q.shape[0] != hm.n_vertices or Q.shape[1] < 10:
         raise ValueError(f"positions and out must have {hm.n_vertices} rows (out >= 10 columns)")
+    cdef Rows X = rows_of(P)
     cdef int f, h, i, a, b, c
     cdef double e1[3]
     cdef double nrm[3]
@@ -635,7 +658,7 @@ def add_boundary_planes(HalfEdgeMesh hm, positions, double weight, out):
                 continue
             if hm.twin[3 * f] >= 0 and hm.twin[3 * f + 1] >= 0 and hm.twin[3 * f + 2] >= 0:
                 continue
-            length = face_cross(rows_of(P), hm.corner[3 * f], hm.corner[3 * f + 1], hm.corner[3 * f + 2], nrm)
+            length = face_cross(X, hm.corner[3 * f], hm.corner[3 * f + 1], hm.corner[3 * f + 2], nrm)
             if length <= 0.0:
                 continue
             for i in range(3):
