@@ -133,8 +133,7 @@ def prepare(mesh: Mesh, *, memory_order: bool = False, threads: int = 1, width: 
         slot_of = np.empty_like(perm)
         slot_of[perm] = np.arange(perm.size, dtype=np.int32)
         input_vertex = input_vertex[perm]
-        compact = slot_of[compact]
-        compact, by_first = faces_by_first_slot(compact, int(input_vertex.size), True)
+        compact, by_first = faces_by_first_slot(compact, int(input_vertex.size), True, slot_of, threads)
         input_face = input_face[by_first]
         del perm, slot_of, by_first
     hm = build(compact, int(input_vertex.size), threads)

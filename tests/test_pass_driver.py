@@ -199,6 +199,11 @@ def test_core_morton_permutation_is_the_numpy_one(case):
     assert np.array_equal(morton_permutation(pts, None, bounding_box(pts), 2), morton_order(pts))
     faces = rng.integers(0, max(len(pts), 1), size=(4 * len(pts), 3)).astype(np.int32)
     assert np.array_equal(faces_by_first_slot(faces, len(pts)), np.argsort(faces.min(axis=1), kind="stable"))
+    # renumbered on the fly (prepare(): the Morton slots), on threads: the same as numpy
+    remap = rng.permutation(len(pts)).astype(np.int32)
+    ordered, perm = faces_by_first_slot(faces, len(pts), True, remap, 2)
+    assert np.array_equal(perm, np.argsort(remap[faces].min(axis=1), kind="stable"))
+    assert np.array_equal(ordered, remap[faces][perm])
     with pytest.raises(ValueError, match="outside"):
         faces_by_first_slot(np.array([[4, 5, 6], [0, 1, -1]], dtype=np.int32), 3)
 

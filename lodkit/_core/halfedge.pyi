@@ -75,9 +75,12 @@ def morton_permutation(
     (as ``lodkit.geometry.morton_order``, by a radix sort); ``box`` their (lo, hi) when
     known; the same for any number of ``threads``."""
 
-def faces_by_first_slot(faces: ArrayLike, n_vertices: int, reorder: bool = ...):
-    """(m,) permutation ordering faces by their smallest vertex index, ties in input order;
-    with ``reorder``, (the faces in that order, the permutation)."""
+def faces_by_first_slot(
+    faces: ArrayLike, n_vertices: int, reorder: bool = ..., remap: ArrayLike | None = ..., threads: int = ...
+):
+    """(m,) permutation ordering faces (``remap[faces]`` with ``remap``) by their smallest
+    vertex index, ties in input order; with ``reorder``, (the faces in that order, the
+    permutation); the same for any number of ``threads``."""
 
 def bounding_box(points: ArrayLike, index: ArrayLike | None = ...) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(lo, hi) corners of the bounding box of points (or points[index]), without a copy."""

@@ -1032,6 +1032,14 @@ cdef inline unsigned long long spread_bits(unsigned long long x) noexcept nogil:
     return x
 
 
+cdef enum:
+    # the Morton sort's digits: 2048 buckets (16 KB of counts) keep the scatter's write
+    # streams in cache, where 65536 of them (16-bit digits) missed on most writes
+    RADIX_BITS = 11
+    RADIX = 1 << RADIX_BITS
+    RADIX_DIGITS = 6         # 66 bits: the 63 of a code
+
+
 cdef inline unsigned long long morton_code(const double* p, const double* lo, const double* ext,
                                            double top) noexcept nogil:
     """The Morton code of point ``p`` in the box from ``lo`` of size ``ext``, ``top`` + 1
@@ -1053,7 +1061,8 @@ def morton_permutation(points, index=None, box=None, int threads=1):
     """(n,) int32 permutation sorting (n, 3) ``points`` (or ``points[index]``, without the
     copy) along their Morton curve: the same as ``lodkit.geometry.morton_order`` (21 bits
     per axis over the bounding box, ties in input order), by one pass for the codes and a
-    stable radix sort (16-bit digits) instead of numpy's comparison sort.
+    stable radix sort instead of numpy's comparison sort (any digit size gives the same
+    permutation: a stable sort by the whole code).
 
     ``box``: the points' (lo, hi) from :func:`bounding_box` when the caller has it (not
     measured again); ``threads``: OpenMP threads of the codes (from PARALLEL_MIN_VERTICES
@@ -1072,12 +1081,12 @@ def morton_permutation(points, index=None, box=None, int threads=1):
     codes = np.empty(n, dtype=np.uint64)
     tmp_codes = np.empty(n, dtype=np.uint64)
     tmp_perm = np.empty(n, dtype=np.intc)
-    counts = np.zeros(65537, dtype=np.intp)
+    counts = np.zeros((RADIX_DIGITS, RADIX), dtype=np.intp)
     cdef unsigned long long[::1] C = codes
     cdef unsigned long long[::1] C2 = tmp_codes
     cdef int[::1] I = perm
     cdef int[::1] I2 = tmp_perm
-    cdef Py_ssize_t[::1] cnt = counts
+    cdef Py_ssize_t[:, ::1] cnt = counts
     cdef double lo[3]
     cdef double ext[3]
     cdef double hi, x
@@ -1111,23 +1120,23 @@ def morton_permutation(points, index=None, box=None, int threads=1):
         for i in prange(n, num_threads=threads, schedule="static"):
             C[i] = morton_code(&P[X[i], 0], lo, ext, top)
         src, dst, isrc, idst = &C[0], &C2[0], &I[0], &I2[0]
-        for shift in range(0, 64, 16):
-            for i in range(65537):
-                cnt[i] = 0
-            for i in range(n):
-                cnt[((src[i] >> shift) & 0xFFFF) + 1] += 1
-            if cnt[((src[0] >> shift) & 0xFFFF) + 1] == n:
+        for i in range(n):                        # every digit's histogram in one read
+            for k in range(RADIX_DIGITS):
+                cnt[k, (src[i] >> (RADIX_BITS * k)) & (RADIX - 1)] += 1
+        for k in range(RADIX_DIGITS):
+            shift = RADIX_BITS * k
+            if cnt[k, (src[0] >> shift) & (RADIX - 1)] == n:
                 continue                          # one digit value: already in order
             acc = 0
-            for i in range(1, 65537):
-                size = cnt[i]
-                cnt[i] = acc
+            for i in range(RADIX):
+                size = cnt[k, i]
+                cnt[k, i] = acc
                 acc += size
             for i in range(n):
-                d = ((src[i] >> shift) & 0xFFFF) + 1
-                dst[cnt[d]] = src[i]
-                idst[cnt[d]] = isrc[i]
-                cnt[d] += 1
+                d = (src[i] >> shift) & (RADIX - 1)
+                dst[cnt[k, d]] = src[i]
+                idst[cnt[k, d]] = isrc[i]
+                cnt[k, d] += 1
             src, dst = dst, src
             isrc, idst = idst, isrc
         if isrc != &I[0]:
@@ -1136,25 +1145,53 @@ def morton_permutation(points, index=None, box=None, int threads=1):
     return perm
 
 
-def faces_by_first_slot(faces, int n_vertices, bint reorder=False):
+cdef inline int smallest(const int* F, const int* remap, int n_remap) noexcept nogil:
+    """The smallest of the face ``F[0:3]``'s vertices (renumbered by ``remap`` when not
+    NULL), -1 when a corner is outside ``remap``."""
+    cdef int a = F[0], b = F[1], c = F[2]
+    if remap != NULL:
+        if (<unsigned int>a >= <unsigned int>n_remap or <unsigned int>b >= <unsigned int>n_remap
+                or <unsigned int>c >= <unsigned int>n_remap):
+            return -1
+        a, b, c = remap[a], remap[b], remap[c]
+    if b < a:
+        a = b
+    if c < a:
+        a = c
+    return a
+
+
+def faces_by_first_slot(faces, int n_vertices, bint reorder=False, remap=None, int threads=1):
     """(m,) int32 permutation ordering (m, 3) ``faces`` by their smallest vertex index,
     ties in input order (``np.argsort(faces.min(axis=1), kind="stable")`` by a counting
-    sort); with ``reorder``, (the faces in that order, the permutation)."""
+    sort); with ``reorder``, (the faces in that order, the permutation).
+
+    ``remap``: the faces' vertices are ``remap[faces]`` (read, not gathered into a copy;
+    the reordered faces are renumbered).  ``threads``: OpenMP threads of the per-face steps
+    (from PARALLEL_MIN_VERTICES vertices), the counting sort is serial."""
     cdef const int[:, ::1] F = np.ascontiguousarray(faces, dtype=np.intc)
+    cdef const int[::1] R = np.ascontiguousarray(np.zeros(1) if remap is None else remap, dtype=np.intc)
     cdef Py_ssize_t m = F.shape[0]
+    if threads < 1 or n_vertices < PARALLEL_MIN_VERTICES:
+        threads = 1
     out = np.empty(m, dtype=np.intc)
     start = np.zeros(n_vertices + 1, dtype=np.intp)
+    cdef int[::1] key = np.empty(m, dtype=np.intc)
     cdef int[::1] O = out
     cdef Py_ssize_t[::1] S = start
     cdef Py_ssize_t f, acc = 0, size, bad = -1
+    cdef const int* map_ = NULL
+    if remap is not None:
+        if R.shape[0] == 0:
+            raise ValueError("remap is empty")
+        map_ = &R[0]
+    cdef int n_map = R.shape[0]
     cdef int a, v
     with nogil:
+        for f in prange(m, num_threads=threads, schedule="static"):
+            key[f] = smallest(&F[f, 0], map_, n_map)
         for f in range(m):
-            a = F[f, 0]
-            if F[f, 1] < a:
-                a = F[f, 1]
-            if F[f, 2] < a:
-                a = F[f, 2]
+            a = key[f]
             if a < 0 or a >= n_vertices:
                 bad = f
                 break
@@ -1165,11 +1202,7 @@ def faces_by_first_slot(faces, int n_vertices, bint reorder=False):
                 S[v] = acc
                 acc += size
         for f in range(m if bad < 0 else 0):
-            a = F[f, 0]
-            if F[f, 1] < a:
-                a = F[f, 1]
-            if F[f, 2] < a:
-                a = F[f, 2]
+            a = key[f]
             O[S[a]] = <int>f
             S[a] += 1
     if bad >= 0:
@@ -1178,12 +1211,11 @@ def faces_by_first_slot(faces, int n_vertices, bint reorder=False):
         return out
     ordered = np.empty((m, 3), dtype=np.intc)
     cdef int[:, ::1] G = ordered
+    cdef int k
     with nogil:
-        for f in range(m):
-            a = O[f]
-            G[f, 0] = F[a, 0]
-            G[f, 1] = F[a, 1]
-            G[f, 2] = F[a, 2]
+        for f in prange(m, num_threads=threads, schedule="static"):
+            for k in range(3):
+                G[f, k] = F[O[f], k] if map_ == NULL else map_[F[O[f], k]]
     return ordered, out
 
 
