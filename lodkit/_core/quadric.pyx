@@ -413,12 +413,6 @@ def general_quadric_marginal(g, int D, p=None):
     return q, attrs
 
 
-cdef struct Rows:
-    # (n, 3) positions read in place: row v's x y z at p[s * v], p[s * v + 1], p[s * v + 2]
-    const double* p
-    Py_ssize_t s
-
-
 cdef object readable_positions(positions):
     """(n, 3) float64 ``positions`` that :func:`rows_of` reads in place: as given when
     each row's x y z are adjacent (a view of the position columns of the (n, 14) vertex
@@ -428,39 +422,6 @@ cdef object readable_positions(positions):
             and arr.strides[0] >= 3 * <Py_ssize_t>sizeof(double) and arr.strides[0] % sizeof(double) == 0):
         return arr
     return np.ascontiguousarray(arr, dtype=np.float64)
-
-
-cdef inline Rows rows_of(const double[:, :] P) noexcept nogil:
-    """The rows of (n, 3) positions from :func:`readable_positions` (p NULL when there are
-    none)."""
-    cdef Rows r
-    r.p = &P[0, 0] if P.shape[0] else NULL
-    r.s = P.strides[0] // sizeof(double)
-    return r
-
-
-cdef inline double face_cross(Rows P, int a, int b, int c, double* nrm) noexcept nogil:
-    """(b - a) x (c - a) into ``nrm`` (twice the area vector of face a b c); returns its
-    length."""
-    cdef double e1[3]
-    cdef double e2[3]
-    cdef int i
-    for i in range(3):
-        e1[i] = P.p[P.s * b + i] - P.p[P.s * a + i]
-        e2[i] = P.p[P.s * c + i] - P.p[P.s * a + i]
-    cross3(e1, e2, nrm)
-    return sqrt(dot3(nrm, nrm))
-
-
-cdef inline void face_normal16(const HEArrays* m, Rows P, int f, short* N) noexcept nogil:
-    """``N[0:3]`` = face slot ``f``'s unit normal scaled by 32767 and rounded (left alone for
-    a degenerate face)."""
-    cdef double nrm[3]
-    cdef int i
-    cdef double length = face_cross(P, m.corner[3 * f], m.corner[3 * f + 1], m.corner[3 * f + 2], nrm)
-    if length > 0.0:
-        for i in range(3):
-            N[i] = <short>(nrm[i] / length * 32767.0 + (0.5 if nrm[i] >= 0 else -0.5))
 
 
 def face_unit_normals(HalfEdgeMesh hm, positions, int threads=1):
