@@ -304,9 +304,12 @@ def seam_partners(src: Mesh, prep: Prepared, fixed: np.ndarray) -> np.ndarray | 
     hm = prep.hm
     n = hm.n_vertices
     corners = hm.corners.reshape(-1)
-    he = np.flatnonzero((hm.twins < 0) & np.repeat(hm.alive_faces, 3))
-    if he.size == 0:
+    border = hm.twins < 0
+    if not border.any():
         return None                                 # a seam is a pair of boundary chains
+    he = np.flatnonzero(border & np.repeat(hm.alive_faces, 3))
+    if he.size == 0:
+        return None
     a = corners[he]
     b = corners[np.where(he % 3 == 2, he - 2, he + 1)]
     out_he = np.full(n, -1, dtype=np.int64)
@@ -441,11 +444,12 @@ def extract(work: Work, run: Run):
     hm = prep.hm
     alive = np.flatnonzero(hm.alive_faces)
     face_map = prep.input_face[alive].astype(np.int64)
+    faces_slots = hm.corners[alive]             # read in slot order, then permuted (in cache)
     if prep.memory_order:
-        # faces in input order, whatever order the slots were laid out in
-        by_input = np.argsort(face_map, kind="stable")
-        alive, face_map = alive[by_input], face_map[by_input]
-    faces_slots = hm.corners[alive]
+        # faces in input order, whatever order the slots were laid out in (each input face
+        # has one slot: any sort is the stable one, and the default is ~5x faster)
+        by_input = np.argsort(face_map)
+        face_map, faces_slots = face_map[by_input], faces_slots[by_input]
     alive_v = hm.alive_vertices
     slots = np.flatnonzero(alive_v)
     # weld: one output vertex per input vertex (split copies are locked, so they coincide)
