@@ -293,14 +293,16 @@ def threaded_test_mesh():
                       [400, 0, 0], [401, 0, 0], [400, 1, 0], [399, 0, 0], [400, -1, 0]])   # bowtie
     extra_faces = np.array([[m, m + 1, m + 2], [m + 3, m + 4, m + 5], [m + 3, m + 6, m + 7]])
     vertices = np.concatenate([v, [[200.0, 0.0, 0.5]], fan, extra])
-    faces = np.concatenate([f, fan_faces, extra_faces]).astype(np.int32)
+    # half the fan first, half last: its centre's faces lie in several runs of face slots
+    # (the threads' runs), so it gathers them, more than fit on the stack
+    faces = np.concatenate([fan_faces[:50], f, fan_faces[50:], extra_faces]).astype(np.int32)
     return vertices, faces
 
 
 def test_set_up_is_the_same_on_any_number_of_threads():
-    # the quadrics are gathered per vertex on threads in the face order of the serial
-    # scatter, the input normals are per face: the same bits for any number of threads,
-    # on the input and on a mesh with dead faces
+    # each thread scatters a run of faces to the vertices it owns, the others gather in
+    # the face order of the serial scatter; the input normals are per face: the same bits
+    # for any number of threads, on the input and on a mesh with dead faces
     from lodkit._core.decimate import face_unit_normals
 
     vertices, faces = threaded_test_mesh()

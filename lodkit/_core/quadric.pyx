@@ -499,20 +499,46 @@ cdef inline void face_plane(const HEArrays* m, Rows P, int f, double* pl) noexce
     pl[3] = -(nrm[0] * P.p[P.s * a] + nrm[1] * P.p[P.s * a + 1] + nrm[2] * P.p[P.s * a + 2])
 
 
-cdef void gather_quadric(const HEArrays* m, const double* planes, int v, double* q) noexcept nogil:
-    """``q[:QSIZE]`` = the quadric of vertex slot ``v``: the planes of its faces (``planes``:
-    per face nx ny nz d and the length of the cross product, <= 0 for a face that adds
-    nothing) added in increasing face order, the order of the serial scatter, so that the
-    sums are the same bit for bit."""
+cdef inline void add_face_plane(double* q, const double* pl) noexcept nogil:
+    """Add the plane ``pl`` (from :func:`face_plane`) to the quadric ``q`` weighted by its
+    face's area, as the serial scatter does (nothing for a face of no area)."""
+    cdef double area
+    if pl[4] <= 0.0:
+        return
+    area = 0.5 * pl[4]
+    add_plane(q, pl[0], pl[1], pl[2], pl[3], area)
+    q[10] += area
+
+
+cdef int ring_owner(const HEArrays* m, int v, int chunk) noexcept nogil:
+    """Which run of ``chunk`` face slots holds every face around vertex slot ``v``: its
+    index, -1 when they are in several runs, -2 when ``v`` has no face."""
+    cdef int start, h, f, lo, hi
+    if m.v_he[v] < 0 or not m.vertex_alive[v]:
+        return -2
+    start = m.v_he[v]
+    h = start
+    lo = hi = h // 3
+    while True:
+        f = h // 3
+        if f < lo:
+            lo = f
+        if f > hi:
+            hi = f
+        h = he_ring_next(m, h)
+        if h < 0 or h == start:
+            break
+    return lo // chunk if lo // chunk == hi // chunk else -1
+
+
+cdef void gather_quadric(const HEArrays* m, Rows P, int v, double* q) noexcept nogil:
+    """Add to ``q`` (zero) the planes of the faces around vertex slot ``v`` in increasing
+    face order, the order of the serial scatter (the same sums bit for bit); each face's
+    plane is computed here."""
     cdef int local[RING_LOCAL]
     cdef int* faces = local
     cdef int i, k
-    cdef const double* pl
-    cdef double area
-    for i in range(QSIZE):
-        q[i] = 0.0
-    if m.v_he[v] < 0 or not m.vertex_alive[v]:
-        return
+    cdef double pl[5]
     k = ring_faces(m, v, local, RING_LOCAL)
     if k > RING_LOCAL:
         faces = <int*>malloc(k * sizeof(int))
@@ -524,14 +550,28 @@ cdef void gather_quadric(const HEArrays* m, const double* planes, int v, double*
         ring_faces(m, v, faces, k)
     sort_ints(faces, k)
     for i in range(k):
-        pl = &planes[5 * faces[i]]
-        if pl[4] <= 0.0:
-            continue
-        area = 0.5 * pl[4]
-        add_plane(q, pl[0], pl[1], pl[2], pl[3], area)
-        q[10] += area
+        face_plane(m, P, faces[i], pl)
+        add_face_plane(q, pl)
     if faces != local:
         free(faces)
+
+
+cdef void scatter_run(const HEArrays* m, Rows P, const int* owner, int t, int chunk, int n_faces, double* Q,
+                      Py_ssize_t stride) noexcept nogil:
+    """Scatter the planes of the ``t``-th run of ``chunk`` face slots, in face order, to
+    their corners that run ``t`` owns (``owner``: every face of the vertex is in it); the
+    quadric rows are ``stride`` doubles apart in ``Q``."""
+    cdef int f, i, v
+    cdef int end = (t + 1) * chunk if (t + 1) * chunk < n_faces else n_faces
+    cdef double pl[5]
+    for f in range(t * chunk, end):
+        face_plane(m, P, f, pl)
+        if pl[4] <= 0.0:
+            continue
+        for i in range(3):
+            v = m.corner[3 * f + i]
+            if owner[v] == t:
+                add_face_plane(&Q[stride * v], pl)
 
 
 def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=None, int threads=1):
@@ -544,9 +584,12 @@ def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=
     length^2 weight keeps the constraint scale-invariant, like the area weight of faces).
 
     ``threads``: OpenMP threads (from PARALLEL_MIN_VERTICES vertex slots).  One thread
-    scatters each face's plane to its corners in face order; more compute the face planes,
-    then gather each vertex's planes in the same face order (a 1-ring walk, sorted): the
-    same sums bit for bit, for 5 doubles a face of scratch.
+    scatters each face's plane to its corners in face order.  With T threads the face
+    slots are cut into T runs and each thread scatters one run, in face order, to the
+    vertices whose faces all lie in it (most of them when faces are laid out along the
+    surface); the few others gather their faces' planes in face order (a 1-ring walk,
+    sorted).  Each vertex's sum is the serial scatter's, bit for bit, for 4 bytes a vertex
+    of scratch.
     """
     positions = readable_positions(positions)
     cdef const double[:, :] P = positions
@@ -562,10 +605,10 @@ def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=
     elif threads == 1:
         out[:, :QSIZE] = 0.0             # (the gather writes every row whole)
     cdef double[:, ::1] Q = out
-    cdef double[:, ::1] planes
+    cdef int[::1] owner
     cdef Rows X = rows_of(P)
     cdef const HEArrays* m = &hm.c
-    cdef int f, i, a, v
+    cdef int f, i, a, v, t, chunk
     cdef double nrm[3]
     cdef double length, area, d
     if threads == 1:
@@ -585,12 +628,18 @@ def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=
                     add_plane(&Q[m.corner[3 * f + i], 0], nrm[0], nrm[1], nrm[2], d, area)
                     Q[m.corner[3 * f + i], 10] += area
     elif hm.n_faces:
-        planes = np.empty((hm.n_faces, 5), dtype=np.float64)
+        chunk = (hm.n_faces + threads - 1) // threads
+        owner = np.empty(hm.n_vertices, dtype=np.intc)
         with nogil:
-            for f in prange(hm.n_faces, num_threads=threads, schedule="static"):
-                face_plane(m, X, f, &planes[f, 0])
-            for v in prange(hm.n_vertices, num_threads=threads, schedule="static", chunksize=4096):
-                gather_quadric(m, &planes[0, 0], v, &Q[v, 0])
+            for v in prange(hm.n_vertices, num_threads=threads, schedule="static"):
+                for i in range(QSIZE):
+                    Q[v, i] = 0.0
+                owner[v] = ring_owner(m, v, chunk)
+            for t in prange(threads, num_threads=threads, schedule="static", chunksize=1):
+                scatter_run(m, X, &owner[0], t, chunk, hm.n_faces, &Q[0, 0], Q.shape[1])
+            for v in prange(hm.n_vertices, num_threads=threads, schedule="dynamic", chunksize=4096):
+                if owner[v] == -1:
+                    gather_quadric(m, X, v, &Q[v, 0])
     else:
         out[:, :QSIZE] = 0.0
     if boundary_weight > 0.0:
