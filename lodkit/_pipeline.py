@@ -136,7 +136,8 @@ def prepare(mesh: Mesh, *, memory_order: bool = False, threads: int = 1, width: 
         compact, by_first = faces_by_first_slot(compact, int(input_vertex.size), True, slot_of, threads)
         input_face = input_face[by_first]
         del perm, slot_of, by_first
-    hm = build(compact, int(input_vertex.size), threads)
+    # compact is ours to hand over unless it is still the caller's face array
+    hm = build(compact, int(input_vertex.size), threads, take=compact is not mesh.faces)
     del compact, faces
     slot_input = input_vertex[hm.vertex_sources] if hm.n_split_vertices else input_vertex
     rows = np.empty((slot_input.size, width), dtype=np.float64)

@@ -57,8 +57,9 @@ class HalfEdgeMesh:
     def check(self) -> bool:
         """Verify all invariants; AssertionError naming the first broken one."""
 
-def build(faces: ArrayLike, n_vertices: int, threads: int = 1) -> HalfEdgeMesh:
-    """Half-edge arrays for (m, 3) faces in O(m + n); non-manifold parts are cut and locked."""
+def build(faces: ArrayLike, n_vertices: int, threads: int = 1, take: bool = False) -> HalfEdgeMesh:
+    """Half-edge arrays for (m, 3) faces in O(m + n); non-manifold parts are cut and locked;
+    ``take``: the faces are handed over (the corner array is made in them, not a copy)."""
 
 def triangulation_ok(triangles: ArrayLike, k: int, closed: bool) -> bool:
     """Is ``triangles`` an oriented triangulation of a k-gon hole (link indices)?"""

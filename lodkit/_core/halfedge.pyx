@@ -800,7 +800,7 @@ cdef int count_fans(const int* twin, const int* first, const int* out_he, int v,
     return nf
 
 
-def build(faces, int n_vertices, int threads=1):
+def build(faces, int n_vertices, int threads=1, bint take=False):
     """Half-edge arrays for ``faces`` ((m, 3) int32, no repeated index within a face, every
     index in ``0..n_vertices-1``).  O(m + n): the outgoing half-edges of each vertex (a
     counting sort), then, per vertex, its edges to larger vertices paired up and its fans
@@ -810,8 +810,13 @@ def build(faces, int n_vertices, int threads=1):
 
     Returns a :class:`HalfEdgeMesh`.  Non-manifold edges and vertices are cut as described
     in the module docstring; the counts are in ``n_nonmanifold_edges`` / ``n_split_vertices``.
+    ``take``: the caller hands ``faces`` over (it drops them), so a writeable int32
+    C-contiguous array becomes the corner array itself instead of being copied.
     """
-    cdef const int[:, ::1] F = np.ascontiguousarray(faces, dtype=np.intc)   # read only: read-only input is fine
+    arr = np.ascontiguousarray(faces, dtype=np.intc)
+    # a conversion made a copy of our own; otherwise the caller's array is only read
+    take = (take and arr.flags.writeable) or arr is not faces
+    cdef const int[:, ::1] F = arr          # read only: read-only input is fine
     cdef Py_ssize_t m = F.shape[0]
     if m >= 700_000_000:
         raise ValueError("too many faces for 32-bit half-edge ids")
@@ -819,7 +824,7 @@ def build(faces, int n_vertices, int threads=1):
         threads = 1                   # waking a team costs more than a small mesh's build
     cdef int H = <int>(3 * m)
     cdef int n = n_vertices
-    cdef int[::1] corner = np.ascontiguousarray(F).reshape(-1).copy()
+    cdef int[::1] corner = arr.reshape(-1) if take else arr.reshape(-1).copy()
     cdef int[::1] twin = np.full(H, -1, dtype=np.intc)
     cdef int[::1] edge = np.empty(H, dtype=np.intc)
     cdef int[::1] first = np.zeros(n + 2, dtype=np.intc)
