@@ -89,8 +89,8 @@ def prepare(mesh: Mesh, *, memory_order: bool = False, threads: int = 1, width: 
     the face slots by their first vertex slot, so that vertices and faces close on the
     surface are close in memory (the pass driver walks them in slot order); the maps
     (``input_vertex``, ``input_face``) take the permutations, so nothing downstream sees
-    them but the speed.  ``threads``: OpenMP threads of the half-edge build and of the
-    positions (the arrays are the same for any number).  ``width``: the positions are the
+    them but the speed.  ``threads``: OpenMP threads of the Morton codes, the face order
+    and the half-edge build (the arrays are the same for any number).  ``width``: the positions are the
     last three columns of a (n_slots, width) array (``rows``), so that :func:`start` gets
     the core's vertex rows without copying them."""
     faces = mesh.faces
@@ -142,7 +142,7 @@ def prepare(mesh: Mesh, *, memory_order: bool = False, threads: int = 1, width: 
     slot_input = input_vertex[hm.vertex_sources] if hm.n_split_vertices else input_vertex
     rows = np.empty((slot_input.size, width), dtype=np.float64)
     positions = rows[:, width - 3:]
-    normalised_positions(mesh.vertices, slot_input, center, scale, positions, threads)
+    normalised_positions(mesh.vertices, slot_input, center, scale, positions)
     return Prepared(hm, positions, rows, slot_input, input_face, center, scale,
                     n_degenerate, int(mesh.n_vertices - input_vertex.size), bool(memory_order))
 

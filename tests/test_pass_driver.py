@@ -210,7 +210,7 @@ def test_core_morton_permutation_is_the_numpy_one(case):
 
 def test_normalised_positions_are_numpy_s_bit_for_bit():
     # prepare() writes the positions straight into the core's vertex rows (a view whose
-    # rows are spaced), on threads above 16,384 points: numpy's values, bit for bit
+    # rows are spaced): numpy's values, bit for bit
     from lodkit._core.halfedge import normalised_positions
     rng = np.random.default_rng(3)
     points = rng.normal(size=(30000, 3)) * 1e3
@@ -219,11 +219,10 @@ def test_normalised_positions_are_numpy_s_bit_for_bit():
     want = points[index]
     want -= center
     want /= scale
-    for threads in (1, 2):
-        rows = np.full((20000, 14), np.nan)
-        normalised_positions(points, index, center, scale, rows[:, 11:], threads)
-        assert rows[:, 11:].tobytes() == np.ascontiguousarray(want).tobytes()
-        assert np.isnan(rows[:, :11]).all()
+    rows = np.full((20000, 14), np.nan)
+    normalised_positions(points, index, center, scale, rows[:, 11:])
+    assert rows[:, 11:].tobytes() == np.ascontiguousarray(want).tobytes()
+    assert np.isnan(rows[:, :11]).all()
     with pytest.raises(ValueError, match="index"):
         normalised_positions(points, np.array([30000], np.int32), center, scale, np.empty((1, 3)))
 

@@ -37,9 +37,10 @@ cdef enum:
     MAX_VALENCE = 64
 
 cdef enum:
-    # The set-up loops (the half-edge build, the quadrics, the input normals) run on OpenMP
-    # threads from this many vertex slots; below it waking the thread team costs more than
-    # the loop (lodkit.drivers.edge.PASS_MIN_PARALLEL is the pass driver's same limit).
+    # The set-up loops (Morton codes, face order, positions, the half-edge build, the
+    # quadrics, the input faces' normals and volumes) run on OpenMP threads from this many
+    # vertex slots; below it waking the thread team costs more than the loop
+    # (lodkit.drivers.edge.PASS_MIN_PARALLEL is the pass driver's same limit).
     PARALLEL_MIN_VERTICES = 16384
 
 cdef enum:

@@ -87,7 +87,7 @@ def bounding_box(points: ArrayLike, index: ArrayLike | None = ...) -> tuple[NDAr
     """(lo, hi) corners of the bounding box of points (or points[index]), without a copy."""
 
 def normalised_positions(
-    points: ArrayLike, index: ArrayLike, center: ArrayLike, scale: float, out: NDArray[np.float64], threads: int = 1
+    points: ArrayLike, index: ArrayLike, center: ArrayLike, scale: float, out: NDArray[np.float64]
 ) -> None:
     """``out`` ((n, 3), rows may be spaced) = (points[index] - center) / scale, in place, as
-    numpy computes it; the same for any number of ``threads``."""
+    numpy computes it."""

@@ -1257,11 +1257,13 @@ def bounding_box(points, index=None):
     return lo_a, hi_a
 
 
-def normalised_positions(points, index, center, double scale, out, int threads=1):
+def normalised_positions(points, index, center, double scale, out):
     """``out`` = ``(points[index] - center) / scale``: (n, 3) float64, written in place (its
     rows may be spaced: the position columns of the core's (n, 14) vertex rows), as numpy
     computes it (one subtraction and one division a coordinate), without the gathered
-    copy; per point on ``threads`` OpenMP threads (from PARALLEL_MIN_VERTICES points)."""
+    copy.  One thread: the cost is the first touch of ``out``'s pages, which threads do not
+    share out (on two threads the page faults made it up to ten times slower at times:
+    1M faces, transparent huge pages)."""
     cdef const double[:, ::1] P = np.ascontiguousarray(points, dtype=np.float64)
     cdef const int[::1] X = np.ascontiguousarray(index, dtype=np.intc)
     cdef const double[::1] c = np.ascontiguousarray(center, dtype=np.float64).reshape(-1)
@@ -1272,9 +1274,7 @@ def normalised_positions(points, index, center, double scale, out, int threads=1
         raise ValueError("points must have shape (m, 3), out (n, 3) for n indices, center (3,)")
     if n and (np.min(X) < 0 or np.max(X) >= P.shape[0]):
         raise ValueError("index out of range")
-    if threads < 1 or n < PARALLEL_MIN_VERTICES:
-        threads = 1
     with nogil:
-        for i in prange(n, num_threads=threads, schedule="static"):
+        for i in range(n):
             for k in range(3):
                 O[i, k] = (P[X[i], k] - c[k]) / scale
