@@ -27,7 +27,7 @@ if _only:
 
 # Modules with OpenMP loops (cython.parallel.prange).  Without OpenMP they build and run
 # with one thread, with the same output (docs/performance.md, "Threads").
-OPENMP_MODULES = {"passes", "halfedge"}
+OPENMP_MODULES = {"passes", "halfedge", "quadric", "edge"}
 
 
 def openmp_flags():

@@ -20,7 +20,14 @@ import numpy as np
 
 from . import _progress
 from ._core.decimate import vertex_quadrics
-from ._core.halfedge import bounding_box, build, count_face_components, faces_by_first_slot, morton_permutation
+from ._core.halfedge import (
+    bounding_box,
+    build,
+    count_face_components,
+    faces_by_first_slot,
+    morton_permutation,
+    normalised_positions,
+)
 from .errors import MeshError
 from .geometry import box_diagonal
 from .mesh import Mesh
@@ -63,7 +70,8 @@ class Prepared:
     """A mesh cleaned and turned into half-edge arrays, ready for a driver."""
 
     hm: Any                      # lodkit._core.halfedge.HalfEdgeMesh
-    positions: np.ndarray | None  # (n_slots, 3) normalised positions (dropped once copied)
+    positions: np.ndarray | None  # (n_slots, 3) normalised positions: the last columns of ``rows``
+    rows: np.ndarray | None      # (n_slots, width) the array that holds them (start(): the core's rows)
     input_vertex: np.ndarray     # (n_slots,) input vertex index of each slot
     input_face: np.ndarray       # (m_kept,) input face index of each face slot
     center: np.ndarray
@@ -73,7 +81,7 @@ class Prepared:
     memory_order: bool = False   # vertex and face slots sorted along a Morton curve
 
 
-def prepare(mesh: Mesh, *, memory_order: bool = False, threads: int = 1) -> Prepared:
+def prepare(mesh: Mesh, *, memory_order: bool = False, threads: int = 1, width: int = 3) -> Prepared:
     """Drop faces with a repeated index and unreferenced vertices, normalise positions
     (centre of the bbox at the origin, unit diagonal) and build the half-edge arrays.
 
@@ -81,8 +89,10 @@ def prepare(mesh: Mesh, *, memory_order: bool = False, threads: int = 1) -> Prep
     the face slots by their first vertex slot, so that vertices and faces close on the
     surface are close in memory (the pass driver walks them in slot order); the maps
     (``input_vertex``, ``input_face``) take the permutations, so nothing downstream sees
-    them but the speed.  ``threads``: OpenMP threads of the half-edge build (the arrays
-    are the same for any number)."""
+    them but the speed.  ``threads``: OpenMP threads of the Morton codes, the face order
+    and the half-edge build (the arrays are the same for any number).  ``width``: the positions are the
+    last three columns of a (n_slots, width) array (``rows``), so that :func:`start` gets
+    the core's vertex rows without copying them."""
     faces = mesh.faces
     if faces.shape[0] == 0:
         raise MeshError("the mesh has no faces")
@@ -119,21 +129,21 @@ def prepare(mesh: Mesh, *, memory_order: bool = False, threads: int = 1) -> Prep
     if memory_order:
         # (geometry.morton_order and a stable argsort of the faces' smallest slot, in
         # the core: the same permutations, by radix and counting sorts)
-        perm = morton_permutation(mesh.vertices, input_vertex)
+        perm = morton_permutation(mesh.vertices, input_vertex, (lo, hi), threads)
         slot_of = np.empty_like(perm)
         slot_of[perm] = np.arange(perm.size, dtype=np.int32)
         input_vertex = input_vertex[perm]
-        compact = slot_of[compact]
-        compact, by_first = faces_by_first_slot(compact, int(input_vertex.size), True)
+        compact, by_first = faces_by_first_slot(compact, int(input_vertex.size), True, slot_of, threads)
         input_face = input_face[by_first]
         del perm, slot_of, by_first
-    hm = build(compact, int(input_vertex.size), threads)
+    # compact is ours to hand over unless it is still the caller's face array
+    hm = build(compact, int(input_vertex.size), threads, take=compact is not mesh.faces)
     del compact, faces
     slot_input = input_vertex[hm.vertex_sources] if hm.n_split_vertices else input_vertex
-    positions = mesh.vertices[slot_input]
-    positions -= center
-    positions /= scale
-    return Prepared(hm, positions, slot_input, input_face, center, scale,
+    rows = np.empty((slot_input.size, width), dtype=np.float64)
+    positions = rows[:, width - 3:]
+    normalised_positions(mesh.vertices, slot_input, center, scale, positions)
+    return Prepared(hm, positions, rows, slot_input, input_face, center, scale,
                     n_degenerate, int(mesh.n_vertices - input_vertex.size), bool(memory_order))
 
 
@@ -179,7 +189,8 @@ def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolu
     if prune is not None:
         src, kept_faces, prune_report = prune_debris(src, prune)
         welded_faces = kept_faces if welded_faces is None else welded_faces[kept_faces]
-    prep = prepare(src, memory_order=memory_order, threads=int(settings.get("threads", (1,))[0]))
+    threads = int(settings.get("threads", (1,))[0])
+    prep = prepare(src, memory_order=memory_order, threads=threads, width=VSTRIDE)
     hm = prep.hm
     fixed = hm.locked_vertices.copy()
     if locked is not None:
@@ -191,10 +202,9 @@ def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolu
         layout[name] = col
         col += arr.shape[1]
     attributes = np.concatenate([arr[prep.input_vertex] for arr in attrs.values()], axis=1) if attrs else None
-    vdata = np.empty((hm.n_vertices, VSTRIDE), dtype=np.float64)
-    vdata[:, QSIZE:] = prep.positions
-    prep.positions = None
-    vertex_quadrics(hm, vdata[:, QSIZE:], 0.0, out=vdata)
+    vdata = prep.rows                            # the positions are in place; the quadrics follow
+    prep.positions = prep.rows = None
+    vertex_quadrics(hm, vdata[:, QSIZE:], 0.0, out=vdata, threads=threads)
     n_seam_fixed = 0
     seams = seam_partners(src, prep, fixed)
     if settings["boundary"][0] == "lock":
@@ -295,9 +305,12 @@ def seam_partners(src: Mesh, prep: Prepared, fixed: np.ndarray) -> np.ndarray | 
     hm = prep.hm
     n = hm.n_vertices
     corners = hm.corners.reshape(-1)
-    he = np.flatnonzero((hm.twins < 0) & np.repeat(hm.alive_faces, 3))
-    if he.size == 0:
+    border = hm.twins < 0
+    if not border.any():
         return None                                 # a seam is a pair of boundary chains
+    he = np.flatnonzero(border & np.repeat(hm.alive_faces, 3))
+    if he.size == 0:
+        return None
     a = corners[he]
     b = corners[np.where(he % 3 == 2, he - 2, he + 1)]
     out_he = np.full(n, -1, dtype=np.int64)
@@ -432,11 +445,12 @@ def extract(work: Work, run: Run):
     hm = prep.hm
     alive = np.flatnonzero(hm.alive_faces)
     face_map = prep.input_face[alive].astype(np.int64)
+    faces_slots = hm.corners[alive]             # read in slot order, then permuted (in cache)
     if prep.memory_order:
-        # faces in input order, whatever order the slots were laid out in
-        by_input = np.argsort(face_map, kind="stable")
-        alive, face_map = alive[by_input], face_map[by_input]
-    faces_slots = hm.corners[alive]
+        # faces in input order, whatever order the slots were laid out in (each input face
+        # has one slot: any sort is the stable one, and the default is ~5x faster)
+        by_input = np.argsort(face_map)
+        face_map, faces_slots = face_map[by_input], faces_slots[by_input]
     alive_v = hm.alive_vertices
     slots = np.flatnonzero(alive_v)
     # weld: one output vertex per input vertex (split copies are locked, so they coincide)

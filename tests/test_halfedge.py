@@ -204,6 +204,21 @@ def assert_matches_reference(faces, n: int):
 
 
 # ---------------------------------------------------------------------- exact structures
+def test_build_copies_the_faces_unless_handed_them():
+    # prepare() hands over the face array it made (no copy); a caller's array is only read,
+    # even when a non-manifold vertex is split (the corners change)
+    faces = np.array([[0, 1, 2], [0, 3, 4]], dtype=np.int32)        # two fans at vertex 0
+    kept = faces.copy()
+    hm = build(faces, 5)
+    assert hm.n_split_vertices == 1 and np.array_equal(faces, kept)
+    taken = build(faces, 5, 1, True)
+    assert np.shares_memory(taken.corners, faces)
+    assert np.array_equal(taken.corners, hm.corners) and np.array_equal(taken.twins, hm.twins)
+    frozen = kept.copy()
+    frozen.flags.writeable = False
+    assert not np.shares_memory(build(frozen, 5, 1, True).corners, frozen)
+
+
 def test_single_triangle():
     hm = build(np.array(TRIANGLE), 3)
     assert hm.check()

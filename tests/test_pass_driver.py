@@ -180,23 +180,51 @@ def test_morton_order_on_a_hand_made_set():
     assert np.all(np.diff(codes.astype(np.int64)) > 0)
 
 
-@pytest.mark.parametrize("case", ["random", "rounded", "coincident", "one", "flat"])
+@pytest.mark.parametrize("case", ["random", "rounded", "coincident", "one", "flat", "threads"])
 def test_core_morton_permutation_is_the_numpy_one(case):
     """The pipeline's radix-sorted Morton permutation is geometry.morton_order's exactly
     (ties in input order), and the faces' counting sort is a stable argsort of their
     smallest slot."""
-    from lodkit._core.halfedge import faces_by_first_slot, morton_permutation
+    from lodkit._core.halfedge import bounding_box, faces_by_first_slot, morton_permutation
     rng = np.random.default_rng(7)
     pts = {"random": rng.normal(size=(5000, 3)),
            "rounded": np.round(rng.normal(size=(5000, 3)), 1),        # many equal codes
            "coincident": np.zeros((9, 3)),
            "one": np.ones((1, 3)),
-           "flat": np.c_[rng.uniform(size=(3000, 2)), np.zeros(3000)]}[case]
+           "flat": np.c_[rng.uniform(size=(3000, 2)), np.zeros(3000)],
+           # above the threads' threshold (16,384 points): the codes on threads
+           "threads": np.round(rng.normal(size=(20000, 3)), 2)}[case]
     assert np.array_equal(morton_permutation(pts), morton_order(pts))
+    # the caller's bounding box (prepare() has it) and threads change nothing
+    assert np.array_equal(morton_permutation(pts, None, bounding_box(pts), 2), morton_order(pts))
     faces = rng.integers(0, max(len(pts), 1), size=(4 * len(pts), 3)).astype(np.int32)
     assert np.array_equal(faces_by_first_slot(faces, len(pts)), np.argsort(faces.min(axis=1), kind="stable"))
+    # renumbered on the fly (prepare(): the Morton slots), on threads: the same as numpy
+    remap = rng.permutation(len(pts)).astype(np.int32)
+    ordered, perm = faces_by_first_slot(faces, len(pts), True, remap, 2)
+    assert np.array_equal(perm, np.argsort(remap[faces].min(axis=1), kind="stable"))
+    assert np.array_equal(ordered, remap[faces][perm])
     with pytest.raises(ValueError, match="outside"):
         faces_by_first_slot(np.array([[4, 5, 6], [0, 1, -1]], dtype=np.int32), 3)
+
+
+def test_normalised_positions_are_numpy_s_bit_for_bit():
+    # prepare() writes the positions straight into the core's vertex rows (a view whose
+    # rows are spaced): numpy's values, bit for bit
+    from lodkit._core.halfedge import normalised_positions
+    rng = np.random.default_rng(3)
+    points = rng.normal(size=(30000, 3)) * 1e3
+    index = rng.permutation(30000)[:20000].astype(np.int32)
+    center, scale = np.array([0.1, -2.0, 7.5]), 3.7
+    want = points[index]
+    want -= center
+    want /= scale
+    rows = np.full((20000, 14), np.nan)
+    normalised_positions(points, index, center, scale, rows[:, 11:])
+    assert rows[:, 11:].tobytes() == np.ascontiguousarray(want).tobytes()
+    assert np.isnan(rows[:, :11]).all()
+    with pytest.raises(ValueError, match="index"):
+        normalised_positions(points, np.array([30000], np.int32), center, scale, np.empty((1, 3)))
 
 
 def test_output_order_does_not_depend_on_the_input_order():

@@ -277,6 +277,53 @@ def test_quadric_area_column_is_the_one_ring_area():
     np.testing.assert_array_equal(q[interior][:, [0, 1, 2, 3, 4, 6, 7, 8, 9]], 0.0)
 
 
+def threaded_test_mesh():
+    """Above the threads' threshold (16,384 vertex slots): a bumpy 130 x 130 grid (a
+    border), a fan of 100 faces round one vertex (more than a vertex's faces sorted on the
+    stack), a zero-area face and two faces sharing one vertex only (split copies)."""
+    v, f = grid_mesh(130, 130, z=lambda x, y: 0.3 * np.sin(0.3 * x) * np.cos(0.2 * y))
+    n = len(v)
+    k = 100
+    angles = np.linspace(0.0, 2.0 * np.pi, k, endpoint=False)
+    fan = np.stack([np.cos(angles), np.sin(angles), 0.1 * np.sin(3 * angles)], axis=1) + [200.0, 0.0, 0.0]
+    centre, ring = n, n + 1 + np.arange(k)
+    fan_faces = np.stack([np.full(k, centre), ring, np.roll(ring, -1)], axis=1)
+    m = n + 1 + k
+    extra = np.array([[300.0, 0, 0], [301, 0, 0], [302, 0, 0],            # collinear: zero area
+                      [400, 0, 0], [401, 0, 0], [400, 1, 0], [399, 0, 0], [400, -1, 0]])   # bowtie
+    extra_faces = np.array([[m, m + 1, m + 2], [m + 3, m + 4, m + 5], [m + 3, m + 6, m + 7]])
+    vertices = np.concatenate([v, [[200.0, 0.0, 0.5]], fan, extra])
+    # half the fan first, half last: its centre's faces lie in several runs of face slots
+    # (the threads' runs), so it gathers them, more than fit on the stack
+    faces = np.concatenate([fan_faces[:50], f, fan_faces[50:], extra_faces]).astype(np.int32)
+    return vertices, faces
+
+
+def test_set_up_is_the_same_on_any_number_of_threads():
+    # each thread scatters a run of faces to the vertices it owns, the others gather in
+    # the face order of the serial scatter; the input normals are per face: the same bits
+    # for any number of threads, on the input and on a mesh with dead faces
+    from lodkit._core.decimate import face_unit_normals
+
+    vertices, faces = threaded_test_mesh()
+    hm = build(faces, len(vertices), 2)
+    assert hm.n_vertices >= 16384 and hm.n_split_vertices == 1
+    positions = vertices[hm.vertex_sources]
+    one = vertex_quadrics(hm, positions, 0.0, threads=1)
+    want = reference_quadrics(positions, hm.corners, 0.0)
+    np.testing.assert_allclose(one, want, rtol=1e-12, atol=1e-12 * np.abs(want).max())
+    for threads in (2, 3):
+        assert vertex_quadrics(hm, positions, 0.0, threads=threads).tobytes() == one.tobytes()
+        assert (face_unit_normals(hm, positions, threads).tobytes()
+                == face_unit_normals(hm, positions, 1).tobytes())
+    collapser = EdgeCollapser(hm, positions, one, None, np.zeros(hm.n_vertices, np.uint8), threads=2)
+    collapser.run(hm.n_faces // 2)
+    moved = np.ascontiguousarray(collapser.positions)
+    assert not hm.alive_faces.all()
+    one = vertex_quadrics(hm, moved, 5.0, threads=1)
+    assert vertex_quadrics(hm, moved, 5.0, threads=2).tobytes() == one.tobytes()
+
+
 # ---------------------------------------------------------------------- plan_edge
 CONFIGS = [
     (OPTIMAL, PRESERVE, 10.0, False),

@@ -37,6 +37,13 @@ cdef enum:
     MAX_VALENCE = 64
 
 cdef enum:
+    # The set-up loops (Morton codes, face order, positions, the half-edge build, the
+    # quadrics, the input faces' normals and volumes) run on OpenMP threads from this many
+    # vertex slots; below it waking the thread team costs more than the loop
+    # (lodkit.drivers.edge.PASS_MIN_PARALLEL is the pass driver's same limit).
+    PARALLEL_MIN_VERTICES = 16384
+
+cdef enum:
     # per-vertex quadric: a11 a12 a13 a22 a23 a33 b1 b2 b3 c w   (w = summed face area)
     QSIZE = 11
     VSTRIDE = 14         # the edge driver's per-vertex row: quadric (QSIZE) then position (3)

@@ -38,6 +38,7 @@ def EdgeCollapser(
     seam_partners: ArrayLike | None = ...,
     operator: int = ...,
     error_bound: tuple[float, float] | None = ...,
+    threads: int = ...,
 ) -> _EdgeCollapser:
     """The edge-collapse driver for these arguments: operator 0 with use_heap True
     :class:`lodkit._core.edge.EdgeCollapser`, with use_heap False

@@ -75,6 +75,7 @@ class EdgeCollapser:
         steps: ArrayLike | None = ...,
         seam_partners: ArrayLike | None = ...,
         error_bound: tuple[float, float] | None = ...,
+        threads: int = ...,
     ) -> None:
         """quadric_weight: factor of the quadric in the cost (0: the quadric only places);
         error_scale: error = sqrt(error_scale * Q(p) / area); vertex_fields (n, k) and
@@ -97,6 +98,9 @@ class EdgeCollapser:
     def certified_bound(self) -> float | None:
         """The largest certificate of a live face (normalised units), None without a bound."""
     def _setup_seams(self, partners: ArrayLike | None) -> None: ...
+    def _input_faces(self, threads: int, closed: bool) -> None:
+        """The input faces' int16 unit normals and (``closed``) the enclosed volume, in one
+        pass over the faces on ``threads``."""
     def run(self, target_faces: int, max_steps: int = ...) -> int:
         """0: target reached, 1: step budget used, 2: no legal collapse left, 3: a kernel failed."""
     def relax_quality(self, min_quality: float) -> None:

@@ -20,6 +20,7 @@ Quadric maths: quadric.pxd; the checks' expressions: checks.pxd; fields: fields.
 """
 import numpy as np
 cimport numpy as cnp
+from cython.parallel cimport prange
 from libc.math cimport sqrt, INFINITY
 
 from .halfedge cimport HalfEdgeMesh, he_next, he_prev, he_dest, he_ring_next, he_is_boundary
@@ -32,13 +33,12 @@ from .chain import make_chain
 from .common cimport (QSIZE, VSTRIDE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, RUN_ERROR, BOUNDARY_LOCK,
                       BOUNDARY_PRESERVE, BOUNDARY_FREE, PLACE_OPTIMAL, PLACE_ENDPOINT)
 from .quadric cimport (AttributeQuadrics, sq, collapse_error, quadric_eval, quadric_sum, take_if_lower, quadric_solve,
-                       quadric_solve_truncated, within_reach)
+                       quadric_solve_truncated, within_reach, Rows, face_normal16)
 from .checks cimport (CheckLimits, check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality,
                       face_volume, turns_inside_out, sides_of_a_sheet)
 from .fields cimport FieldSet, STEP_VFIELD, STEP_EFIELD
-from .common cimport RUN_INTERRUPTED
+from .common cimport RUN_INTERRUPTED, PARALLEL_MIN_VERTICES
 from .interrupt cimport signal_pending, raise_pending, INTERRUPT_EVERY
-from .quadric import face_unit_normals
 
 cnp.import_array()
 
@@ -98,6 +98,8 @@ cdef class EdgeCollapser:
                 attributes; a seam edge collapses only together with its partner edge,
                 keeping the same end on both sides (``perform_pair``); any other collapse
                 keeps a seam vertex in place.
+    threads   : OpenMP threads of the set-up's loops over faces and vertices (from
+                PARALLEL_MIN_VERTICES vertex slots); the state is the same for any number
     """
 
     def __init__(self, HalfEdgeMesh hm, positions, quadrics, attributes, fixed,
@@ -107,7 +109,7 @@ cdef class EdgeCollapser:
                  double quadric_weight=1.0, double error_scale=1.0,
                  vertex_fields=None, vertex_rules=None, edge_fields=None, edge_rules=None,
                  kernels=(), bint use_heap=True, attribute_quadrics=None, attribute_columns=None,
-                 steps=None, seam_partners=None, error_bound=None):
+                 steps=None, seam_partners=None, error_bound=None, int threads=1):
         cdef int n = hm.n_vertices
         self.hm = hm
         # One row per vertex: the quadric (11 doubles) then the position (3), so that a
@@ -158,8 +160,8 @@ cdef class EdgeCollapser:
         self.rec = Records(n, self.n_attr, record)
         self.n_collapses = 0
         self.max_error_done = 0.0
-        self.face_n0 = face_unit_normals(hm, np.asarray(self.vdata)[:, QSIZE:])
-        self.N0 = &self.face_n0[0] if hm.n_faces else NULL
+        if threads < 1 or n < PARALLEL_MIN_VERTICES:
+            threads = 1
         # the pass driver needs none; triangle collapse ranks faces
         self.heap = IndexedHeap(self.n_candidates() if use_heap else 0)
         self.m = &hm.c
@@ -168,10 +170,12 @@ cdef class EdgeCollapser:
         self.closed_volume = 0.0
         self.Q = &self.vdata[0, 0] if n else NULL
         self.P = &self.vdata[0, QSIZE] if n else NULL
+        self._input_faces(threads, closed_connected and n and hm.n_faces)
         cdef int v
-        for v in range(n):
-            if self.m.v_he[v] >= 0 and he_is_boundary(self.m, v):
-                self.vflags[v] |= VERTEX_BOUNDARY
+        with nogil:
+            for v in prange(n, num_threads=threads, schedule="static"):
+                if self.m.v_he[v] >= 0 and he_is_boundary(self.m, v):
+                    self.vflags[v] |= VERTEX_BOUNDARY
         self.A = &self.attr[0, 0] if n and self.n_attr else NULL
         self._setup_seams(seam_partners)
         if boundary == BOUNDARY_LOCK:
@@ -183,11 +187,6 @@ cdef class EdgeCollapser:
         self._setup_metric(quadric_weight, error_scale, vertex_fields, vertex_rules,
                            edge_fields, edge_rules, kernels, use_heap, steps)
         self.aq = AttributeQuadrics(hm, self.attr, attribute_quadrics, attribute_columns)
-        cdef int f
-        if closed_connected and n:
-            for f in range(hm.n_faces):
-                if hm.face_alive[f]:
-                    self.closed_volume += self.face_volume6(f)
         # error_bound=(eps, spacing): the two-sided bound (bound.pyx); built on the input as
         # it is now, before any collapse
         self.bound = None
@@ -196,6 +195,29 @@ cdef class EdgeCollapser:
         if self.opt.use_heap:
             with nogil:
                 self.rescan()
+
+    def _input_faces(self, int threads, bint closed):
+        """``face_n0``, the unit normals of the input faces (the checks measure turns from
+        them) and, when ``closed``, ``closed_volume``: one pass over the faces on
+        ``threads`` (each face loads its corners once for both), the volumes then summed in
+        face order (one sum: the same bits for any number of threads)."""
+        cdef int m = self.hm.n_faces
+        cdef int f
+        cdef Rows rows
+        rows.p = self.P
+        rows.s = VSTRIDE
+        self.face_n0 = np.zeros(3 * m, dtype=np.int16)
+        self.N0 = &self.face_n0[0] if m else NULL
+        cdef double[::1] vol6 = np.empty(m if closed else 1, dtype=np.float64)
+        with nogil:
+            for f in prange(m, num_threads=threads, schedule="static"):
+                face_normal16(self.m, rows, f, &self.N0[3 * f])
+                if closed:
+                    vol6[f] = self.face_volume6(f)
+            if closed:
+                for f in range(m):
+                    if self.m.face_alive[f]:
+                        self.closed_volume += vol6[f]
 
     cdef int n_candidates(self):
         """The heap's capacity: one candidate per edge."""

@@ -57,21 +57,37 @@ class HalfEdgeMesh:
     def check(self) -> bool:
         """Verify all invariants; AssertionError naming the first broken one."""
 
-def build(faces: ArrayLike, n_vertices: int, threads: int = 1) -> HalfEdgeMesh:
-    """Half-edge arrays for (m, 3) faces in O(m + n); non-manifold parts are cut and locked."""
+def build(faces: ArrayLike, n_vertices: int, threads: int = 1, take: bool = False) -> HalfEdgeMesh:
+    """Half-edge arrays for (m, 3) faces in O(m + n); non-manifold parts are cut and locked;
+    ``take``: the faces are handed over (the corner array is made in them, not a copy)."""
 
 def triangulation_ok(triangles: ArrayLike, k: int, closed: bool) -> bool:
     """Is ``triangles`` an oriented triangulation of a k-gon hole (link indices)?"""
 def count_face_components(hm: HalfEdgeMesh) -> int:
     """Number of components of the live faces (joined across twin half-edges)."""
 
-def morton_permutation(points: ArrayLike, index: ArrayLike | None = ...) -> NDArray[np.int32]:
+def morton_permutation(
+    points: ArrayLike,
+    index: ArrayLike | None = ...,
+    box: tuple[ArrayLike, ArrayLike] | None = ...,
+    threads: int = ...,
+) -> NDArray[np.int32]:
     """(n,) permutation sorting (n, 3) points (or points[index]) along their Morton curve
-    (as ``lodkit.geometry.morton_order``, by a radix sort)."""
+    (as ``lodkit.geometry.morton_order``, by a radix sort); ``box`` their (lo, hi) when
+    known; the same for any number of ``threads``."""
 
-def faces_by_first_slot(faces: ArrayLike, n_vertices: int, reorder: bool = ...):
-    """(m,) permutation ordering faces by their smallest vertex index, ties in input order;
-    with ``reorder``, (the faces in that order, the permutation)."""
+def faces_by_first_slot(
+    faces: ArrayLike, n_vertices: int, reorder: bool = ..., remap: ArrayLike | None = ..., threads: int = ...
+):
+    """(m,) permutation ordering faces (``remap[faces]`` with ``remap``) by their smallest
+    vertex index, ties in input order; with ``reorder``, (the faces in that order, the
+    permutation); the same for any number of ``threads``."""
 
 def bounding_box(points: ArrayLike, index: ArrayLike | None = ...) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(lo, hi) corners of the bounding box of points (or points[index]), without a copy."""
+
+def normalised_positions(
+    points: ArrayLike, index: ArrayLike, center: ArrayLike, scale: float, out: NDArray[np.float64]
+) -> None:
+    """``out`` ((n, 3), rows may be spaced) = (points[index] - center) / scale, in place, as
+    numpy computes it."""

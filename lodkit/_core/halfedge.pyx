@@ -12,7 +12,7 @@ from libc.stdlib cimport qsort
 import numpy as np
 cimport numpy as cnp
 
-from .common cimport MAX_VALENCE
+from .common cimport MAX_VALENCE, PARALLEL_MIN_VERTICES
 
 cnp.import_array()
 
@@ -763,10 +763,6 @@ cdef int pair_at(const int* corner, const int* first, const int* out_he, int v, 
     return ne
 
 
-cdef enum:
-    PARALLEL_MIN_VERTICES = 16384     # build() runs on threads from this many vertices
-
-
 cdef inline int fan_first(const int* twin, int h) noexcept nogil:
     """The first half-edge of the fan of outgoing half-edge ``h``: walk back across twins
     to a border, or (a closed fan) to the half-edge just before h."""
@@ -804,7 +800,7 @@ cdef int count_fans(const int* twin, const int* first, const int* out_he, int v,
     return nf
 
 
-def build(faces, int n_vertices, int threads=1):
+def build(faces, int n_vertices, int threads=1, bint take=False):
     """Half-edge arrays for ``faces`` ((m, 3) int32, no repeated index within a face, every
     index in ``0..n_vertices-1``).  O(m + n): the outgoing half-edges of each vertex (a
     counting sort), then, per vertex, its edges to larger vertices paired up and its fans
@@ -814,8 +810,13 @@ def build(faces, int n_vertices, int threads=1):
 
     Returns a :class:`HalfEdgeMesh`.  Non-manifold edges and vertices are cut as described
     in the module docstring; the counts are in ``n_nonmanifold_edges`` / ``n_split_vertices``.
+    ``take``: the caller hands ``faces`` over (it drops them), so a writeable int32
+    C-contiguous array becomes the corner array itself instead of being copied.
     """
-    cdef const int[:, ::1] F = np.ascontiguousarray(faces, dtype=np.intc)   # read only: read-only input is fine
+    arr = np.ascontiguousarray(faces, dtype=np.intc)
+    # a conversion made a copy of our own; otherwise the caller's array is only read
+    take = (take and arr.flags.writeable) or arr is not faces
+    cdef const int[:, ::1] F = arr          # read only: read-only input is fine
     cdef Py_ssize_t m = F.shape[0]
     if m >= 700_000_000:
         raise ValueError("too many faces for 32-bit half-edge ids")
@@ -823,7 +824,7 @@ def build(faces, int n_vertices, int threads=1):
         threads = 1                   # waking a team costs more than a small mesh's build
     cdef int H = <int>(3 * m)
     cdef int n = n_vertices
-    cdef int[::1] corner = np.ascontiguousarray(F).reshape(-1).copy()
+    cdef int[::1] corner = arr.reshape(-1) if take else arr.reshape(-1).copy()
     cdef int[::1] twin = np.full(H, -1, dtype=np.intc)
     cdef int[::1] edge = np.empty(H, dtype=np.intc)
     cdef int[::1] first = np.zeros(n + 2, dtype=np.intc)
@@ -1036,11 +1037,41 @@ cdef inline unsigned long long spread_bits(unsigned long long x) noexcept nogil:
     return x
 
 
-def morton_permutation(points, index=None):
+cdef enum:
+    # the Morton sort's digits: 2048 buckets (16 KB of counts) keep the scatter's write
+    # streams in cache, where 65536 of them (16-bit digits) missed on most writes
+    RADIX_BITS = 11
+    RADIX = 1 << RADIX_BITS
+    RADIX_DIGITS = 6         # 66 bits: the 63 of a code
+
+
+cdef inline unsigned long long morton_code(const double* p, const double* lo, const double* ext,
+                                           double top) noexcept nogil:
+    """The Morton code of point ``p`` in the box from ``lo`` of size ``ext``, ``top`` + 1
+    steps an axis (a coordinate outside, or NaN, clamped)."""
+    cdef unsigned long long q[3]
+    cdef double x
+    cdef int k
+    for k in range(3):
+        x = (p[k] - lo[k]) / ext[k] * top
+        if not (x >= 0.0):
+            x = 0.0
+        elif x > top:
+            x = top
+        q[k] = <unsigned long long>x
+    return spread_bits(q[0]) | (spread_bits(q[1]) << 1) | (spread_bits(q[2]) << 2)
+
+
+def morton_permutation(points, index=None, box=None, int threads=1):
     """(n,) int32 permutation sorting (n, 3) ``points`` (or ``points[index]``, without the
     copy) along their Morton curve: the same as ``lodkit.geometry.morton_order`` (21 bits
     per axis over the bounding box, ties in input order), by one pass for the codes and a
-    stable radix sort (16-bit digits) instead of numpy's comparison sort."""
+    stable radix sort instead of numpy's comparison sort (any digit size gives the same
+    permutation: a stable sort by the whole code).
+
+    ``box``: the points' (lo, hi) from :func:`bounding_box` when the caller has it (not
+    measured again); ``threads``: OpenMP threads of the codes (from PARALLEL_MIN_VERTICES
+    points; each point's own), the sort is serial."""
     cdef const double[:, ::1] P = np.ascontiguousarray(points, dtype=np.float64)
     if P.shape[1] != 3:
         raise ValueError("points must have shape (n, 3)")
@@ -1055,17 +1086,16 @@ def morton_permutation(points, index=None):
     codes = np.empty(n, dtype=np.uint64)
     tmp_codes = np.empty(n, dtype=np.uint64)
     tmp_perm = np.empty(n, dtype=np.intc)
-    counts = np.zeros(65537, dtype=np.intp)
+    counts = np.zeros((RADIX_DIGITS, RADIX), dtype=np.intp)
     cdef unsigned long long[::1] C = codes
     cdef unsigned long long[::1] C2 = tmp_codes
     cdef int[::1] I = perm
     cdef int[::1] I2 = tmp_perm
-    cdef Py_ssize_t[::1] cnt = counts
+    cdef Py_ssize_t[:, ::1] cnt = counts
     cdef double lo[3]
     cdef double ext[3]
     cdef double hi, x
     cdef double top = <double>((1 << 21) - 1)
-    cdef unsigned long long q[3]
     cdef unsigned long long d
     cdef Py_ssize_t i, acc, size
     cdef int k, shift
@@ -1073,44 +1103,45 @@ def morton_permutation(points, index=None):
     cdef unsigned long long* dst
     cdef int* isrc
     cdef int* idst
-    with nogil:
+    if threads < 1 or n < PARALLEL_MIN_VERTICES:
+        threads = 1
+    if box is not None:
         for k in range(3):
-            lo[k] = P[X[0], k]
-            hi = P[X[0], k]
-            for i in range(1, n):
-                x = P[X[i], k]
-                if x < lo[k]:
-                    lo[k] = x
-                if x > hi:
-                    hi = x
+            lo[k] = box[0][k]
+            hi = box[1][k]
             ext[k] = hi - lo[k] if hi > lo[k] else 1.0
-        for i in range(n):
+    with nogil:
+        if box is None:
             for k in range(3):
-                x = (P[X[i], k] - lo[k]) / ext[k] * top
-                if not (x >= 0.0):
-                    x = 0.0
-                elif x > top:
-                    x = top
-                q[k] = <unsigned long long>x
-            C[i] = spread_bits(q[0]) | (spread_bits(q[1]) << 1) | (spread_bits(q[2]) << 2)
+                lo[k] = P[X[0], k]
+                hi = P[X[0], k]
+                for i in range(1, n):
+                    x = P[X[i], k]
+                    if x < lo[k]:
+                        lo[k] = x
+                    if x > hi:
+                        hi = x
+                ext[k] = hi - lo[k] if hi > lo[k] else 1.0
+        for i in prange(n, num_threads=threads, schedule="static"):
+            C[i] = morton_code(&P[X[i], 0], lo, ext, top)
         src, dst, isrc, idst = &C[0], &C2[0], &I[0], &I2[0]
-        for shift in range(0, 64, 16):
-            for i in range(65537):
-                cnt[i] = 0
-            for i in range(n):
-                cnt[((src[i] >> shift) & 0xFFFF) + 1] += 1
-            if cnt[((src[0] >> shift) & 0xFFFF) + 1] == n:
+        for i in range(n):                        # every digit's histogram in one read
+            for k in range(RADIX_DIGITS):
+                cnt[k, (src[i] >> (RADIX_BITS * k)) & (RADIX - 1)] += 1
+        for k in range(RADIX_DIGITS):
+            shift = RADIX_BITS * k
+            if cnt[k, (src[0] >> shift) & (RADIX - 1)] == n:
                 continue                          # one digit value: already in order
             acc = 0
-            for i in range(1, 65537):
-                size = cnt[i]
-                cnt[i] = acc
+            for i in range(RADIX):
+                size = cnt[k, i]
+                cnt[k, i] = acc
                 acc += size
             for i in range(n):
-                d = ((src[i] >> shift) & 0xFFFF) + 1
-                dst[cnt[d]] = src[i]
-                idst[cnt[d]] = isrc[i]
-                cnt[d] += 1
+                d = (src[i] >> shift) & (RADIX - 1)
+                dst[cnt[k, d]] = src[i]
+                idst[cnt[k, d]] = isrc[i]
+                cnt[k, d] += 1
             src, dst = dst, src
             isrc, idst = idst, isrc
         if isrc != &I[0]:
@@ -1119,25 +1150,53 @@ def morton_permutation(points, index=None):
     return perm
 
 
-def faces_by_first_slot(faces, int n_vertices, bint reorder=False):
+cdef inline int smallest(const int* F, const int* remap, int n_remap) noexcept nogil:
+    """The smallest of the face ``F[0:3]``'s vertices (renumbered by ``remap`` when not
+    NULL), -1 when a corner is outside ``remap``."""
+    cdef int a = F[0], b = F[1], c = F[2]
+    if remap != NULL:
+        if (<unsigned int>a >= <unsigned int>n_remap or <unsigned int>b >= <unsigned int>n_remap
+                or <unsigned int>c >= <unsigned int>n_remap):
+            return -1
+        a, b, c = remap[a], remap[b], remap[c]
+    if b < a:
+        a = b
+    if c < a:
+        a = c
+    return a
+
+
+def faces_by_first_slot(faces, int n_vertices, bint reorder=False, remap=None, int threads=1):
     """(m,) int32 permutation ordering (m, 3) ``faces`` by their smallest vertex index,
     ties in input order (``np.argsort(faces.min(axis=1), kind="stable")`` by a counting
-    sort); with ``reorder``, (the faces in that order, the permutation)."""
+    sort); with ``reorder``, (the faces in that order, the permutation).
+
+    ``remap``: the faces' vertices are ``remap[faces]`` (read, not gathered into a copy;
+    the reordered faces are renumbered).  ``threads``: OpenMP threads of the per-face steps
+    (from PARALLEL_MIN_VERTICES vertices), the counting sort is serial."""
     cdef const int[:, ::1] F = np.ascontiguousarray(faces, dtype=np.intc)
+    cdef const int[::1] R = np.ascontiguousarray(np.zeros(1) if remap is None else remap, dtype=np.intc)
     cdef Py_ssize_t m = F.shape[0]
+    if threads < 1 or n_vertices < PARALLEL_MIN_VERTICES:
+        threads = 1
     out = np.empty(m, dtype=np.intc)
     start = np.zeros(n_vertices + 1, dtype=np.intp)
+    cdef int[::1] key = np.empty(m, dtype=np.intc)
     cdef int[::1] O = out
     cdef Py_ssize_t[::1] S = start
     cdef Py_ssize_t f, acc = 0, size, bad = -1
+    cdef const int* map_ = NULL
+    if remap is not None:
+        if R.shape[0] == 0:
+            raise ValueError("remap is empty")
+        map_ = &R[0]
+    cdef int n_map = R.shape[0]
     cdef int a, v
     with nogil:
+        for f in prange(m, num_threads=threads, schedule="static"):
+            key[f] = smallest(&F[f, 0], map_, n_map)
         for f in range(m):
-            a = F[f, 0]
-            if F[f, 1] < a:
-                a = F[f, 1]
-            if F[f, 2] < a:
-                a = F[f, 2]
+            a = key[f]
             if a < 0 or a >= n_vertices:
                 bad = f
                 break
@@ -1148,11 +1207,7 @@ def faces_by_first_slot(faces, int n_vertices, bint reorder=False):
                 S[v] = acc
                 acc += size
         for f in range(m if bad < 0 else 0):
-            a = F[f, 0]
-            if F[f, 1] < a:
-                a = F[f, 1]
-            if F[f, 2] < a:
-                a = F[f, 2]
+            a = key[f]
             O[S[a]] = <int>f
             S[a] += 1
     if bad >= 0:
@@ -1161,12 +1216,11 @@ def faces_by_first_slot(faces, int n_vertices, bint reorder=False):
         return out
     ordered = np.empty((m, 3), dtype=np.intc)
     cdef int[:, ::1] G = ordered
+    cdef int k
     with nogil:
-        for f in range(m):
-            a = O[f]
-            G[f, 0] = F[a, 0]
-            G[f, 1] = F[a, 1]
-            G[f, 2] = F[a, 2]
+        for f in prange(m, num_threads=threads, schedule="static"):
+            for k in range(3):
+                G[f, k] = F[O[f], k] if map_ == NULL else map_[F[O[f], k]]
     return ordered, out
 
 
@@ -1201,3 +1255,26 @@ def bounding_box(points, index=None):
                 if x > hi[k]:
                     hi[k] = x
     return lo_a, hi_a
+
+
+def normalised_positions(points, index, center, double scale, out):
+    """``out`` = ``(points[index] - center) / scale``: (n, 3) float64, written in place (its
+    rows may be spaced: the position columns of the core's (n, 14) vertex rows), as numpy
+    computes it (one subtraction and one division a coordinate), without the gathered
+    copy.  One thread: the cost is the first touch of ``out``'s pages, which threads do not
+    share out (on two threads the page faults made it up to ten times slower at times:
+    1M faces, transparent huge pages)."""
+    cdef const double[:, ::1] P = np.ascontiguousarray(points, dtype=np.float64)
+    cdef const int[::1] X = np.ascontiguousarray(index, dtype=np.intc)
+    cdef const double[::1] c = np.ascontiguousarray(center, dtype=np.float64).reshape(-1)
+    cdef double[:, :] O = out
+    cdef Py_ssize_t n = X.shape[0], i
+    cdef int k
+    if P.shape[1] != 3 or O.shape[0] != n or O.shape[1] != 3 or c.shape[0] != 3:
+        raise ValueError("points must have shape (m, 3), out (n, 3) for n indices, center (3,)")
+    if n and (np.min(X) < 0 or np.max(X) >= P.shape[0]):
+        raise ValueError("index out of range")
+    with nogil:
+        for i in range(n):
+            for k in range(3):
+                O[i, k] = (P[X[i], k] - c[k]) / scale

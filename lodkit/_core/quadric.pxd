@@ -9,6 +9,8 @@ triangle of A row by row, then b (D), then c."""
 from libc.math cimport sqrt, fabs
 
 from .common cimport QSIZE
+from .halfedge cimport HEArrays
+from .vec3 cimport cross3, dot3
 
 cdef enum:
     GMAX_D = 16          # quadrics over attributes: up to 13 attribute channels
@@ -141,6 +143,45 @@ cdef inline void add_plane(double* q, double nx, double ny, double nz, double d,
     q[7] += w * ny * d
     q[8] += w * nz * d
     q[9] += w * d * d
+
+
+cdef struct Rows:
+    # (n, 3) positions read in place: row v's x y z at p[s * v], p[s * v + 1], p[s * v + 2]
+    # (s = 3 for an (n, 3) array, VSTRIDE for the position columns of the vertex rows)
+    const double* p
+    Py_ssize_t s
+
+
+cdef inline Rows rows_of(const double[:, :] P) noexcept nogil:
+    """The rows of (n, 3) positions whose x y z are adjacent (p NULL when there are none)."""
+    cdef Rows r
+    r.p = &P[0, 0] if P.shape[0] else NULL
+    r.s = P.strides[0] // sizeof(double)
+    return r
+
+
+cdef inline double face_cross(Rows P, int a, int b, int c, double* nrm) noexcept nogil:
+    """(b - a) x (c - a) into ``nrm`` (twice the area vector of face a b c); returns its
+    length."""
+    cdef double e1[3]
+    cdef double e2[3]
+    cdef int i
+    for i in range(3):
+        e1[i] = P.p[P.s * b + i] - P.p[P.s * a + i]
+        e2[i] = P.p[P.s * c + i] - P.p[P.s * a + i]
+    cross3(e1, e2, nrm)
+    return sqrt(dot3(nrm, nrm))
+
+
+cdef inline void face_normal16(const HEArrays* m, Rows P, int f, short* N) noexcept nogil:
+    """``N[0:3]`` = face slot ``f``'s unit normal scaled by 32767 and rounded (left alone for
+    a degenerate face): 6 bytes a face is plenty for a 90-degree test."""
+    cdef double nrm[3]
+    cdef int i
+    cdef double length = face_cross(P, m.corner[3 * f], m.corner[3 * f + 1], m.corner[3 * f + 2], nrm)
+    if length > 0.0:
+        for i in range(3):
+            N[i] = <short>(nrm[i] / length * 32767.0 + (0.5 if nrm[i] >= 0 else -0.5))
 
 
 cdef void sym3_eigen(const double* q, double* w, double* V) noexcept nogil

@@ -5,14 +5,19 @@ from numpy.typing import ArrayLike, NDArray
 
 from .halfedge import HalfEdgeMesh
 
-def face_unit_normals(hm: HalfEdgeMesh, positions: ArrayLike) -> NDArray[np.int16]:
+def face_unit_normals(hm: HalfEdgeMesh, positions: ArrayLike, threads: int = ...) -> NDArray[np.int16]:
     """(n_faces * 3,) int16 unit normals of the face slots, scaled by 32767 (zeros for
-    degenerate faces)."""
+    degenerate faces); the same for any number of ``threads``."""
 
 def vertex_quadrics(
-    hm: HalfEdgeMesh, positions: ArrayLike, boundary_weight: float = ..., out: NDArray[np.float64] | None = ...
+    hm: HalfEdgeMesh,
+    positions: ArrayLike,
+    boundary_weight: float = ...,
+    out: NDArray[np.float64] | None = ...,
+    threads: int = ...,
 ) -> NDArray[np.float64]:
-    """(n, 11) area-weighted plane quadrics (a11 a12 a13 a22 a23 a33 b1 b2 b3 c w)."""
+    """(n, 11) area-weighted plane quadrics (a11 a12 a13 a22 a23 a33 b1 b2 b3 c w); the same
+    bits for any number of ``threads``."""
 
 def general_quadric_marginal(
     g: ArrayLike, D: int, p: ArrayLike | None = ...

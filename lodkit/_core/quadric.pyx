@@ -5,10 +5,12 @@ collapse drivers and vertex removal; Python reaches the builders through
 ``lodkit._core.decimate`` as well."""
 import numpy as np
 cimport numpy as cnp
-from libc.math cimport sqrt, fabs, acos, cos, M_PI
+from cython.parallel cimport prange
+from libc.math cimport sqrt, fabs, acos, cos, M_PI, NAN
+from libc.stdlib cimport malloc, free
 
-from .common cimport QSIZE
-from .halfedge cimport HalfEdgeMesh, he_next
+from .common cimport QSIZE, PARALLEL_MIN_VERTICES
+from .halfedge cimport HalfEdgeMesh, HEArrays, he_next, he_ring_next
 from .vec3 cimport cross3, dot3
 
 cnp.import_array()
@@ -411,40 +413,168 @@ def general_quadric_marginal(g, int D, p=None):
     return q, attrs
 
 
-cdef inline double face_cross(double[:, ::1] P, int a, int b, int c, double* nrm) noexcept nogil:
-    """(b - a) x (c - a) into ``nrm`` (twice the area vector of face a b c); returns its length."""
-    cdef double e1[3]
-    cdef double e2[3]
-    cdef int i
-    for i in range(3):
-        e1[i] = P[b, i] - P[a, i]
-        e2[i] = P[c, i] - P[a, i]
-    cross3(e1, e2, nrm)
-    return sqrt(dot3(nrm, nrm))
+cdef object readable_positions(positions):
+    """(n, 3) float64 ``positions`` that :func:`rows_of` reads in place: as given when
+    each row's x y z are adjacent (a view of the position columns of the (n, 14) vertex
+    rows is not copied), else a C-contiguous copy."""
+    arr = np.asarray(positions)
+    if (arr.dtype == np.float64 and arr.ndim == 2 and arr.shape[1] == 3 and arr.strides[1] == sizeof(double)
+            and arr.strides[0] >= 3 * <Py_ssize_t>sizeof(double) and arr.strides[0] % sizeof(double) == 0):
+        return arr
+    return np.ascontiguousarray(arr, dtype=np.float64)
 
 
-def face_unit_normals(HalfEdgeMesh hm, positions):
+def face_unit_normals(HalfEdgeMesh hm, positions, int threads=1):
     """(n_faces * 3,) int16 unit normals of the face slots, scaled by 32767 (zeros for
     degenerate faces): 6 bytes a face is plenty for a 90-degree test.
 
     Taken before any collapse: each face slot keeps its identity through the collapses, so
-    these are the normals of the input faces the live faces stand for."""
-    cdef double[:, ::1] P = np.ascontiguousarray(positions, dtype=np.float64)
+    these are the normals of the input faces the live faces stand for.  ``threads``: OpenMP
+    threads (from PARALLEL_MIN_VERTICES vertex slots; each face is its own)."""
+    cdef const double[:, :] P = readable_positions(positions)
+    if threads < 1 or hm.n_vertices < PARALLEL_MIN_VERTICES:
+        threads = 1
     out = np.zeros(3 * hm.n_faces, dtype=np.int16)
     cdef short[::1] N = out
-    cdef int f, i
-    cdef double nrm[3]
-    cdef double length
+    cdef Rows X = rows_of(P)
+    cdef const HEArrays* m = &hm.c
+    cdef int f
     with nogil:
-        for f in range(hm.n_faces):
-            length = face_cross(P, hm.corner[3 * f], hm.corner[3 * f + 1], hm.corner[3 * f + 2], nrm)
-            if length > 0.0:
-                for i in range(3):
-                    N[3 * f + i] = <short>(nrm[i] / length * 32767.0 + (0.5 if nrm[i] >= 0 else -0.5))
+        for f in prange(hm.n_faces, num_threads=threads, schedule="static"):
+            face_normal16(m, X, f, &N[3 * f])
     return out
 
 
-def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=None):
+cdef enum:
+    RING_LOCAL = 64        # a vertex's faces sorted on the stack up to this many (else malloc)
+
+
+cdef inline void sort_ints(int* a, int k) noexcept nogil:
+    """Sort ``a[:k]`` ascending in place (insertion sort: a ring holds a handful of faces;
+    a vertex of very high valence pays k^2 once)."""
+    cdef int i, j, x
+    for i in range(1, k):
+        x = a[i]
+        j = i - 1
+        while j >= 0 and a[j] > x:
+            a[j + 1] = a[j]
+            j -= 1
+        a[j + 1] = x
+
+
+cdef inline int ring_faces(const HEArrays* m, int v, int* out, int room) noexcept nogil:
+    """The faces around vertex slot ``v`` (its one fan: the build gives every fan its own
+    slot), the first ``room`` of them into ``out``; returns their number."""
+    cdef int start = m.v_he[v]
+    cdef int h = start
+    cdef int k = 0
+    while True:
+        if k < room:
+            out[k] = h // 3
+        k += 1
+        h = he_ring_next(m, h)
+        if h < 0 or h == start:
+            return k
+
+
+cdef inline void face_plane(const HEArrays* m, Rows P, int f, double* pl) noexcept nogil:
+    """``pl[0:5]`` = the plane of face slot ``f`` as the serial scatter of vertex_quadrics
+    computes it: unit normal nx ny nz, offset d, then the length of the cross product
+    (twice the area; <= 0 for a face that adds nothing, 0 for a dead one, the plane then
+    unset)."""
+    cdef double nrm[3]
+    cdef double length
+    cdef int i
+    cdef int a = m.corner[3 * f]
+    pl[4] = 0.0
+    if not m.face_alive[f]:
+        return
+    length = face_cross(P, a, m.corner[3 * f + 1], m.corner[3 * f + 2], nrm)
+    pl[4] = length
+    if length <= 0.0:
+        return
+    for i in range(3):
+        nrm[i] /= length
+        pl[i] = nrm[i]
+    pl[3] = -(nrm[0] * P.p[P.s * a] + nrm[1] * P.p[P.s * a + 1] + nrm[2] * P.p[P.s * a + 2])
+
+
+cdef inline void add_face_plane(double* q, const double* pl) noexcept nogil:
+    """Add the plane ``pl`` (from :func:`face_plane`) to the quadric ``q`` weighted by its
+    face's area, as the serial scatter does (nothing for a face of no area)."""
+    cdef double area
+    if pl[4] <= 0.0:
+        return
+    area = 0.5 * pl[4]
+    add_plane(q, pl[0], pl[1], pl[2], pl[3], area)
+    q[10] += area
+
+
+cdef int ring_owner(const HEArrays* m, int v, int chunk) noexcept nogil:
+    """Which run of ``chunk`` face slots holds every face around vertex slot ``v``: its
+    index, -1 when they are in several runs, -2 when ``v`` has no face."""
+    cdef int start, h, f, lo, hi
+    if m.v_he[v] < 0 or not m.vertex_alive[v]:
+        return -2
+    start = m.v_he[v]
+    h = start
+    lo = hi = h // 3
+    while True:
+        f = h // 3
+        if f < lo:
+            lo = f
+        if f > hi:
+            hi = f
+        h = he_ring_next(m, h)
+        if h < 0 or h == start:
+            break
+    return lo // chunk if lo // chunk == hi // chunk else -1
+
+
+cdef void gather_quadric(const HEArrays* m, Rows P, int v, double* q) noexcept nogil:
+    """Add to ``q`` (zero) the planes of the faces around vertex slot ``v`` in increasing
+    face order, the order of the serial scatter (the same sums bit for bit); each face's
+    plane is computed here."""
+    cdef int local[RING_LOCAL]
+    cdef int* faces = local
+    cdef int i, k
+    cdef double pl[5]
+    k = ring_faces(m, v, local, RING_LOCAL)
+    if k > RING_LOCAL:
+        faces = <int*>malloc(k * sizeof(int))
+        if faces == NULL:
+            # no memory for a huge fan (k ints): NaN marks the row rather than a wrong sum
+            for i in range(QSIZE):
+                q[i] = NAN
+            return
+        ring_faces(m, v, faces, k)
+    sort_ints(faces, k)
+    for i in range(k):
+        face_plane(m, P, faces[i], pl)
+        add_face_plane(q, pl)
+    if faces != local:
+        free(faces)
+
+
+cdef void scatter_run(const HEArrays* m, Rows P, const int* owner, int t, int chunk, int n_faces, double* Q,
+                      Py_ssize_t stride) noexcept nogil:
+    """Scatter the planes of the ``t``-th run of ``chunk`` face slots, in face order, to
+    their corners that run ``t`` owns (``owner``: every face of the vertex is in it); the
+    quadric rows are ``stride`` doubles apart in ``Q``."""
+    cdef int f, i, v
+    cdef int end = (t + 1) * chunk if (t + 1) * chunk < n_faces else n_faces
+    cdef double pl[5]
+    for f in range(t * chunk, end):
+        face_plane(m, P, f, pl)
+        if pl[4] <= 0.0:
+            continue
+        for i in range(3):
+            v = m.corner[3 * f + i]
+            if owner[v] == t:
+                add_face_plane(&Q[stride * v], pl)
+
+
+def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=None, int threads=1):
     """(n, 11) per-vertex quadrics: a11 a12 a13 a22 a23 a33 b1 b2 b3 c w (written into the
     first 11 columns of ``out`` when given, e.g. an (n, 14) EdgeCollapser row array).
 
@@ -452,38 +582,68 @@ def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=
     With ``boundary_weight > 0`` every boundary edge adds, to both ends, the plane through
     the edge perpendicular to its face, weighted by ``boundary_weight * length^2`` (a
     length^2 weight keeps the constraint scale-invariant, like the area weight of faces).
+
+    ``threads``: OpenMP threads (from PARALLEL_MIN_VERTICES vertex slots).  One thread
+    scatters each face's plane to its corners in face order.  With T threads the face
+    slots are cut into T runs and each thread scatters one run, in face order, to the
+    vertices whose faces all lie in it (most of them when faces are laid out along the
+    surface); the few others gather their faces' planes in face order (a 1-ring walk,
+    sorted).  Each vertex's sum is the serial scatter's, bit for bit, for 4 bytes a vertex
+    of scratch.
     """
-    cdef double[:, ::1] P = np.ascontiguousarray(positions, dtype=np.float64)
+    positions = readable_positions(positions)
+    cdef const double[:, :] P = positions
     if P.shape[0] != hm.n_vertices or P.shape[1] != 3:
         raise ValueError(f"positions must have shape ({hm.n_vertices}, 3)")
+    if threads < 1 or hm.n_vertices < PARALLEL_MIN_VERTICES:
+        threads = 1
     if out is None:
         out = np.zeros((hm.n_vertices, QSIZE), dtype=np.float64)
     elif (not isinstance(out, np.ndarray) or out.dtype != np.float64 or out.ndim != 2
           or out.shape[0] != hm.n_vertices or out.shape[1] < QSIZE or not out.flags.c_contiguous):
         raise ValueError(f"out must be a C-contiguous float64 array of shape ({hm.n_vertices}, >= {QSIZE})")
-    else:
-        out[:, :QSIZE] = 0.0
+    elif threads == 1:
+        out[:, :QSIZE] = 0.0             # (the gather writes every row whole)
     cdef double[:, ::1] Q = out
-    cdef int f, i, a
+    cdef int[::1] owner
+    cdef Rows X = rows_of(P)
+    cdef const HEArrays* m = &hm.c
+    cdef int f, i, a, v, t, chunk
     cdef double nrm[3]
     cdef double length, area, d
-    with nogil:
-        for f in range(hm.n_faces):
-            if not hm.face_alive[f]:
-                continue
-            a = hm.corner[3 * f]
-            length = face_cross(P, a, hm.corner[3 * f + 1], hm.corner[3 * f + 2], nrm)
-            if length <= 0.0:
-                continue
-            area = 0.5 * length
-            for i in range(3):
-                nrm[i] /= length
-            d = -(nrm[0] * P[a, 0] + nrm[1] * P[a, 1] + nrm[2] * P[a, 2])
-            for i in range(3):
-                add_plane(&Q[hm.corner[3 * f + i], 0], nrm[0], nrm[1], nrm[2], d, area)
-                Q[hm.corner[3 * f + i], 10] += area
+    if threads == 1:
+        with nogil:
+            for f in range(hm.n_faces):
+                if not m.face_alive[f]:
+                    continue
+                a = m.corner[3 * f]
+                length = face_cross(X, a, m.corner[3 * f + 1], m.corner[3 * f + 2], nrm)
+                if length <= 0.0:
+                    continue
+                area = 0.5 * length
+                for i in range(3):
+                    nrm[i] /= length
+                d = -(nrm[0] * X.p[X.s * a] + nrm[1] * X.p[X.s * a + 1] + nrm[2] * X.p[X.s * a + 2])
+                for i in range(3):
+                    add_plane(&Q[m.corner[3 * f + i], 0], nrm[0], nrm[1], nrm[2], d, area)
+                    Q[m.corner[3 * f + i], 10] += area
+    elif hm.n_faces:
+        chunk = (hm.n_faces + threads - 1) // threads
+        owner = np.empty(hm.n_vertices, dtype=np.intc)
+        with nogil:
+            for v in prange(hm.n_vertices, num_threads=threads, schedule="static"):
+                for i in range(QSIZE):
+                    Q[v, i] = 0.0
+                owner[v] = ring_owner(m, v, chunk)
+            for t in prange(threads, num_threads=threads, schedule="static", chunksize=1):
+                scatter_run(m, X, &owner[0], t, chunk, hm.n_faces, &Q[0, 0], Q.shape[1])
+            for v in prange(hm.n_vertices, num_threads=threads, schedule="dynamic", chunksize=4096):
+                if owner[v] == -1:
+                    gather_quadric(m, X, v, &Q[v, 0])
+    else:
+        out[:, :QSIZE] = 0.0
     if boundary_weight > 0.0:
-        add_boundary_planes(hm, P, boundary_weight, out)
+        add_boundary_planes(hm, positions, boundary_weight, out)
     return out
 
 
@@ -492,10 +652,11 @@ def add_boundary_planes(HalfEdgeMesh hm, positions, double weight, out):
     ends, the plane through the edge perpendicular to its face, weighted by
     ``weight * length^2`` (a length^2 weight keeps the constraint scale-invariant, like the
     area weight of faces)."""
-    cdef double[:, ::1] P = np.ascontiguousarray(positions, dtype=np.float64)
+    cdef const double[:, :] P = readable_positions(positions)
     cdef double[:, ::1] Q = out
     if P.shape[0] != hm.n_vertices or Q.shape[0] != hm.n_vertices or Q.shape[1] < 10:
         raise ValueError(f"positions and out must have {hm.n_vertices} rows (out >= 10 columns)")
+    cdef Rows X = rows_of(P)
     cdef int f, h, i, a, b, c
     cdef double e1[3]
     cdef double nrm[3]
@@ -507,7 +668,7 @@ def add_boundary_planes(HalfEdgeMesh hm, positions, double weight, out):
                 continue
             if hm.twin[3 * f] >= 0 and hm.twin[3 * f + 1] >= 0 and hm.twin[3 * f + 2] >= 0:
                 continue
-            length = face_cross(P, hm.corner[3 * f], hm.corner[3 * f + 1], hm.corner[3 * f + 2], nrm)
+            length = face_cross(X, hm.corner[3 * f], hm.corner[3 * f + 1], hm.corner[3 * f + 2], nrm)
             if length <= 0.0:
                 continue
             for i in range(3):

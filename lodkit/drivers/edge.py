@@ -89,7 +89,7 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
             max_error=max_error, record=bool(record),
             closed_connected=closed_connected(hm),
             use_heap=not compiled.batch and not passes, seam_partners=work.seams, operator=COLLAPSE_OPERATORS[operator],
-            error_bound=error_bound, **compiled.core,
+            error_bound=error_bound, threads=int(settings["threads"][0]), **compiled.core,
         )
     except ValueError as exc:
         if error_bound is not None and str(exc).startswith("the error bound"):
