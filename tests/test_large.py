@@ -222,7 +222,8 @@ def test_obj_in_blocks_positions_and_triangles(tmp_path, size):
     reader keeps one vertex per position)."""
     (tmp_path / "in.obj").write_bytes(OBJ_TEXT)
     v, f = converted(tmp_path / "in.obj", tmp_path, size)
-    assert np.array_equal(v, [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0.5]])
+    expected = [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0.5]]
+    assert np.array_equal(v, expected)   # exact: parsed from text, no arithmetic; exact in float32
     assert np.array_equal(f, [[0, 1, 2], [0, 2, 3], [1, 4, 2]])
     ref = lodkit.load(tmp_path / "in.obj")
     assert np.array_equal(v[f], ref.vertices[ref.faces])
