@@ -79,6 +79,10 @@ cdef class Records:
         }
 
 
+cdef enum:
+    VOLUME_RUN = 65536      # faces whose volumes _input_faces holds at a time
+
+
 cdef class EdgeCollapser:
     """Greedy QEM edge collapse over a :class:`HalfEdgeMesh` (modified in place).
 
@@ -200,24 +204,30 @@ cdef class EdgeCollapser:
         """``face_n0``, the unit normals of the input faces (the checks measure turns from
         them) and, when ``closed``, ``closed_volume``: one pass over the faces on
         ``threads`` (each face loads its corners once for both), the volumes then summed in
-        face order (one sum: the same bits for any number of threads)."""
+        face order (one sum: the same bits for any number of threads).  The faces go in
+        runs of VOLUME_RUN, so that the volumes need a small buffer, not 8 bytes a face
+        (the greedy driver's heap is allocated by then: that would be its peak)."""
         cdef int m = self.hm.n_faces
-        cdef int f
+        cdef int f, lo, hi
         cdef Rows rows
         rows.p = self.P
         rows.s = VSTRIDE
         self.face_n0 = np.zeros(3 * m, dtype=np.int16)
         self.N0 = &self.face_n0[0] if m else NULL
-        cdef double[::1] vol6 = np.empty(m if closed else 1, dtype=np.float64)
+        cdef double[::1] vol6 = np.empty(min(m, VOLUME_RUN) if closed else 1, dtype=np.float64)
+        lo = 0
         with nogil:
-            for f in prange(m, num_threads=threads, schedule="static"):
-                face_normal16(self.m, rows, f, &self.N0[3 * f])
+            while lo < m:
+                hi = min(lo + <int>VOLUME_RUN, m)
+                for f in prange(lo, hi, num_threads=threads, schedule="static"):
+                    face_normal16(self.m, rows, f, &self.N0[3 * f])
+                    if closed:
+                        vol6[f - lo] = self.face_volume6(f)
                 if closed:
-                    vol6[f] = self.face_volume6(f)
-            if closed:
-                for f in range(m):
-                    if self.m.face_alive[f]:
-                        self.closed_volume += vol6[f]
+                    for f in range(lo, hi):
+                        if self.m.face_alive[f]:
+                            self.closed_volume += vol6[f - lo]
+                lo = hi
 
     cdef int n_candidates(self):
         """The heap's capacity: one candidate per edge."""
