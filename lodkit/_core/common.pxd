@@ -59,3 +59,22 @@ cdef extern from *:
     # before) folds the surface back on itself: refused (cos 120 = -0.5).
     const double FOLD_COS "LODKIT_FOLD_COS"
     const double SQRT3 "LODKIT_SQRT3"
+
+
+ctypedef fused sort_key:
+    int
+    long long
+
+
+cdef inline void insertion_sort(sort_key* a, int k) noexcept nogil:
+    """Sort ``a[:k]`` ascending in place: for the few keys of one vertex's ring (a vertex
+    of very high valence pays k^2; callers with many keys sort otherwise)."""
+    cdef int i, j
+    cdef sort_key x
+    for i in range(1, k):
+        x = a[i]
+        j = i - 1
+        while j >= 0 and a[j] > x:
+            a[j + 1] = a[j]
+            j -= 1
+        a[j + 1] = x

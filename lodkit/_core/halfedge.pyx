@@ -12,7 +12,7 @@ from libc.stdlib cimport qsort
 import numpy as np
 cimport numpy as cnp
 
-from .common cimport MAX_VALENCE, PARALLEL_MIN_VERTICES
+from .common cimport MAX_VALENCE, PARALLEL_MIN_VERTICES, insertion_sort
 
 cnp.import_array()
 
@@ -698,18 +698,10 @@ cdef int compare_i64(const void* a, const void* b) noexcept nogil:
 
 cdef inline void sort_keys(long long* a, int k) noexcept nogil:
     """Sort ``k`` keys ascending: insertion sort for the usual few, qsort past 32."""
-    cdef int i, j
-    cdef long long x
     if k > 32:
         qsort(a, k, sizeof(long long), compare_i64)
         return
-    for i in range(1, k):
-        x = a[i]
-        j = i - 1
-        while j >= 0 and a[j] > x:
-            a[j + 1] = a[j]
-            j -= 1
-        a[j + 1] = x
+    insertion_sort(a, k)
 
 
 cdef int pair_at(const int* corner, const int* first, const int* out_he, int v, long long* buf,

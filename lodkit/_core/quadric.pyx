@@ -9,7 +9,7 @@ from cython.parallel cimport prange
 from libc.math cimport sqrt, fabs, acos, cos, M_PI, NAN
 from libc.stdlib cimport malloc, free
 
-from .common cimport QSIZE, PARALLEL_MIN_VERTICES
+from .common cimport QSIZE, PARALLEL_MIN_VERTICES, insertion_sort
 from .halfedge cimport HalfEdgeMesh, HEArrays, he_next, he_ring_next
 from .vec3 cimport cross3, dot3
 
@@ -449,19 +449,6 @@ cdef enum:
     RING_LOCAL = 64        # a vertex's faces sorted on the stack up to this many (else malloc)
 
 
-cdef inline void sort_ints(int* a, int k) noexcept nogil:
-    """Sort ``a[:k]`` ascending in place (insertion sort: a ring holds a handful of faces;
-    a vertex of very high valence pays k^2 once)."""
-    cdef int i, j, x
-    for i in range(1, k):
-        x = a[i]
-        j = i - 1
-        while j >= 0 and a[j] > x:
-            a[j + 1] = a[j]
-            j -= 1
-        a[j + 1] = x
-
-
 cdef inline int ring_faces(const HEArrays* m, int v, int* out, int room) noexcept nogil:
     """The faces around vertex slot ``v`` (its one fan: the build gives every fan its own
     slot), the first ``room`` of them into ``out``; returns their number."""
@@ -548,7 +535,7 @@ cdef void gather_quadric(const HEArrays* m, Rows P, int v, double* q) noexcept n
                 q[i] = NAN
             return
         ring_faces(m, v, faces, k)
-    sort_ints(faces, k)
+    insertion_sort(faces, k)
     for i in range(k):
         face_plane(m, P, faces[i], pl)
         add_face_plane(q, pl)
