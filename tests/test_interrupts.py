@@ -102,7 +102,10 @@ def test_keyboard_interrupt_inside_the_core(surface, kw):
 def test_cli_interrupt_is_one_line_and_status_130(tmp_path):
     """Ctrl-C in ``lodkit simplify``: exit 130, one line on stderr, no output file."""
     src = tmp_path / "in.ply"
-    lodkit.save(demo_mesh(300_000), src)
+    # large enough that the run is still going 0.8 s in (at 300k faces it had often ended:
+    # then the signal lands in interpreter shutdown, where Python has put back the default
+    # disposition, and the process dies of SIGINT: exit -2)
+    lodkit.save(demo_mesh(1_000_000), src)
     out = tmp_path / "out.obj"
     code = ("import sys; sys.argv[0] = 'lodkit'\n"
             "from lodkit.cli import main\n"
@@ -114,7 +117,7 @@ def test_cli_interrupt_is_one_line_and_status_130(tmp_path):
     threading.Event().wait(0.8)
     p.send_signal(signal.SIGINT)
     _, err = p.communicate(timeout=120)
-    if p.returncode == 0:
+    if p.returncode == 0 or (p.returncode == -signal.SIGINT and out.exists()):
         pytest.skip("the run finished before the signal")
     assert p.returncode == 130, err
     assert err.strip() == "lodkit: interrupted"
