@@ -213,7 +213,7 @@ def _read_ascii(elements, body: bytes):
             k = len(scal)
             if pos + k < values.size:
                 c = values[pos + k]
-                if c == int(c) and 0 <= c < 1 << 20:
+                if 0 <= c < 1 << 20 and c == int(c):      # (a NaN or inf count: the slow path says so)
                     width = k + 1 + int(c)
                     need = el.count * width
                     if pos + need <= values.size:
