@@ -1086,7 +1086,7 @@ def morton_permutation(points, index=None, box=None, int threads=1):
     cdef Py_ssize_t[:, ::1] cnt = counts
     cdef double lo[3]
     cdef double ext[3]
-    cdef double hi, x
+    cdef double hi
     cdef double top = <double>((1 << 21) - 1)
     cdef unsigned long long d
     cdef Py_ssize_t i, acc, size
@@ -1097,23 +1097,13 @@ def morton_permutation(points, index=None, box=None, int threads=1):
     cdef int* idst
     if threads < 1 or n < PARALLEL_MIN_VERTICES:
         threads = 1
-    if box is not None:
-        for k in range(3):
-            lo[k] = box[0][k]
-            hi = box[1][k]
-            ext[k] = hi - lo[k] if hi > lo[k] else 1.0
+    if box is None:
+        box = bounding_box(P, X)
+    for k in range(3):
+        lo[k] = box[0][k]
+        hi = box[1][k]
+        ext[k] = hi - lo[k] if hi > lo[k] else 1.0
     with nogil:
-        if box is None:
-            for k in range(3):
-                lo[k] = P[X[0], k]
-                hi = P[X[0], k]
-                for i in range(1, n):
-                    x = P[X[i], k]
-                    if x < lo[k]:
-                        lo[k] = x
-                    if x > hi:
-                        hi = x
-                ext[k] = hi - lo[k] if hi > lo[k] else 1.0
         for i in prange(n, num_threads=threads, schedule="static"):
             C[i] = morton_code(&P[X[i], 0], lo, ext, top)
         src, dst, isrc, idst = &C[0], &C2[0], &I[0], &I2[0]

@@ -595,25 +595,14 @@ def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=
     cdef int[::1] owner
     cdef Rows X = rows_of(P)
     cdef const HEArrays* m = &hm.c
-    cdef int f, i, a, v, t, chunk
-    cdef double nrm[3]
-    cdef double length, area, d
+    cdef int f, i, v, t, chunk
+    cdef double pl[5]
     if threads == 1:
         with nogil:
             for f in range(hm.n_faces):
-                if not m.face_alive[f]:
-                    continue
-                a = m.corner[3 * f]
-                length = face_cross(X, a, m.corner[3 * f + 1], m.corner[3 * f + 2], nrm)
-                if length <= 0.0:
-                    continue
-                area = 0.5 * length
+                face_plane(m, X, f, pl)
                 for i in range(3):
-                    nrm[i] /= length
-                d = -(nrm[0] * X.p[X.s * a] + nrm[1] * X.p[X.s * a + 1] + nrm[2] * X.p[X.s * a + 2])
-                for i in range(3):
-                    add_plane(&Q[m.corner[3 * f + i], 0], nrm[0], nrm[1], nrm[2], d, area)
-                    Q[m.corner[3 * f + i], 10] += area
+                    add_face_plane(&Q[m.corner[3 * f + i], 0], pl)
     elif hm.n_faces:
         chunk = (hm.n_faces + threads - 1) // threads
         owner = np.empty(hm.n_vertices, dtype=np.intc)

@@ -86,7 +86,7 @@ def counts(data: bytes) -> tuple[int, int]:
 class _Statements:
     """The statements of some OBJ lines, sorted by kind (:func:`_scan`)."""
 
-    def __init__(self, base=(0, 0, 0)):
+    def __init__(self):
         self.v_rows: list[bytes] = []
         self.v_len: list[int] = []            # per v line its value count
         self.vt_rows: list[bytes] = []
@@ -94,7 +94,6 @@ class _Statements:
         self.f_rows: list[tuple[int, bytes]] = []   # (line number, corners)
         self.f_at: list[tuple[int, int, int]] = []  # per f line (v, vt, vn) defined before it
         self.skipped: dict[bytes, int] = {}
-        self.base = base                      # (v, vt, vn) defined before these lines
 
 
 def _scan(data: bytes, first_line: int = 1, base=(0, 0, 0)) -> _Statements:
@@ -102,7 +101,7 @@ def _scan(data: bytes, first_line: int = 1, base=(0, 0, 0)) -> _Statements:
     line's value count; ``base``: the (v, vt, vn) elements defined before ``data`` (a file
     read in blocks), so that the faces' counts of what is defined before them are the
     file's."""
-    st = _Statements(base)
+    st = _Statements()
     nv, nvt, nvn = base
     for number, line in enumerate(data.split(b"\n"), start=first_line):
         hashpos = line.find(b"#")

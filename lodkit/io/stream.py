@@ -66,8 +66,9 @@ def to_binary_ply(path, out_path, size: int | None = None) -> tuple[int, int]:
     read_blocks = STREAMED.get(path.suffix.lower())
     if read_blocks is None:
         raise ValueError(f"{path.suffix!r} files are not converted in blocks (only {', '.join(STREAMED)})")
-    v_raw, f_raw = out_path.with_name(out_path.name + ".v"), out_path.with_name(out_path.name + ".f")
+    v_raw, f_raw, tmp = (out_path.with_name(out_path.name + ext) for ext in (".v", ".f", ".part"))
     n_v = n_f = 0
+    top = -1                                  # the largest vertex index of a face so far
     try:
         with open(v_raw, "wb") as fv, open(f_raw, "wb") as ff:
             for positions, faces in read_blocks(blocks(path, size or BLOCK_BYTES)):
@@ -76,16 +77,17 @@ def to_binary_ply(path, out_path, size: int | None = None) -> tuple[int, int]:
                 positions.astype("<f4").tofile(fv)
                 n_v += len(positions)
                 if len(faces):
-                    if faces.min() < 0 or faces.max() >= 2**31 - 1:
+                    hi = int(faces.max())
+                    if faces.min() < 0 or hi >= 2**31 - 1:
                         raise FileFormatError("a face refers to a vertex index out of range")
+                    top = max(top, hi)
                     rec = np.empty(len(faces), dtype=_FACE)
                     rec["n"] = 3
                     rec["v"] = faces
                     rec.tofile(ff)
                     n_f += len(faces)
-        if n_f and int(_max_index(f_raw)) >= n_v:
-            raise FileFormatError(f"a face refers to vertex {_max_index(f_raw)}; the file has {n_v} vertices")
-        tmp = out_path.with_name(out_path.name + ".part")
+        if top >= n_v:
+            raise FileFormatError(f"a face refers to vertex {top}; the file has {n_v} vertices")
         with open(tmp, "wb") as out:
             out.write(("ply\nformat binary_little_endian 1.0\n"
                        f"comment converted by lodkit from {path.name}\n"
@@ -96,14 +98,8 @@ def to_binary_ply(path, out_path, size: int | None = None) -> tuple[int, int]:
                     shutil.copyfileobj(fh, out, 16 << 20)
         os.replace(tmp, out_path)
     finally:
-        for p in (v_raw, f_raw, out_path.with_name(out_path.name + ".part")):
+        for p in (v_raw, f_raw, tmp):
             if p.exists():
                 p.unlink()
     return n_v, n_f
 
-
-def _max_index(f_raw: Path) -> int:
-    """The largest vertex index of the face records in ``f_raw``, read in blocks."""
-    faces = np.memmap(f_raw, dtype=_FACE, mode="r")
-    step = 1 << 22
-    return max(int(faces["v"][i: i + step].max()) for i in range(0, len(faces), step))
