@@ -35,6 +35,7 @@ import numpy as np
 from ._executor import open_executor
 from .errors import MeshError, MeshIOError, OptionError
 from .io.common import FileFormatError
+from .io.ply import _TYPES as _PLY_TYPES  # the PLY reader's type names: one table
 from .io.stream import STREAMED, to_binary_ply
 
 __all__ = ["LargeResult", "simplify_large", "default_in_core_faces", "open_source", "CHUNK_FACES"]
@@ -462,11 +463,6 @@ class ArraySource:
 
     def close(self) -> None:
         pass
-
-
-_PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
-              "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
-              "float": "f4", "float32": "f4", "double": "f8", "float64": "f8"}
 
 
 class PlySource(ArraySource):
