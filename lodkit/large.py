@@ -35,7 +35,7 @@ import numpy as np
 from ._executor import open_executor
 from .errors import MeshError, MeshIOError, OptionError
 from .io.common import FileFormatError
-from .io.ply import _TYPES as _PLY_TYPES  # the PLY reader's type names: one table
+from .io.ply import TYPES as PLY_TYPES
 from .io.stream import STREAMED, to_binary_ply
 
 __all__ = ["LargeResult", "simplify_large", "default_in_core_faces", "open_source", "CHUNK_FACES"]
@@ -494,12 +494,12 @@ class PlySource(ArraySource):
             return None
         (_, n_v, vprops), (_, n_f, fprops) = elements[:2]
         try:
-            vdtype = np.dtype([(p[1], order + _PLY_TYPES[p[0]]) for p in vprops])
+            vdtype = np.dtype([(p[1], order + PLY_TYPES[p[0]]) for p in vprops])
         except (KeyError, IndexError):
             return None
         if not {"x", "y", "z"} <= set(vdtype.names) or len(fprops) != 1 or fprops[0][0] != "list":
             return None
-        count_t, index_t = _PLY_TYPES.get(fprops[0][1]), _PLY_TYPES.get(fprops[0][2])
+        count_t, index_t = PLY_TYPES.get(fprops[0][1]), PLY_TYPES.get(fprops[0][2])
         if count_t is None or index_t is None or index_t[0] == "f":
             return None
         fdtype = np.dtype([("n", order + count_t), ("v", order + index_t, (3,))])

@@ -15,9 +15,10 @@ import numpy as np
 
 from .common import FileFormatError, MeshData, fan_triangulate
 
-__all__ = ["read", "write", "counts"]
+__all__ = ["TYPES", "read", "write", "counts"]
 
-_TYPES = {
+#: PLY scalar type names -> numpy dtype codes (lodkit.large's memory maps read the same)
+TYPES = {
     "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
     "short": "i2", "int16": "i2", "ushort": "u2", "uint16": "u2",
     "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
@@ -68,13 +69,13 @@ def _parse_header(data: bytes):
             if not elements:
                 raise FileFormatError(f"PLY header line {number}: a property before any element")
             if len(words) == 5 and words[1] == "list":
-                if words[2] not in _TYPES or words[3] not in _TYPES:
+                if words[2] not in TYPES or words[3] not in TYPES:
                     raise FileFormatError(f"PLY header line {number}: unknown type in {raw.strip()!r}")
-                if _TYPES[words[2]][0] == "f":
+                if TYPES[words[2]][0] == "f":
                     raise FileFormatError(f"PLY header line {number}: a list count must be an integer type")
-                elements[-1].props.append((words[4], _TYPES[words[2]], _TYPES[words[3]]))
-            elif len(words) == 3 and words[1] in _TYPES:
-                elements[-1].props.append((words[2], _TYPES[words[1]], None))
+                elements[-1].props.append((words[4], TYPES[words[2]], TYPES[words[3]]))
+            elif len(words) == 3 and words[1] in TYPES:
+                elements[-1].props.append((words[2], TYPES[words[1]], None))
             else:
                 raise FileFormatError(f"PLY header line {number}: bad property line {raw.strip()!r}")
         elif key == "end_header":
