@@ -206,7 +206,8 @@ def measure(names, ratios, samples: int = 100_000) -> list[dict]:
                        "stop": stop, "detail": detail}
                 if V is not None:
                     c = ref.compare(V, F)
-                    row.update(faces=int(len(F)), flipped=c["flipped_faces"], mean=c["mean"], hausdorff=c["hausdorff"],
+                    row.update(faces=int(len(F)), flipped=c["flipped_faces_matched"],
+                               flipped_nearest=c["flipped_faces"], mean=c["mean"], hausdorff=c["hausdorff"],
                                boundary_edges=c["boundary_edges"])
                 rows.append(row)
                 print(row, flush=True)
@@ -219,8 +220,11 @@ def render(rows) -> str:
          "and the shared meshes, lodkit's default QEM (`simplify(mesh, target_faces=...)`) next to",
          "Open3D's and pymeshlab's quadric decimation at their defaults, same target. Metro distances",
          "(bench/metro.py, 100k samples a side) as a fraction of the bounding-box diagonal; flipped:",
-         "output faces whose normal opposes the nearest input face's. Each cell: faces / flipped /",
-         "mean / Hausdorff.", "",
+         "output faces whose normal opposes, on average, the normals of the input surface they stand",
+         "for (metro's `flipped_faces_matched`: the input's samples matched to their closest output",
+         "face), in brackets the older count against the input face nearest to the output face's",
+         "centroid, which on a thin sheet can be the sheet's other side (docs/algorithms.md, issue 17).",
+         "Each cell: faces / flipped (nearest) / mean / Hausdorff.", "",
          "| mesh | ratio | target | lodkit | Open3D | pymeshlab | lodkit stop |", "|---|---|---|---|---|---|---|"]
     by = {}
     for r in rows:
@@ -229,7 +233,7 @@ def render(rows) -> str:
     def cell(r):
         if r is None or "faces" not in r:
             return "n/a"
-        return f"{r['faces']} / {r['flipped']} / {r['mean']:.2e} / {r['hausdorff']:.2e}"
+        return f"{r['faces']} / {r['flipped']} ({r['flipped_nearest']}) / {r['mean']:.2e} / {r['hausdorff']:.2e}"
 
     for (mesh, ratio, target), w in by.items():
         lk = w.get("lodkit", {})

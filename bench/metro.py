@@ -39,6 +39,17 @@ Validity of the simplified mesh:
   face sits on the original surface, so the disagreement cannot come from the closest
   point landing on the far side of a thin part;
 * ``flipped_area_frac``: area of flipped faces / total output area.
+* ``flipped_faces_matched``: output faces whose unit normal opposes, on average, the normals
+  of the input surface they stand for: the original's samples (``n_samples``, area-weighted,
+  seed ``seed + 2``) are matched to their closest output face (the correspondence of
+  ``d_fwd``), and a face is flipped when the mean dot product of its normal with the normals
+  of the input faces its matched samples lie on is negative; a face no sample is matched to
+  falls back to the rule of ``flipped_faces``. On a thin sheet (a plate 1 % as thick as it
+  is wide) the original face closest to an output face's centroid can lie on the sheet's
+  other side: a top face placed a little below the mid-plane still faces up, stands for the
+  top samples around it and is closer to the top than to the bottom of the *output*, yet
+  ``flipped_faces`` counts it. ``flipped_faces_matched`` judges a face by what it replaces
+  (bench/cad.py reports it; docs/algorithms.md, issue 17, has the comparison).
 
 Degenerate output faces (zero area) have no normal and are never counted as flipped.
 
@@ -122,6 +133,7 @@ class Reference:
         self.diag = self.evaluator.diagonal
         self.normals, _ = face_normals(self.V, self.F)
         self.validity = validity(self.V, self.F)
+        self._flip_samples = None
 
     def compare(self, V: np.ndarray, F: np.ndarray, near_factor: float = 0.1) -> dict:
         V = np.asarray(V, dtype=np.float64)
@@ -155,10 +167,20 @@ class Reference:
         longest = np.max(np.stack([np.linalg.norm(b - a, axis=1), np.linalg.norm(c - b, axis=1),
                                    np.linalg.norm(a - c, axis=1)]), axis=0)
         near = flipped & (dist <= near_factor * longest)
+        if self._flip_samples is None:
+            P, face, _ = sample_surface_bary(self.V, self.F, self.n_samples, self.seed + 2)
+            self._flip_samples = (P, self.normals[face])
+        P, normal = self._flip_samples
+        _, out_face, _ = closest_points(V, F, P)
+        agree = np.einsum("ij,ij->i", n_out[out_face], normal)
+        total = np.bincount(out_face, weights=agree, minlength=len(F))
+        matched = np.bincount(out_face, minlength=len(F)) > 0
+        flipped_matched = ok & np.where(matched, total < 0, dots < 0)
         return {
             "flipped_faces": int(flipped.sum()),
             "flipped_faces_near": int(near.sum()),
             "flipped_area_frac": float(area[flipped].sum() / area.sum()),
+            "flipped_faces_matched": int(flipped_matched.sum()),
         }
 
 

@@ -329,3 +329,79 @@ def test_triangle_collapse_takes_no_fallback_step():
     mesh = cad.plate(3, 2, segments=24)
     res = lodkit.simplify(mesh, target_faces=10, operator="triangle")
     assert res.report["end_fallback"] is False
+
+
+# ------------------------------------------------------------------ i. flips on thin plates, and the floor
+
+def matched_flips(src, out, n=20_000):
+    """Output faces whose normal opposes, on average, the normals of the input surface they
+    stand for: ``n`` samples of the input matched to their closest output face (a face no
+    sample reaches is judged against the input face nearest to its centroid) -- bench/metro.py's
+    ``flipped_faces_matched``, which does not count a face that faces its own side of a thin
+    sheet but lies nearer to the other side."""
+    from lodkit.evaluate import closest_points, face_normals, sample_surface
+    P, face, _ = sample_surface(src.vertices, src.faces, n, seed=1)
+    n_in, _ = face_normals(src.vertices, src.faces)
+    n_out, area = face_normals(out.vertices, out.faces)
+    _, hit, _ = closest_points(out.vertices, out.faces, P)
+    total = np.bincount(hit, weights=np.einsum("ij,ij->i", n_out[hit], n_in[face]), minlength=out.n_faces)
+    reached = np.bincount(hit, minlength=out.n_faces) > 0
+    _, nearest, _ = closest_points(src.vertices, src.faces, out.vertices[out.faces].mean(axis=1))
+    near = np.einsum("ij,ij->i", n_out, n_in[nearest])
+    return int(((area > 0) & np.where(reached, total < 0, near < 0)).sum())
+
+
+def test_matched_flips_do_not_count_a_face_below_the_mid_plane_that_faces_up():
+    # a top face of a plate 1 thick pushed 0.55 down (its centroid 0.05 below the
+    # mid-plane) is nearer to the bottom's input faces, but it faces up and stands for the
+    # top: not flipped; the same face turned over is
+    from lodkit.evaluate import closest_points, face_normals
+    src = cad.plate(2, 1, segments=16, thickness=1.0)
+    V, F = src.vertices.copy(), src.faces
+    n, _ = face_normals(V, F)
+    top = np.where(n[:, 2] > 0.99)[0]
+    moved = V.copy()
+    moved[:, 2] = np.where(V[:, 2] > 0, -0.05, V[:, 2])        # the whole top sheet sinks
+    # the nearest-input-face rule calls every top face flipped
+    _, nearest, _ = closest_points(V, F, moved[F[top]].mean(axis=1))
+    assert (n[nearest, 2] < 0).all()
+    assert matched_flips(src, lodkit.Mesh(moved, F)) == 0
+    turned = F.copy()
+    turned[top] = turned[top][:, ::-1]
+    assert matched_flips(src, lodkit.Mesh(V, turned)) == len(top)
+
+
+@pytest.mark.parametrize("driver", DRIVERS)
+@pytest.mark.parametrize("shape", [dict(nx=2, ny=1, segments=16), dict(nx=3, ny=2, segments=24, thickness=1.0)])
+def test_thin_plate_at_five_percent_has_no_flipped_face_and_says_why_it_stops(driver, shape):
+    mesh = cad.plate(**shape)
+    target = int(round(0.05 * mesh.n_faces))
+    res = lodkit.simplify(mesh, target_faces=target, driver=driver)
+    assert matched_flips(mesh, res.mesh) == 0
+    if res.stop_reason == "target_faces":
+        assert res.mesh.n_faces <= target
+        return
+    # above the target: the stop detail says whether the link condition alone holds it
+    census = res.report["refusals"]
+    detail = res.report["stop_detail"]
+    assert res.stop_reason == "no_valid_collapse"
+    if census["topology"] == sum(census.values()):
+        assert "a topological minimum of edge collapse" in detail
+    else:
+        passing = sum(census.values()) - census["topology"]
+        assert f"not the topological minimum: {passing} of {sum(census.values())} edges" in detail
+
+
+@pytest.mark.parametrize("driver", DRIVERS)
+def test_thin_plate_without_orientation_or_quality_checks_stops_at_a_topological_minimum(driver):
+    # every check but the link condition off: the run goes until no edge passes it, and the
+    # stop detail names that floor; the genus (2 holes) is kept
+    mesh = cad.plate(2, 1, segments=16)
+    res = lodkit.simplify(mesh, target_faces=8, driver=driver, max_normal_angle=180, min_quality=0)
+    assert res.stop_reason == "no_valid_collapse"
+    census = res.report["refusals"]
+    assert census["topology"] == sum(census.values()) > 0
+    assert "a topological minimum of edge collapse" in res.report["stop_detail"]
+    F = res.mesh.faces
+    e = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1), axis=0)
+    assert res.mesh.n_vertices - len(e) + res.mesh.n_faces == 2 - 2 * 2

@@ -226,7 +226,14 @@ CENSUS_WORDS = {"fixed": "locked or boundary rules", "topology": "link condition
 def census_detail(census: dict) -> str:
     """The stop census as words: what refuses the last candidate edges, most first."""
     parts = [f"{n} {CENSUS_WORDS[k]}" for k, n in sorted(census.items(), key=lambda kv: -kv[1]) if n]
-    return "last candidates refused by: " + (", ".join(parts) if parts else "none left")
+    out = "last candidates refused by: " + (", ".join(parts) if parts else "none left")
+    topo, total = census.get("topology", 0), sum(census.values())
+    if total and topo == total:
+        out += " (a topological minimum of edge collapse: no edge left passes the link condition)"
+    elif topo:
+        out += (f" (not the topological minimum: {total - topo} of {total} edges pass the link condition, "
+                "refused by the other rules)")
+    return out
 
 
 def _no_collapse_detail(collapser) -> str:
