@@ -54,9 +54,11 @@ class VertexRemover:
     star_local: bool        # the kernel's star_local: popped candidates come from a cache
     n_evaluations: int      # kernel evaluate() calls over the run
     n_rescans: int          # full rescans of every vertex slot (the one at the start included)
+    n_seam_pairs: int       # attribute-seam copies removed together with their partner
     def __init__(self, hm: HalfEdgeMesh, positions: ArrayLike, kernel: RemovalKernel, fixed: ArrayLike,
                  boundary: int = 1, max_normal_angle: float = 90.0, min_quality: float = 0.0,
-                 max_error: float = ..., record: bool = False, closed_connected: bool = False) -> None: ...
+                 max_error: float = ..., record: bool = False, closed_connected: bool = False,
+                 weld: tuple[ArrayLike, ArrayLike] | None = None, seams: ArrayLike | None = None) -> None: ...
     def _alloc_records(self, cap: int) -> None: ...
     def run(self, target_faces: int, max_steps: int = ...) -> int:
         """Remove vertices until target_faces live faces remain, max_steps removals are done

@@ -64,6 +64,7 @@ cdef enum:
     ST_VALENCE = 8      # more than MAX_VALENCE link vertices
     ST_FIXED = 9        # locked, split copy, 'lock' boundary or attribute-seam vertex
     N_STATES = 10
+    PAIR_RERANK = 100   # remove_pair(): the pair costs more than its key, ranked again
 
 STATE_NAMES = ("none", "candidate", "kernel", "max_error", "topology", "geometry", "quality",
                "volume", "valence", "fixed")
@@ -367,10 +368,17 @@ cdef class VertexRemover:
     cdef bint welded
     cdef int[::1] weld_rep
     cdef int[::1] weld_next
+    # ``seams``: each attribute-seam copy's partner slot on the other side of its seam (< 0:
+    # none).  A paired copy goes only together with its partner (remove_pair), so the seam
+    # stays closed; without ``seams`` every seam copy must be fixed by the caller
+    cdef bint paired
+    cdef int[::1] partner
+    cdef readonly int n_seam_pairs  # pair removals done (two removals each)
 
     def __init__(self, HalfEdgeMesh hm, positions, RemovalKernel kernel, fixed,
                  int boundary=BOUNDARY_PRESERVE, double max_normal_angle=90.0, double min_quality=0.0,
-                 double max_error=INFINITY, bint record=False, bint closed_connected=False, weld=None):
+                 double max_error=INFINITY, bint record=False, bint closed_connected=False, weld=None,
+                 seams=None):
         cdef int n = hm.n_vertices
         if kernel is None:
             raise TypeError("kernel must be a lodkit._core.removal.RemovalKernel")
@@ -395,11 +403,19 @@ cdef class VertexRemover:
             self.weld_next = np.ascontiguousarray(weld[1], dtype=np.intc)
             if self.weld_rep.shape[0] != n or self.weld_next.shape[0] != n:
                 raise ValueError(f"weld must be two arrays of {n} slots")
+        self.paired = seams is not None
+        if self.paired:
+            self.partner = np.ascontiguousarray(seams, dtype=np.intc)
+            if self.partner.shape[0] != n:
+                raise ValueError(f"seams must have {n} entries")
+            if not self.welded:
+                raise ValueError("seams need weld (the manifold rules must see the welded surface)")
         flags = (fixed_arr != 0).astype(np.uint8) * VERTEX_FIXED
         bnd = hm.boundary_vertices
         flags[bnd] |= VERTEX_BOUNDARY
         if boundary == BOUNDARY_LOCK:
-            flags[bnd] |= VERTEX_FIXED
+            # the true border stays; a seam is no border (its pairs go together)
+            flags[bnd & ~(np.asarray(self.partner) >= 0) if self.paired else bnd] |= VERTEX_FIXED
         self.vflags = np.ascontiguousarray(flags, dtype=np.uint8)
         self.kernel = kernel
         self.gated = kernel.gated
@@ -841,7 +857,7 @@ cdef class VertexRemover:
         cdef int slot_of[MAX_VALENCE]
         cdef int dead[MAX_VALENCE]
         cdef int link[MAX_VALENCE]
-        cdef int i, j, t, v = s.v, st
+        cdef int i, j, t, v = s.v
         cdef long long off
         for t in range(k - 2):
             slot_of[t] = self.slot_plan[t]
@@ -877,13 +893,126 @@ cdef class VertexRemover:
         for i in range(k):
             link[i] = s.link[i]
         for i in range(k):
-            st = self.evaluate(link[i])
-            if st < 0:
+            if self.reevaluate(link[i]) < 0:
                 return -1
-            if st == ST_FIXED:
-                continue
-            self.set_state(link[i], st)
+            if self.paired and self.partner[link[i]] >= 0:
+                # a seam copy goes with its partner: the partner's chances changed too
+                if self.reevaluate(self.partner[link[i]]) < 0:
+                    return -1
         return 0
+
+    cdef int reevaluate(self, int x) noexcept nogil:
+        cdef int st = self.evaluate(x)
+        if st < 0:
+            return -1
+        if st != ST_FIXED:
+            self.set_state(x, st)
+        return 0
+
+    cdef bint diagonals_clash(self, const Star* a, const Removal* ra, const Star* b,
+                              const Removal* rb) noexcept nogil:
+        """Do two holes' triangulations add an edge between the same two position groups
+        (key()), other than the new boundary edges of a seam pair (which become one seam
+        edge)?  Welded, that edge would have four faces."""
+        cdef int t, c, x, y, u, w, ka = a.k, kb = b.k
+        cdef int p0, p1, q0, q1
+        for t in range(ka - 2):
+            for c in range(3):
+                x = ra.tri[3 * t + c]
+                y = ra.tri[3 * t + (c + 1) % 3]
+                if y == (x + 1) % ka and x != ka - 1:
+                    continue                  # a link edge of a: it stays
+                p0 = self.key(a.link[x])
+                p1 = self.key(a.link[y])
+                for u in range(kb - 2):
+                    for w in range(3):
+                        x = rb.tri[3 * u + w]
+                        y = rb.tri[3 * u + (w + 1) % 3]
+                        if y == (x + 1) % kb and x != kb - 1:
+                            continue
+                        if x == kb - 1 and y == 0:
+                            continue          # b's new boundary edge (checked against a's by the caller)
+                        q0 = self.key(b.link[x])
+                        q1 = self.key(b.link[y])
+                        if (p0 == q0 and p1 == q1) or (p0 == q1 and p1 == q0):
+                            # a's new boundary edge may meet b's only (skipped above)
+                            return True
+        return False
+
+    cdef int remove_pair(self, int v, double key) noexcept nogil:
+        """``self.star`` / ``self.rem`` hold v's checked removal, v an attribute-seam copy:
+        remove it together with its partner w, whose open star must end at the copies of
+        v's two boundary neighbours (so both new boundary edges join the same two positions:
+        the seam stays closed).  w's removal passes every check on its own; neither new
+        triangulation may add an edge the other adds (welded, a non-manifold edge).  The
+        pair costs the dearer of the two: a cheaper key is ranked again first.  Returns
+        ST_CANDIDATE once both are done, the refusal's state, PAIR_RERANK, or -1 (the
+        kernel failed)."""
+        cdef Star sv = self.star
+        cdef Removal rv = self.rem
+        cdef int plan_v[MAX_VALENCE]
+        cdef int plan_w[MAX_VALENCE]
+        cdef double dv = self.pending_dvol, dw, cost
+        cdef int w = self.partner[v], st, i, kw
+        cdef Star sw
+        cdef Removal rw
+        for i in range(sv.k - 2):
+            plan_v[i] = self.slot_plan[i]
+        if sv.closed or not self.m.vertex_alive[w]:
+            return ST_TOPOLOGY
+        st = self.recall(w) if self.star_local and self.state[w] == ST_CANDIDATE else self.evaluate(w)
+        if st < 0:
+            return -1
+        if st != ST_CANDIDATE:
+            return st
+        kw = self.star.k
+        if (self.star.closed or self.key(sv.link[0]) != self.key(self.star.link[kw - 1])
+                or self.key(sv.link[sv.k - 1]) != self.key(self.star.link[0])):
+            return ST_TOPOLOGY                # not a stretch of one seam: it would open
+        for i in range(kw):
+            if self.key(self.star.link[i]) == self.key(v):
+                return ST_TOPOLOGY
+        if not self.triangulation_valid(kw, self.star.closed):
+            self.kernel.fail(b"evaluate() returned triangles that are no oriented triangulation "
+                             b"of the hole (k - 2 triangles over the link indices; removal.pxd)")
+            self.failed = True
+            return -1
+        if not self.topology_ok():
+            return ST_TOPOLOGY
+        st = self.geometry_ok()
+        if st != ST_CANDIDATE:
+            return st
+        if self.diagonals_clash(&sv, &rv, &self.star, &self.rem):
+            return ST_TOPOLOGY
+        if self.closed_volume != 0.0 and turns_inside_out(self.closed_volume, dv + self.pending_dvol):
+            return ST_VOLUME
+        cost = rv.cost if rv.cost >= self.rem.cost else self.rem.cost
+        if cost > key and self.reranks < self.hm.n_vertices:
+            self.reranks += 1
+            self.vcost[v] = cost
+            self.heap.push_fast(v, cost)
+            return PAIR_RERANK
+        sw = self.star
+        rw = self.rem
+        dw = self.pending_dvol
+        for i in range(kw - 2):
+            plan_w[i] = self.slot_plan[i]
+        self.star = sv
+        self.rem = rv
+        self.pending_dvol = dv
+        for i in range(sv.k - 2):
+            self.slot_plan[i] = plan_v[i]
+        if self.perform() < 0:
+            return -1
+        self.star = sw
+        self.rem = rw
+        self.pending_dvol = dw
+        for i in range(kw - 2):
+            self.slot_plan[i] = plan_w[i]
+        if self.perform() < 0:
+            return -1
+        self.n_seam_pairs += 1
+        return ST_CANDIDATE
 
     cdef int run_c(self, int target_faces, int max_steps) noexcept nogil:
         cdef int v, st, steps = 0, n_iter = 0
@@ -933,6 +1062,17 @@ cdef class VertexRemover:
             st = self.geometry_ok()
             if st != ST_CANDIDATE:
                 self.refuse(v, st)
+                continue
+            if self.paired and self.partner[v] >= 0:
+                st = self.remove_pair(v, key)
+                if st < 0:
+                    return common.RUN_ERROR
+                if st == PAIR_RERANK:
+                    continue
+                if st != ST_CANDIDATE:
+                    self.refuse(v, st)
+                    continue
+                steps += 2
                 continue
             if self.perform() < 0:
                 return common.RUN_ERROR

@@ -25,8 +25,9 @@ __all__ = ["FIX_SEAMS", "OPERATOR", "check", "setup", "run", "records"]
 
 OPERATOR = "vertex_removal"
 
-#: a removal on one side of an attribute seam would open it: every seam copy stays
-FIX_SEAMS = True
+#: a seam copy goes together with its partner on the other side of the seam
+#: (VertexRemover.remove_pair): only the copies that cannot be paired stay
+FIX_SEAMS = False
 
 
 def check(metrics, pair_threshold) -> None:
@@ -63,7 +64,8 @@ def run(work: Work, compiled, settings: dict, *, target: int, max_error: float, 
                                     max_normal_angle=float(settings["max_normal_angle"][0]),
                                     min_quality=float(settings["min_quality"][0]),
                                     max_error=max_error, record=bool(record),
-                                    closed_connected=closed_connected(hm), weld=weld_groups(work))
+                                    closed_connected=closed_connected(hm), weld=weld_groups(work),
+                                    seams=work.seams)
     _raise_if_failed(remover, metric)
 
     bar = progress_bar(progress, hm, target)
@@ -91,6 +93,7 @@ def run(work: Work, compiled, settings: dict, *, target: int, max_error: float, 
         n_collapses=int(remover.n_collapses),
         stop=stop,
         detail=detail,
+        seam_pair_collapses=int(remover.n_seam_pairs),
         counters={
             "vetoed": int(refused["kernel"]),
             "refused": refused,
