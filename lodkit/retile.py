@@ -92,6 +92,13 @@ class SurfaceProjector:
         w, d2 = kern.closest_on_faces(P, self.V, self.F, face)
         return face, w, np.sqrt(d2)
 
+    def distance(self, P: np.ndarray) -> np.ndarray:
+        """(n,) distance of each point to the surface (single precision, Embree)."""
+        import open3d as o3d
+
+        P = np.ascontiguousarray(P, dtype=np.float32)
+        return self.scene.compute_distance(o3d.core.Tensor(P)).numpy().astype(np.float64)
+
 
 @dataclass
 class RetileResult:
