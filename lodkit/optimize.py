@@ -114,12 +114,12 @@ def optimize(mesh, *, n_vertices: int | None = None, c_rep: float | None = None,
                  ``n_vertices``, lodkit.simplify's QEM result at about that count; without,
                  the original itself
     samples    : points sampled on the original (default: its vertices and as many
-                 area-weighted random points again, at least 20 per output vertex, at
+                 area-weighted random points again, at least 100 per output vertex, at
                  most 200 000 in all)
     iterations : outer iterations (each: positions, then one sweep of edge moves)
     seed       : for the samples and the order of the edge sweeps
     creases    : dihedral angle (degrees) above which an edge of the original is a crease
-                 (Hoppe et al. 1994's sharp edges): the crease networks at least 5% of the
+                 (Hoppe et al. 1994's sharp edges): the crease networks at least 10% of the
                  bounding-box diagonal long get their own samples, fitted to the mesh edges
                  tagged sharp along them, and no move breaks a sharp edge; None or 0: off.
                  A mesh without such creases (a smooth scan) is optimised as without it
