@@ -371,8 +371,10 @@ class _Optimizer:
     def tag_sharp(self, spacing: float) -> None:
         """Tag the start mesh's edges that run along the original's creases (points at 0, 1/4,
         ..., 1 of the edge within spacing + 10% of its length of a crease sample) and keep
-        the crease samples that have a sharp edge near them (within 2 spacings or a quarter
-        of the mean edge length): a crease the start mesh lost has nothing to be fitted to."""
+        the crease samples whose sharp edges are about as near as the mesh itself (within
+        twice their distance to the mesh plus a quarter spacing): where the start mesh cut
+        across a crease, its samples have no sharp edge to be fitted to, and the nearest
+        one, along another stretch, would pull the mesh out of shape."""
         from scipy.spatial import cKDTree
 
         e = self.edges()
@@ -392,8 +394,8 @@ class _Optimizer:
             self.sn[b].add(a)
         seg = e[sel]
         _, _, d2 = closest_on_segments(self.Xc, self.V[seg[:, 0]], self.V[seg[:, 1]])
-        near = max(2.0 * spacing, 0.25 * float(L.mean()))
-        self.Xc = np.ascontiguousarray(self.Xc[d2 <= near * near])
+        d_mesh = SurfaceProjector(self.V, self.faces_array()[1]).distance(self.Xc)
+        self.Xc = np.ascontiguousarray(self.Xc[np.sqrt(d2) <= 2.0 * d_mesh + 0.25 * spacing])
 
     def set_creases(self, cseg, ct, cd2) -> None:
         self.cseg, self.ct, self.cd2 = cseg, ct, cd2
