@@ -263,6 +263,9 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("--vertices", type=_count, required=True, metavar="N", help="number of new vertices (>= 4)")
     p.add_argument("--adapt", type=_non_negative, default=0.0, metavar="A",
                    help="density follows curvature: 1 + A * curvature / mean (default: 0, uniform)")
+    p.add_argument("--equalize", action="store_true",
+                   help="density proportional to curvature at the edge length's scale (the same chord error "
+                        "everywhere; replaces --adapt)")
     p.add_argument("--features", type=_positive, metavar="DEG",
                    help="keep creases: edges whose faces turn by more than DEG degrees (default: off)")
     p.add_argument("--iterations", type=_seed, default=30, metavar="K", help="repulsion steps (default: 30)")
@@ -601,7 +604,8 @@ def _run_retile(args) -> int:
 
     _check_output(args.output)
     mesh = load(args.input)
-    result = retile(mesh, args.vertices, adapt=args.adapt, iterations=args.iterations, seed=args.seed,
+    result = retile(mesh, args.vertices, adapt=args.adapt, equalize=args.equalize, iterations=args.iterations,
+                    seed=args.seed,
                     features=args.features, relax=args.relax,
                     progress=not args.quiet and _is_tty(sys.stderr))
     save(result.mesh, args.output)

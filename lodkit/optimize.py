@@ -7,8 +7,10 @@ Minimise over meshes M (vertex positions and connectivity) the energy
     E_rep    = c_rep * (number of vertices)
     E_spring = kappa * sum_{edges jk} |v_j - v_k|^2
 
-in normalised units (the original's bounding-box centre at the origin, diagonal 1).  Two
-nested loops, as in the paper:
+in normalised units (the original's bounding-box centre at the origin, diagonal 1), plus,
+where the original has creases (Hoppe et al. 1994's sharp edges), E_crease: the squared
+distances of points along the creases to the mesh edges tagged sharp.  Two nested loops,
+as in the paper:
 
 * positions (Hoppe's OptimizeVertexPositions): with every sample's closest point fixed as
   barycentric weights b_i on a face, E_dist + E_spring is a linear least-squares problem in
@@ -77,8 +79,8 @@ class OptimizeResult:
     """What :func:`optimize` returns.
 
     mesh     : the optimised mesh (a lodkit.Mesh, or an open3d TriangleMesh if one was given)
-    energy   : one dict per outer iteration (the first is the start): E, E_dist, E_rep,
-               E_spring, n_vertices, c_rep
+    energy   : one dict per outer iteration (the first is the start): E, E_dist, E_crease,
+               E_rep, E_spring, n_vertices, c_rep
     moves    : {"collapse": n, "split": n, "swap": n} moves taken
     n_samples: points sampled on the original
     n_crease_samples: points sampled along the original's creases (fitted to sharp edges)
