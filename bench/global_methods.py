@@ -6,8 +6,8 @@ the input's vertices (issue 16's "Done means").
 For each mesh and fraction f: QEM (``lodkit.simplify``, target 2 f n faces) sets the vertex
 count n_q; then
 
-* retile to n_q vertices (adapt 0; adapt 2 for the curvature-adaptive density; features=40
-  for crease lines kept);
+* retile to n_q vertices (adapt 0; adapt 2 for the curvature-adaptive density; equalize for
+  the density proportional to curvature; features=40 for crease lines kept);
 * optimize with the QEM result as its start and ``n_vertices=n_q`` (the same count, kept
   within 1% by annealing c_rep): both "lower error than QEM at the same count" and "as a
   post-process it lowers QEM's error" are read off this one run.
@@ -93,11 +93,12 @@ def main(argv=None) -> int:
             qem = lodkit.simplify(src, target_faces=max(4, int(round(2 * f * src.n_vertices))))
             row["qem"] = measure(src, qem.mesh, time.perf_counter() - t0, t_in)
             n = row["qem"]["vertices"]
-            variants = (("retile", 0.0, None), ("retile_adapt2", 2.0, None), ("retile_features40", 0.0, 40.0))
-            for label, adapt, features in variants if "retile" in methods else ():
+            variants = (("retile", 0.0, None, False), ("retile_adapt2", 2.0, None, False),
+                        ("retile_equalize", 0.0, None, True), ("retile_features40", 0.0, 40.0, False))
+            for label, adapt, features, equalize in variants if "retile" in methods else ():
                 t0 = time.perf_counter()
                 try:
-                    r = retile(src, n, adapt=adapt, features=features)
+                    r = retile(src, n, adapt=adapt, features=features, equalize=equalize)
                 except lodkit.LodkitError as exc:       # e.g. more crease points than the budget
                     row[label] = {"error": str(exc)}
                     continue
@@ -122,7 +123,7 @@ def table(results) -> str:
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for key, row in results.items():
         q = row["qem"]
-        for label in ("qem", "retile", "retile_adapt2", "retile_features40", "optimize"):
+        for label in ("qem", "retile", "retile_adapt2", "retile_equalize", "retile_features40", "optimize"):
             r = row.get(label)
             if r is None:
                 continue

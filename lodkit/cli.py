@@ -263,6 +263,9 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("--vertices", type=_count, required=True, metavar="N", help="number of new vertices (>= 4)")
     p.add_argument("--adapt", type=_non_negative, default=0.0, metavar="A",
                    help="density follows curvature: 1 + A * curvature / mean (default: 0, uniform)")
+    p.add_argument("--equalize", action="store_true",
+                   help="density proportional to curvature at the edge length's scale (the same chord error "
+                        "everywhere; replaces --adapt)")
     p.add_argument("--features", type=_positive, metavar="DEG",
                    help="keep creases: edges whose faces turn by more than DEG degrees (default: off)")
     p.add_argument("--iterations", type=_seed, default=30, metavar="K", help="repulsion steps (default: 30)")
@@ -286,6 +289,8 @@ def _build_parser() -> argparse.ArgumentParser:
     p.add_argument("--spring", type=_non_negative, default=None, metavar="K", help="spring constant (default: 1e-8)")
     p.add_argument("--iterations", type=_seed, default=6, metavar="K", help="outer iterations (default: 6)")
     p.add_argument("--samples", type=_count, metavar="N", help="points sampled on IN (default: see docs)")
+    p.add_argument("--creases", type=_non_negative, default=None, metavar="DEG",
+                   help="dihedral angle above which an edge of IN is a crease kept sharp (default: 60; 0: off)")
     p.add_argument("--seed", type=_seed, default=0, metavar="S", help="random seed (default: 0)")
     p.add_argument("--quiet", "-q", action="store_true", help="no summary line nor progress bar")
     p.set_defaults(run=_run_optimize)
@@ -599,7 +604,8 @@ def _run_retile(args) -> int:
 
     _check_output(args.output)
     mesh = load(args.input)
-    result = retile(mesh, args.vertices, adapt=args.adapt, iterations=args.iterations, seed=args.seed,
+    result = retile(mesh, args.vertices, adapt=args.adapt, equalize=args.equalize, iterations=args.iterations,
+                    seed=args.seed,
                     features=args.features, relax=args.relax,
                     progress=not args.quiet and _is_tty(sys.stderr))
     save(result.mesh, args.output)
@@ -612,7 +618,7 @@ def _run_retile(args) -> int:
 
 def _run_optimize(args) -> int:
     from . import load, save
-    from .optimize import DEFAULT_SPRING, optimize
+    from .optimize import DEFAULT_CREASE_ANGLE, DEFAULT_SPRING, optimize
 
     _check_output(args.output)
     mesh = load(args.input)
@@ -620,6 +626,7 @@ def _run_optimize(args) -> int:
     result = optimize(mesh, n_vertices=args.vertices, c_rep=args.c_rep, start=start,
                       spring=DEFAULT_SPRING if args.spring is None else args.spring,
                       samples=args.samples, iterations=args.iterations, seed=args.seed,
+                      creases=DEFAULT_CREASE_ANGLE if args.creases is None else args.creases,
                       progress=not args.quiet and _is_tty(sys.stderr))
     save(result.mesh, args.output)
     if not args.quiet:

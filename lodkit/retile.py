@@ -67,6 +67,9 @@ _BOUNDARY_GAP = 0.3
 # the faces left are at least this good
 _FALLBACK_QUALITY = 0.2
 _REMOVAL_ANGLES = (90.0, 135.0, 170.0)
+# equalize: the density is at least this fraction of the mean, at most its 99th percentile
+_EQ_FLOOR = 0.1
+_EQ_CAP = 99.0
 
 
 class SurfaceProjector:
@@ -91,6 +94,13 @@ class SurfaceProjector:
         face = np.ascontiguousarray(res["primitive_ids"].numpy(), dtype=np.int64)
         w, d2 = kern.closest_on_faces(P, self.V, self.F, face)
         return face, w, np.sqrt(d2)
+
+    def distance(self, P: np.ndarray) -> np.ndarray:
+        """(n,) distance of each point to the surface (single precision, Embree)."""
+        import open3d as o3d
+
+        P = np.ascontiguousarray(P, dtype=np.float32)
+        return self.scene.compute_distance(o3d.core.Tensor(P)).numpy().astype(np.float64)
 
 
 @dataclass
@@ -118,15 +128,19 @@ class RetileResult:
                 f"flips={self.flips})")
 
 
-def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, flip_angle: float = 25.0,
-           corner_angle: float = 30.0, features: float | None = None, relax: int = 3, seed: int = 0,
-           progress: bool = False) -> RetileResult:
+def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False, iterations: int = 30,
+           flip_angle: float = 25.0, corner_angle: float = 30.0, features: float | None = None, relax: int = 3,
+           seed: int = 0, progress: bool = False) -> RetileResult:
     """Re-tile ``mesh`` with about ``n_vertices`` new, evenly spread vertices (Turk 1992).
 
     n_vertices : number of new vertices (>= 4); boundary loops take a share proportional
                  to their length (at least 3 each)
     adapt      : >= 0; 0 spreads the points uniformly by area, larger values put them
                  denser where the surface curves (density ~ 1 + adapt * curvature / mean)
+    equalize   : density proportional to the curvature measured at the scale of the target
+                 edge length (edge ~ 1 / sqrt(curvature): the same interpolation error
+                 everywhere), at least a tenth of the mean, capped at the 99th percentile;
+                 replaces ``adapt``'s density
     iterations : repulsion steps
     flip_angle : the final edge flips only act between faces within this many degrees
                  (0 turns them off)
@@ -155,6 +169,8 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, f
     adapt = finite_number("adapt", adapt)
     if adapt < 0:
         raise OptionError(f"adapt must be >= 0, got {adapt!r}")
+    if not isinstance(equalize, (bool, np.bool_)):
+        raise OptionError(f"equalize must be True or False, got {equalize!r}")
     flip_angle = finite_number("flip_angle", flip_angle)
     if not 0.0 <= flip_angle < 90.0:
         raise OptionError(f"flip_angle must be in [0, 90) degrees, got {flip_angle!r}")
@@ -180,7 +196,9 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, iterations: int = 30, f
     # -- 1. density and sampling
     t = time.perf_counter()
     weight = np.ones(F0.shape[0])
-    if adapt > 0:
+    if equalize:
+        weight = _equalizing_density(P0, F0, area0, math.sqrt(2.0 * total_area / (math.sqrt(3.0) * n_vertices)))
+    elif adapt > 0:
         from .curvature import point_curvature
 
         kv = point_curvature(P0)
@@ -472,6 +490,22 @@ def _relax(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, rounds: int) 
         all_w[rows] = w[keep]
         kept_moves += int(np.count_nonzero(keep))
     return kept_moves
+
+
+def _equalizing_density(P, F, area, edge_len: float) -> np.ndarray:
+    """(m,) density weight per face for ``equalize``: the curvature of the input's vertices
+    among their neighbours within the uniform target edge length (a scan's noise at its own
+    vertex spacing would drive a k-nearest estimate), over its area-weighted mean, floored
+    at _EQ_FLOOR and capped at the _EQ_CAP percentile (a few spikes would take the budget).
+    A linear density keeps the chord error, edge^2 * curvature / 8, the same everywhere."""
+    from .curvature import point_curvature
+
+    kf = point_curvature(P, radius=edge_len)[F].mean(axis=1)
+    mean = float(np.average(kf, weights=area)) if area.sum() > 0 else 0.0
+    if not mean > 0:
+        return np.ones(F.shape[0])
+    c = kf / mean
+    return np.maximum(np.minimum(c, np.percentile(c, _EQ_CAP)), _EQ_FLOOR)
 
 
 def _count(name: str, value, lo: int) -> int:

@@ -140,6 +140,25 @@ def test_adaptive_density_puts_more_points_where_it_curves():
     assert on_bump(curved.mesh) > 1.3 * on_bump(flat.mesh)
 
 
+def test_equalize_density_follows_curvature_and_stays_on_the_surface():
+    # the same bump: equalize puts more points on it than uniform density, all on the surface
+    src = plane(40)
+    v = src.vertices.copy()
+    r2 = (v[:, 0] - 0.5) ** 2 + (v[:, 1] - 0.5) ** 2
+    v[:, 2] = 0.15 * np.exp(-r2 / 0.01)
+    src = lodkit.Mesh(v, src.faces)
+    flat = retile(src, 200)
+    eq = retile(src, 200, equalize=True)
+    assert np.count_nonzero(eq.mesh.vertices[:, 2] > 0.02) > 1.3 * np.count_nonzero(flat.mesh.vertices[:, 2] > 0.02)
+    assert off_surface(src, eq.mesh) < 1e-9
+    # a sphere's curvature is the same everywhere: equalize keeps the uniform bounds there
+    sph = sphere()
+    r = retile(sph, 150, equalize=True)
+    q = triangle_quality(r.mesh.vertices, r.mesh.faces)
+    assert q.mean() >= MEAN_QUALITY and q.min() >= MIN_QUALITY
+    assert off_surface(sph, r.mesh) < 1e-9
+
+
 def test_attributes_interpolated():
     src = plane(12)
     colors = np.c_[src.vertices[:, 0], src.vertices[:, 1], np.zeros(src.n_vertices)]   # linear in x, y
@@ -171,6 +190,8 @@ def test_options_and_errors():
         retile(src, 10.5)
     with pytest.raises(OptionError, match="adapt"):
         retile(src, 50, adapt=-1)
+    with pytest.raises(OptionError, match="equalize"):
+        retile(src, 50, equalize="yes")
     with pytest.raises(OptionError, match="flip_angle"):
         retile(src, 50, flip_angle=95)
     with pytest.raises(OptionError, match="too few"):

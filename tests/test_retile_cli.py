@@ -47,6 +47,16 @@ def test_optimize_cli_vertices(sphere_ply, tmp_path):
     assert abs(lodkit.load(out).n_vertices - 50) <= 5
 
 
+def test_optimize_cli_creases_off_same_as_api(sphere_ply, tmp_path):
+    from lodkit.optimize import optimize
+
+    out = tmp_path / "o.ply"
+    assert main(["optimize", str(sphere_ply), str(out), "--vertices", "40", "--iterations", "1",
+                 "--creases", "0", "-q"]) == 0
+    api = optimize(lodkit.load(sphere_ply), n_vertices=40, iterations=1, creases=None).mesh
+    assert lodkit.load(out).n_faces == api.n_faces
+
+
 @pytest.mark.parametrize("args,match", [
     (["retile", "{in}", "{out}", "--vertices", "2"], "n_vertices"),
     (["retile", "{in}", "{out}"], "--vertices"),
