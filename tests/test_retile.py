@@ -159,6 +159,32 @@ def test_equalize_density_follows_curvature_and_stays_on_the_surface():
     assert off_surface(sph, r.mesh) < 1e-9
 
 
+def test_refine_lowers_the_hausdorff_error_of_a_sharp_bump():
+    # a plane with a narrow, tall bump: uniform points cut its top; the error-driven passes
+    # move points there, and the pass kept has the smallest error of those measured
+    src = plane(60)
+    v = src.vertices.copy()
+    r2 = (v[:, 0] - 0.5) ** 2 + (v[:, 1] - 0.5) ** 2
+    v[:, 2] = 0.2 * np.exp(-r2 / 0.002)
+    src = lodkit.Mesh(v, src.faces)
+    plain = retile(src, 150)
+    ref = retile(src, 150, refine=2)
+    h_plain = lodkit.evaluate(src, plain.mesh, samples=20000).distance.hausdorff
+    h_ref = lodkit.evaluate(src, ref.mesh, samples=20000).distance.hausdorff
+    assert h_ref < 0.8 * h_plain
+    errs = ref.report["refine_errors"]
+    assert len(errs) == 3 and 0 <= ref.report["refine_pass"] <= 2
+    assert errs[ref.report["refine_pass"]] <= min(errs) * (1 + 1e-12)
+    assert off_surface(src, ref.mesh) < 1e-9
+    t = lodkit.topology(ref.mesh)
+    assert t.is_manifold and t.genus == 0 and t.n_boundary_loops == 1
+    again = retile(src, 150, refine=2)
+    np.testing.assert_array_equal(again.mesh.vertices, ref.mesh.vertices)
+    np.testing.assert_array_equal(again.mesh.faces, ref.mesh.faces)
+    with pytest.raises(OptionError, match="refine"):
+        retile(src, 150, refine=-1)
+
+
 def test_attributes_interpolated():
     src = plane(12)
     colors = np.c_[src.vertices[:, 0], src.vertices[:, 1], np.zeros(src.n_vertices)]   # linear in x, y
