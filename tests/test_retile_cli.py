@@ -30,6 +30,16 @@ def test_retile_cli(sphere_ply, tmp_path, capsys):
     assert lodkit.topology(m).genus == 0
 
 
+def test_retile_cli_refine_is_the_api_call(sphere_ply, tmp_path):
+    out = tmp_path / "r.ply"
+    assert main(["retile", str(sphere_ply), str(out), "--vertices", "40", "--refine", "1", "--quiet"]) == 0
+    api = lodkit.retile(lodkit.load(sphere_ply), 40, refine=1).mesh
+    got = lodkit.load(out)
+    # the same run: the same faces and, through the PLY's float64, the same positions
+    np.testing.assert_array_equal(got.faces, api.faces)
+    np.testing.assert_allclose(got.vertices, api.vertices, rtol=0, atol=1e-12)
+
+
 def test_optimize_cli_with_start(sphere_ply, tmp_path, capsys):
     start = tmp_path / "s.ply"
     out = tmp_path / "o.ply"
