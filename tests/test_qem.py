@@ -812,36 +812,6 @@ def test_truncated_solve_repeated_eigenvalues(eig):
             assert np.linalg.norm(got - want) <= 1e-7 * scale, (method, eig, got, want)
 
 
-def test_segment_min_is_the_lowest_point_of_the_edge():
-    """The edge planner's fallback along the edge (one evaluation, Q at the other end and at
-    the minimum from the expansion along the segment) finds the lowest of dense samples of
-    the segment, ends included, on random positive semi-definite quadrics of rank 0-3."""
-    from lodkit._core.quadric import segment_min
-    rng = np.random.default_rng(5)
-    ts = np.linspace(0.0, 1.0, 2001)
-    for trial in range(300):
-        rank = trial % 4
-        A = np.zeros((3, 3))
-        b = np.zeros(3)
-        for _ in range(rank):
-            n = rng.normal(size=3)
-            n /= np.linalg.norm(n)
-            d, w = rng.normal(), rng.uniform(0.1, 2.0)
-            A += w * np.outer(n, n)
-            b -= w * d * n
-        c = float(b @ np.linalg.pinv(A) @ b) if rank else 0.0
-        row = _quadric_row(A, b, c)
-        a, e = rng.normal(size=3), rng.normal(size=3)
-        pts = a + ts[:, None] * (e - a)
-        vals = np.einsum("ij,jk,ik->i", pts, A, pts) + 2.0 * pts @ b + c
-        p, val = segment_min(row, a, e)
-        tol = 1e-9 * (1.0 + np.abs(vals).max())
-        assert val <= vals.min() + tol, (trial, val, vals.min())
-        assert abs(float(p @ A @ p + 2.0 * p @ b + c) - val) <= tol
-        t = float((p - a) @ (e - a) / ((e - a) @ (e - a)))
-        assert -1e-12 <= t <= 1.0 + 1e-12 and np.allclose(p, a + t * (e - a), atol=1e-9)
-
-
 def test_truncated_solve_flat_and_diagonal_cases():
     """A flat quadric (one plane) moves x0 onto the plane along its normal only; an
     axis-aligned crease moves it onto the crease line; a zero quadric leaves it."""

@@ -32,8 +32,8 @@ from .chain cimport chain_place, chain_commit, chain_cost_range, chain_failed
 from .chain import make_chain
 from .common cimport (QSIZE, VSTRIDE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, RUN_ERROR, BOUNDARY_LOCK,
                       BOUNDARY_PRESERVE, BOUNDARY_FREE, PLACE_OPTIMAL, PLACE_ENDPOINT)
-from .quadric cimport (AttributeQuadrics, sq, collapse_error, quadric_eval, quadric_sum, quadric_solve,
-                       quadric_solve_truncated, take_segment_min, within_reach, Rows, face_normal16)
+from .quadric cimport (AttributeQuadrics, sq, collapse_error, quadric_eval, quadric_sum, take_if_lower, quadric_solve,
+                       quadric_solve_truncated, within_reach, Rows, face_normal16)
 from .checks cimport (CheckLimits, check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality,
                       face_volume, turns_inside_out, sides_of_a_sheet)
 from .fields cimport FieldSet, STEP_VFIELD, STEP_EFIELD
@@ -338,7 +338,8 @@ cdef class EdgeCollapser:
         cdef double q[QSIZE]
         cdef double qg[QSIZE]
         cdef double cand[3]
-        cdef double best, c, d0, d1
+        cdef double best, c, t, denom, d0, d1
+        cdef double du[3]
         cdef int i, keep, hs, k
         hs_out[0] = -1
         if self.SP != NULL:
@@ -407,7 +408,24 @@ cdef class EdgeCollapser:
                         p[i] = cand[i]
                     best = quadric_eval(q, p)
                 if k < 3:
-                    take_segment_min(q, &self.P[VSTRIDE * u], &self.P[VSTRIDE * v], p, &best)
+                    take_if_lower(q, &self.P[VSTRIDE * u], p, &best)
+                    take_if_lower(q, &self.P[VSTRIDE * v], p, &best)
+                    # Q(u + t du) = alpha t^2 + 2 beta t + const  ->  t* = -beta / alpha
+                    for i in range(3):
+                        du[i] = self.P[VSTRIDE * v + i] - self.P[VSTRIDE * u + i]
+                    denom = (q[0] * du[0] * du[0] + 2 * q[1] * du[0] * du[1] + 2 * q[2] * du[0] * du[2]
+                             + q[3] * du[1] * du[1] + 2 * q[4] * du[1] * du[2] + q[5] * du[2] * du[2])
+                    if denom > 0.0:
+                        t = -((q[0] * self.P[VSTRIDE * u + 0] + q[1] * self.P[VSTRIDE * u + 1]
+                               + q[2] * self.P[VSTRIDE * u + 2] + q[6]) * du[0]
+                              + (q[1] * self.P[VSTRIDE * u + 0] + q[3] * self.P[VSTRIDE * u + 1]
+                                 + q[4] * self.P[VSTRIDE * u + 2] + q[7]) * du[1]
+                              + (q[2] * self.P[VSTRIDE * u + 0] + q[4] * self.P[VSTRIDE * u + 1]
+                                 + q[5] * self.P[VSTRIDE * u + 2] + q[8]) * du[2]) / denom
+                        if 0.0 < t < 1.0:
+                            for i in range(3):
+                                cand[i] = self.P[VSTRIDE * u + i] + t * du[i]
+                            take_if_lower(q, cand, p, &best)
                 c = best
             # the kept slot is the end nearer to the new position (provenance); only the
             # collapse itself and the metric's fields / kernels need it, not QEM's ranking

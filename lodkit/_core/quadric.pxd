@@ -69,46 +69,6 @@ cdef inline void take_if_lower(const double* q, const double* x, double* p, doub
             p[i] = x[i]
 
 
-cdef inline void take_segment_min(const double* q, const double* a, const double* b, double* p,
-                                  double* best) noexcept nogil:
-    """``take_if_lower`` for the lowest point of the quadric on the segment from ``a`` to
-    ``b``: along it Q(a + t d) = Q(a) + 2 beta t + alpha t^2 (d = b - a, alpha = d.A d,
-    beta = d.(A a + b)), so one evaluation at ``a`` gives Q at ``b`` and at the minimum
-    t* = -beta / alpha; when t* lies inside (0, 1) it is the lowest, else the lower end
-    (``a`` on a tie), as separate evaluations at the ends and at t* would pick up to
-    rounding."""
-    cdef double d0 = b[0] - a[0], d1 = b[1] - a[1], d2 = b[2] - a[2]
-    cdef double g0 = q[0] * a[0] + q[1] * a[1] + q[2] * a[2] + q[6]
-    cdef double g1 = q[1] * a[0] + q[3] * a[1] + q[4] * a[2] + q[7]
-    cdef double g2 = q[2] * a[0] + q[4] * a[1] + q[5] * a[2] + q[8]
-    cdef double qa = a[0] * (g0 + q[6]) + a[1] * (g1 + q[7]) + a[2] * (g2 + q[8]) + q[9]
-    cdef double alpha = (d0 * (q[0] * d0 + q[1] * d1 + q[2] * d2) + d1 * (q[1] * d0 + q[3] * d1 + q[4] * d2)
-                         + d2 * (q[2] * d0 + q[4] * d1 + q[5] * d2))
-    cdef double beta = d0 * g0 + d1 * g1 + d2 * g2
-    cdef double t = -beta / alpha if alpha > 0.0 else 0.0
-    cdef double c
-    if 0.0 < t < 1.0:
-        c = qa + beta * t                  # Q(a) - beta^2 / alpha
-        if c < best[0]:
-            best[0] = c
-            p[0] = a[0] + t * d0
-            p[1] = a[1] + t * d1
-            p[2] = a[2] + t * d2
-        return
-    c = qa + 2.0 * beta + alpha            # Q(b)
-    if qa <= c:
-        if qa < best[0]:
-            best[0] = qa
-            p[0] = a[0]
-            p[1] = a[1]
-            p[2] = a[2]
-    elif c < best[0]:
-        best[0] = c
-        p[0] = b[0]
-        p[1] = b[1]
-        p[2] = b[2]
-
-
 cdef inline bint within_reach(const double* p, const double* a, const double* b) noexcept nogil:
     """Is ``p`` inside the bounding box of ``a`` and ``b`` grown by their distance on every
     side?  A placement outside it is one an ill-conditioned quadric flung off (a thin

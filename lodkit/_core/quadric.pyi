@@ -33,10 +33,6 @@ def truncated_solve(q: ArrayLike, x0: ArrayLike, method: str = ...) -> NDArray[n
 def truncated_solve_rank(q: ArrayLike, x0: ArrayLike, method: str = ...) -> tuple[NDArray[np.float64], int]:
     """``truncated_solve`` and the number of directions (0-3) it solved in.  For tests."""
 
-def segment_min(q: ArrayLike, a: ArrayLike, b: ArrayLike) -> tuple[NDArray[np.float64], float]:
-    """The lowest point of a quadric row on the segment a-b and its value, as the edge
-    planner's fallback finds it.  For tests."""
-
 def add_boundary_planes(hm: HalfEdgeMesh, positions: ArrayLike, weight: float, out: NDArray[np.float64]) -> None:
     """Add to ``out`` (n, >= 10), for every boundary edge and to both its ends, the plane
     through the edge perpendicular to its face, weighted by ``weight * length^2``."""

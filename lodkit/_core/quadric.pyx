@@ -6,7 +6,7 @@ collapse drivers and vertex removal; Python reaches the builders through
 import numpy as np
 cimport numpy as cnp
 from cython.parallel cimport prange
-from libc.math cimport sqrt, fabs, acos, cos, M_PI, NAN, INFINITY
+from libc.math cimport sqrt, fabs, acos, cos, M_PI, NAN
 from libc.stdlib cimport malloc, free
 
 from .common cimport QSIZE, PARALLEL_MIN_VERTICES, insertion_sort
@@ -375,21 +375,6 @@ def truncated_solve_rank(q, x0, method="closed"):
     else:
         raise ValueError("method must be 'closed' or 'jacobi'")
     return out, k
-
-
-def segment_min(q, a, b):
-    """The lowest point of a QSIZE quadric row on the segment from ``a`` to ``b`` and its
-    value, as the edge planner's fallback finds it (``take_segment_min``; tests)."""
-    cdef double[::1] Q = np.ascontiguousarray(q, dtype=np.float64)
-    cdef double[::1] A = np.ascontiguousarray(a, dtype=np.float64)
-    cdef double[::1] B = np.ascontiguousarray(b, dtype=np.float64)
-    cdef double best = INFINITY
-    if Q.shape[0] != QSIZE or A.shape[0] != 3 or B.shape[0] != 3:
-        raise ValueError(f"q must have {QSIZE} entries, a and b 3")
-    out = np.empty(3)
-    cdef double[::1] P = out
-    take_segment_min(&Q[0], &A[0], &B[0], &P[0], &best)
-    return out, best
 
 
 cdef int cholesky(double* M, int m, double rel_eps) noexcept nogil:
