@@ -753,6 +753,65 @@ def test_truncated_solve_closed_form_matches_eigh(rank):
             assert np.linalg.norm(got - want) <= 1e-6 * scale, (method, got, want)
 
 
+def _rotation(rng):
+    Q, R = np.linalg.qr(rng.normal(size=(3, 3)))
+    return Q * np.sign(np.diag(R))
+
+
+@pytest.mark.parametrize("rank", [1, 2, 3])
+def test_truncated_solve_near_rank_deficient_matches_eigh(rank):
+    """Near-rank-1/2/3 blocks with spread strong eigenvalues and weak ones from 1e-12 to
+    1e-5 of the largest (well clear of the 1e-3 cut): the closed form (Newton on the
+    characteristic cubic from its upper bound, the trigonometric solution where Newton would
+    be slow) keeps the same directions as numpy's eigh and the Jacobi reference, and lands
+    on the same point, with b both consistent (planes through a common point) and not."""
+    from lodkit._core.quadric import truncated_solve_rank
+    rng = np.random.default_rng(10 + rank)
+    for trial in range(400):
+        strong = rng.uniform(0.02, 1.0, size=rank) * 10.0 ** rng.uniform(-6, 6)
+        weak = strong.max() * 10.0 ** rng.uniform(-12, -5, size=3 - rank)
+        R = _rotation(rng)
+        A = R @ np.diag(np.concatenate([strong, weak])) @ R.T
+        A = 0.5 * (A + A.T)
+        b = rng.normal(size=3) * strong.max() if trial % 2 else -A @ rng.normal(size=3)
+        x0 = rng.normal(size=3)
+        want = _reference_truncated(A, b, x0)
+        scale = 1.0 + np.linalg.norm(want - x0)
+        for method in ("closed", "jacobi"):
+            got, k = truncated_solve_rank(_quadric_row(A, b), x0, method)
+            assert k == rank, (method, trial, k)
+            assert np.linalg.norm(got - want) <= 1e-7 * scale, (method, trial, got, want)
+
+
+@pytest.mark.parametrize("eig", [
+    (1.0, 1.0, 1.0),            # triple root: s = 0 up to rounding
+    (2.0, 2.0, 0.5),            # double top root: Newton's slow case, the trigonometric path
+    (2.0, 2.0, 1e-9),           # a crease of equal strengths (h = -1)
+    (2.0, 0.5, 0.5),            # double bottom root
+    (3.0, 1e-9, 1e-9),          # flat, equal weak directions
+    (3.0, 0.0, 0.0),            # exactly rank 1 (h = 1: the root 2 at once)
+    (1.0, 0.999, 0.998),        # nearly isotropic
+])
+def test_truncated_solve_repeated_eigenvalues(eig):
+    """Double and triple roots of the characteristic cubic, rotated off the axes: the same
+    directions and point as numpy's eigh."""
+    from lodkit._core.quadric import truncated_solve_rank
+    rng = np.random.default_rng(7)
+    want_k = sum(e > 1e-3 * max(eig) for e in eig)
+    for _ in range(50):
+        R = _rotation(rng)
+        A = R @ np.diag(eig) @ R.T
+        A = 0.5 * (A + A.T)
+        b = rng.normal(size=3)
+        x0 = rng.normal(size=3)
+        want = _reference_truncated(A, b, x0)
+        scale = 1.0 + np.linalg.norm(want - x0)
+        for method in ("closed", "jacobi"):
+            got, k = truncated_solve_rank(_quadric_row(A, b), x0, method)
+            assert k == want_k, (method, eig, k)
+            assert np.linalg.norm(got - want) <= 1e-7 * scale, (method, eig, got, want)
+
+
 def test_truncated_solve_flat_and_diagonal_cases():
     """A flat quadric (one plane) moves x0 onto the plane along its normal only; an
     axis-aligned crease moves it onto the crease line; a zero quadric leaves it."""

@@ -340,7 +340,7 @@ cdef class EdgeCollapser:
         cdef double cand[3]
         cdef double best, c, t, denom, d0, d1
         cdef double du[3]
-        cdef int i, keep, hs
+        cdef int i, keep, hs, k
         hs_out[0] = -1
         if self.SP != NULL:
             if self.SP[u] != SEAM_NONE or self.SP[v] != SEAM_NONE:
@@ -392,34 +392,40 @@ cdef class EdgeCollapser:
                 c = quadric_eval(q, p)
             else:
                 # fallback: the best of the truncated solve about the midpoint (if within
-                # reach), both ends, the midpoint and the minimum along the edge
+                # reach; else the midpoint), both ends and the minimum along the edge.  The
+                # truncated point is the lowest of the line or plane through the midpoint it
+                # was solved in (so never above the midpoint); with all three directions
+                # (k == 3: an optimal solve flung out of reach, or a determinant just under
+                # DET_EPS) it is the quadric's minimum, and no point of the edge is lower.
                 for i in range(3):
-                    du[i] = self.P[VSTRIDE * v + i] - self.P[VSTRIDE * u + i]
-                    cand[i] = self.P[VSTRIDE * u + i] + 0.5 * du[i]
-                quadric_solve_truncated(q, cand, p)
+                    cand[i] = self.P[VSTRIDE * u + i] + 0.5 * (self.P[VSTRIDE * v + i] - self.P[VSTRIDE * u + i])
+                k = quadric_solve_truncated(q, cand, p)
                 if within_reach(p, &self.P[VSTRIDE * u], &self.P[VSTRIDE * v]):
                     best = quadric_eval(q, p)
                 else:
+                    k = 0
                     for i in range(3):
                         p[i] = cand[i]
                     best = quadric_eval(q, p)
-                take_if_lower(q, &self.P[VSTRIDE * u], p, &best)
-                take_if_lower(q, &self.P[VSTRIDE * v], p, &best)
-                take_if_lower(q, cand, p, &best)
-                # Q(u + t du) = alpha t^2 + 2 beta t + const  ->  t* = -beta / alpha
-                denom = (q[0] * du[0] * du[0] + 2 * q[1] * du[0] * du[1] + 2 * q[2] * du[0] * du[2]
-                         + q[3] * du[1] * du[1] + 2 * q[4] * du[1] * du[2] + q[5] * du[2] * du[2])
-                if denom > 0.0:
-                    t = -((q[0] * self.P[VSTRIDE * u + 0] + q[1] * self.P[VSTRIDE * u + 1]
-                           + q[2] * self.P[VSTRIDE * u + 2] + q[6]) * du[0]
-                          + (q[1] * self.P[VSTRIDE * u + 0] + q[3] * self.P[VSTRIDE * u + 1]
-                             + q[4] * self.P[VSTRIDE * u + 2] + q[7]) * du[1]
-                          + (q[2] * self.P[VSTRIDE * u + 0] + q[4] * self.P[VSTRIDE * u + 1]
-                             + q[5] * self.P[VSTRIDE * u + 2] + q[8]) * du[2]) / denom
-                    if 0.0 < t < 1.0:
-                        for i in range(3):
-                            cand[i] = self.P[VSTRIDE * u + i] + t * du[i]
-                        take_if_lower(q, cand, p, &best)
+                if k < 3:
+                    take_if_lower(q, &self.P[VSTRIDE * u], p, &best)
+                    take_if_lower(q, &self.P[VSTRIDE * v], p, &best)
+                    # Q(u + t du) = alpha t^2 + 2 beta t + const  ->  t* = -beta / alpha
+                    for i in range(3):
+                        du[i] = self.P[VSTRIDE * v + i] - self.P[VSTRIDE * u + i]
+                    denom = (q[0] * du[0] * du[0] + 2 * q[1] * du[0] * du[1] + 2 * q[2] * du[0] * du[2]
+                             + q[3] * du[1] * du[1] + 2 * q[4] * du[1] * du[2] + q[5] * du[2] * du[2])
+                    if denom > 0.0:
+                        t = -((q[0] * self.P[VSTRIDE * u + 0] + q[1] * self.P[VSTRIDE * u + 1]
+                               + q[2] * self.P[VSTRIDE * u + 2] + q[6]) * du[0]
+                              + (q[1] * self.P[VSTRIDE * u + 0] + q[3] * self.P[VSTRIDE * u + 1]
+                                 + q[4] * self.P[VSTRIDE * u + 2] + q[7]) * du[1]
+                              + (q[2] * self.P[VSTRIDE * u + 0] + q[4] * self.P[VSTRIDE * u + 1]
+                                 + q[5] * self.P[VSTRIDE * u + 2] + q[8]) * du[2]) / denom
+                        if 0.0 < t < 1.0:
+                            for i in range(3):
+                                cand[i] = self.P[VSTRIDE * u + i] + t * du[i]
+                            take_if_lower(q, cand, p, &best)
                 c = best
             # the kept slot is the end nearer to the new position (provenance); only the
             # collapse itself and the metric's fields / kernels need it, not QEM's ranking

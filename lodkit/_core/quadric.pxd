@@ -185,7 +185,7 @@ cdef inline void face_normal16(const HEArrays* m, Rows P, int f, short* N) noexc
 
 
 cdef void sym3_eigen(const double* q, double* w, double* V) noexcept nogil
-cdef void quadric_solve_truncated(const double* q, const double* x0, double* p) noexcept nogil
+cdef int quadric_solve_truncated(const double* q, const double* x0, double* p) noexcept nogil
 cdef int cholesky(double* M, int m, double rel_eps) noexcept nogil
 cdef void cholesky_solve(const double* L, int m, double* x) noexcept nogil
 cdef bint gq_marginal(const double* g, int D, double* q3, const double* p, double* a) noexcept nogil

@@ -30,6 +30,9 @@ def truncated_solve(q: ArrayLike, x0: ArrayLike, method: str = ...) -> NDArray[n
     """The truncated quadric solve about ``x0`` for one (11,) quadric row: "closed" (the
     closed-form eigen-solve the planners use) or "jacobi" (the reference).  For tests."""
 
+def truncated_solve_rank(q: ArrayLike, x0: ArrayLike, method: str = ...) -> tuple[NDArray[np.float64], int]:
+    """``truncated_solve`` and the number of directions (0-3) it solved in.  For tests."""
+
 def add_boundary_planes(hm: HalfEdgeMesh, positions: ArrayLike, weight: float, out: NDArray[np.float64]) -> None:
     """Add to ``out`` (n, >= 10), for every boundary edge and to both its ends, the plane
     through the edge perpendicular to its face, weighted by ``weight * length^2``."""

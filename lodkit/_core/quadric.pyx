@@ -18,6 +18,9 @@ cnp.import_array()
 # In the truncated solve, directions whose eigenvalue is below this fraction of the largest
 # are left alone (the quadric barely constrains them; moving along them is guesswork).
 cdef double EIG_EPS = 1e-3
+# Newton steps ``cubic_top_root`` may take before the trigonometric solution takes over
+# (from h = -0.99, the slowest it is tried on, it takes 9)
+cdef int NEWTON_STEPS = 12
 
 
 cdef void sym3_eigen(const double* q, double* w, double* V) noexcept nogil:
@@ -78,14 +81,15 @@ cdef void sym3_eigen(const double* q, double* w, double* V) noexcept nogil:
         w[i] = a[i][i]
 
 
-cdef void quadric_solve_truncated_jacobi(const double* q, const double* x0, double* p) noexcept nogil:
+cdef int quadric_solve_truncated_jacobi(const double* q, const double* x0, double* p) noexcept nogil:
     """The truncated solve through the Jacobi eigen-decomposition (the reference the
-    closed-form :func:`quadric_solve_truncated` is tested against)."""
+    closed-form :func:`quadric_solve_truncated` is tested against); returns the number of
+    directions solved in."""
     cdef double w[3]
     cdef double V[9]
     cdef double r[3]
     cdef double wmax, coef
-    cdef int i, j
+    cdef int i, j, k
     sym3_eigen(q, w, V)
     wmax = w[0]
     if w[1] > wmax:
@@ -99,24 +103,54 @@ cdef void quadric_solve_truncated_jacobi(const double* q, const double* x0, doub
     for i in range(3):
         p[i] = x0[i]
     if wmax <= 0.0:
-        return
+        return 0
+    k = 0
     for j in range(3):
         if w[j] > EIG_EPS * wmax:
             coef = (V[j] * r[0] + V[3 + j] * r[1] + V[6 + j] * r[2]) / w[j]
             for i in range(3):
                 p[i] += coef * V[3 * i + j]
+            k += 1
+    return k
+
+
+cdef inline bint cubic_top_root(double h, double* x) noexcept nogil:
+    """The largest root of x^3 - 3x - 2h (|h| <= 1: three real roots in [-2, 2]) by Newton
+    steps from 2.  The cubic is convex above its largest root (which is >= 1), so the steps
+    fall monotonically onto it; from h = 1 (a rank-1 quadric, a flat region) the root is 2
+    itself and near it a step or two suffice.  False when the root is near the double root
+    at h = -1 (slow, linear convergence) or the steps do not settle: the caller then takes
+    the trigonometric solution."""
+    cdef double y = 2.0, f, dx
+    if h < -0.99:
+        return False
+    for _ in range(NEWTON_STEPS):
+        f = (y * y - 3.0) * y - 2.0 * h
+        dx = f / (3.0 * (y * y - 1.0))
+        y -= dx
+        # with h >= -0.99 the root is >= 1.08, where a step is at least 1/18 of the error
+        # before it and the error after it at most 6.5 (error before)^2: a step of 1e-10
+        # leaves an error below 1e-16 (rounding)
+        if not (dx > 1e-10):
+            x[0] = y
+            return True
+    return False
 
 
 cdef void sym3_eigenvalues(const double* q, double* w) noexcept nogil:
-    """Eigenvalues of the symmetric 3x3 block of a quadric in closed form (the trigonometric
-    solution of the characteristic cubic), largest first.  Off-diagonal entries must not all
-    be zero (the caller handles a diagonal block)."""
+    """Eigenvalues of the symmetric 3x3 block of a quadric in closed form, largest first:
+    with B = (A - m I) / s (m the mean eigenvalue, s their spread), the roots of the
+    characteristic cubic x^3 - 3x - det(B) = 0, which lie in [-2, 2].  The largest by
+    Newton steps from 2 (``cubic_top_root``: exact at once for a rank-1 block, the common
+    case here), the other two from the quadratic left after dividing it out; the
+    trigonometric solution (``acos``, ``cos``) where Newton would be slow.  Off-diagonal
+    entries must not all be zero (the caller handles a diagonal block)."""
     cdef double a11 = q[0], a12 = q[1], a13 = q[2], a22 = q[3], a23 = q[4], a33 = q[5]
     cdef double off = a12 * a12 + a13 * a13 + a23 * a23
     cdef double m = (a11 + a22 + a33) / 3.0
     cdef double b11 = a11 - m, b22 = a22 - m, b33 = a33 - m
     cdef double s = sqrt((b11 * b11 + b22 * b22 + b33 * b33 + 2.0 * off) / 6.0)
-    cdef double det, h, phi
+    cdef double det, h, phi, x0, disc
     if s == 0.0:
         w[0] = w[1] = w[2] = m
         return
@@ -124,14 +158,22 @@ cdef void sym3_eigenvalues(const double* q, double* w) noexcept nogil:
     det = (b11 * (b22 * b33 - a23 * a23) - a12 * (a12 * b33 - a23 * a13)
            + a13 * (a12 * a23 - b22 * a13)) / (s * s * s)
     h = 0.5 * det
-    if h <= -1.0:
-        phi = M_PI / 3.0
-    elif h >= 1.0:
-        phi = 0.0
-    else:
-        phi = acos(h) / 3.0
-    w[0] = m + 2.0 * s * cos(phi)
-    w[2] = m + 2.0 * s * cos(phi + 2.0 * M_PI / 3.0)
+    if h >= 1.0:
+        x0 = 2.0
+    elif not cubic_top_root(h, &x0):
+        if h <= -1.0:
+            phi = M_PI / 3.0
+        else:
+            phi = acos(h) / 3.0
+        w[0] = m + 2.0 * s * cos(phi)
+        w[2] = m + 2.0 * s * cos(phi + 2.0 * M_PI / 3.0)
+        w[1] = 3.0 * m - w[0] - w[2]
+        return
+    # the other roots: x^2 + x0 x + x0^2 - 3 = 0, discriminant 12 - 3 x0^2
+    disc = 3.0 * (2.0 - x0) * (2.0 + x0)
+    disc = sqrt(disc) if disc > 0.0 else 0.0
+    w[0] = m + s * x0
+    w[2] = m + s * (0.5 * (-x0 - disc))
     w[1] = 3.0 * m - w[0] - w[2]
 
 
@@ -178,18 +220,69 @@ cdef bint sym3_eigenvector(const double* q, double lam, double* v) noexcept nogi
     return True
 
 
-cdef void quadric_solve_truncated(const double* q, const double* x0, double* p) noexcept nogil:
+cdef inline bint rank1_eigenvector(const double* q, double lam, double* v) noexcept nogil:
+    """``sym3_eigenvector`` for the top eigenvalue ``lam`` of a nearly rank-1 block
+    (A ~ lam e e^T, the other eigenvalues below EIG_EPS lam): the rows of A - lam I are then
+    ~ -lam (e_i - e[i] e), and the cross product of rows i and j is ~ lam^2 e[k] e (k the
+    third index), longest for the k with the largest e[k]^2 ~ A[k][k] / lam, at least
+    lam^2 / sqrt(3).  One cross product instead of three."""
+    cdef double r0[3]
+    cdef double r1[3]
+    cdef double n
+    cdef int k = 0
+    if q[3] > q[0]:
+        k = 1
+    if q[5] > (q[3] if k == 1 else q[0]):
+        k = 2
+    if k == 0:                              # rows 1 and 2
+        r0[0] = q[1]
+        r0[1] = q[3] - lam
+        r0[2] = q[4]
+        r1[0] = q[2]
+        r1[1] = q[4]
+        r1[2] = q[5] - lam
+    elif k == 1:                            # rows 0 and 2
+        r0[0] = q[0] - lam
+        r0[1] = q[1]
+        r0[2] = q[2]
+        r1[0] = q[2]
+        r1[1] = q[4]
+        r1[2] = q[5] - lam
+    else:                                   # rows 0 and 1
+        r0[0] = q[0] - lam
+        r0[1] = q[1]
+        r0[2] = q[2]
+        r1[0] = q[1]
+        r1[1] = q[3] - lam
+        r1[2] = q[4]
+    cross3(r0, r1, v)
+    n = dot3(v, v)
+    if not (n > 0.0):
+        return sym3_eigenvector(q, lam, v)
+    n = 1.0 / sqrt(n)
+    v[0] *= n
+    v[1] *= n
+    v[2] *= n
+    return True
+
+
+cdef int quadric_solve_truncated(const double* q, const double* x0, double* p) noexcept nogil:
     """Minimise the quadric in the well-determined directions only, staying at ``x0`` along
     the others (pseudo-inverse about x0, after Lindstrom): on a crease the point slides along
     the crease line to the spot nearest x0; in a flat region it stays at x0.
 
     The directions are the eigenvectors of A whose eigenvalue is above EIG_EPS times the
     largest, found in closed form (docs/performance.md): the eigenvalues from the
-    characteristic cubic; with one such direction, its eigenvector; with two, the plane
+    characteristic cubic; with one such direction, its eigenvector (one cross product of
+    two rows of A - w1 I); with two, the plane
     normal to the remaining eigenvector, where the system is solved with that direction
     given the largest eigenvalue (so the step stays in the plane); with three, the plain
     solve.  The same point as the Jacobi decomposition's (``quadric_solve_truncated_jacobi``)
-    up to rounding, at a fraction of its cost."""
+    up to rounding, at a fraction of its cost.
+
+    Returns the number of directions solved in (0-3): with 3, ``p`` is the quadric's
+    minimum; with fewer, its minimum over the plane or line through x0 spanned by them, so
+    no point of that plane or line (x0 itself) is lower."""
     cdef double w[3]
     cdef double v[3]
     cdef double r[3]
@@ -209,32 +302,32 @@ cdef void quadric_solve_truncated(const double* q, const double* x0, double* p) 
         w[2] = q[5]
         wmax = max(w[0], max(w[1], w[2]))
         if not (wmax > 0.0):
-            return
+            return 0
+        k = 0
         for i in range(3):
             if w[i] > EIG_EPS * wmax:
                 p[i] += r[i] / w[i]
-        return
+                k += 1
+        return k
     sym3_eigenvalues(q, w)
     wmax = w[0]
     if not (wmax > 0.0):
-        return
+        return 0
     lim = EIG_EPS * wmax
     k = (w[0] > lim) + (w[1] > lim) + (w[2] > lim)
     if k == 1:
-        if not sym3_eigenvector(q, w[0], v):
-            quadric_solve_truncated_jacobi(q, x0, p)
-            return
+        if not rank1_eigenvector(q, w[0], v):
+            return quadric_solve_truncated_jacobi(q, x0, p)
         coef = (v[0] * r[0] + v[1] * r[1] + v[2] * r[2]) / w[0]
         for i in range(3):
             p[i] += coef * v[i]
-        return
+        return 1
     for i in range(6):
         a[i] = q[i]
     if k == 2:
         # drop the weak direction v: solve in the plane normal to it, where A is invertible
         if not sym3_eigenvector(q, w[2], v):
-            quadric_solve_truncated_jacobi(q, x0, p)
-            return
+            return quadric_solve_truncated_jacobi(q, x0, p)
         coef = v[0] * r[0] + v[1] * r[1] + v[2] * r[2]
         for i in range(3):
             r[i] -= coef * v[i]
@@ -250,32 +343,38 @@ cdef void quadric_solve_truncated(const double* q, const double* x0, double* p) 
     a[7] = -r[1]
     a[8] = -r[2]
     if not cofactor_solve(a, d, 0.0):
-        quadric_solve_truncated_jacobi(q, x0, p)
-        return
+        return quadric_solve_truncated_jacobi(q, x0, p)
     if k == 2:
         coef = v[0] * d[0] + v[1] * d[1] + v[2] * d[2]
         for i in range(3):
             d[i] -= coef * v[i]
     for i in range(3):
         p[i] += d[i]
+    return k
 
 
 def truncated_solve(q, x0, method="closed"):
     """The truncated quadric solve about ``x0`` for a QSIZE quadric row (tests): "closed"
     (what the drivers use) or "jacobi" (the reference)."""
+    return truncated_solve_rank(q, x0, method)[0]
+
+
+def truncated_solve_rank(q, x0, method="closed"):
+    """``truncated_solve`` and the number of directions it solved in (tests)."""
     cdef double[::1] Q = np.ascontiguousarray(q, dtype=np.float64)
     cdef double[::1] X = np.ascontiguousarray(x0, dtype=np.float64)
+    cdef int k
     if Q.shape[0] != QSIZE or X.shape[0] != 3:
         raise ValueError(f"q must have {QSIZE} entries and x0 3")
     out = np.empty(3)
     cdef double[::1] P = out
     if method == "closed":
-        quadric_solve_truncated(&Q[0], &X[0], &P[0])
+        k = quadric_solve_truncated(&Q[0], &X[0], &P[0])
     elif method == "jacobi":
-        quadric_solve_truncated_jacobi(&Q[0], &X[0], &P[0])
+        k = quadric_solve_truncated_jacobi(&Q[0], &X[0], &P[0])
     else:
         raise ValueError("method must be 'closed' or 'jacobi'")
-    return out
+    return out, k
 
 
 cdef int cholesky(double* M, int m, double rel_eps) noexcept nogil:
