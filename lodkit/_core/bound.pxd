@@ -62,6 +62,8 @@ cdef class Bound:
     cdef int commit_begin(self, int h, int r, int k) noexcept nogil
     cdef double commit_end(self, int k, int chain) noexcept nogil
     cdef void corners(self, int t, int code, double* x) noexcept nogil
-    cdef bint fits(self, int t, int code, const double* tris, int n, int* hint) noexcept nogil
-    cdef void place(self, int q, const double* tris, const int* fids, int n, int* hint) noexcept nogil
+    cdef bint fits(self, int t, int code, const double* tris, const double* balls, int n,
+                   int* hint) noexcept nogil
+    cdef void place(self, int q, const double* tris, const double* balls, const int* fids, int n,
+                    int* hint) noexcept nogil
     cdef void fit_sphere(self, int f) noexcept nogil

@@ -273,6 +273,29 @@ cdef inline int winding(const double* q, const double* x) noexcept nogil:
     return 1 if pos == 3 else -1
 
 
+cdef void face_balls(const double* tris, int n, double* balls) noexcept nogil:
+    """A ball around each of the n triangles (centroid, farthest corner; 4 doubles each, the
+    radius a hair large for rounding): a point farther than r from a ball is farther than r
+    from its triangle, which fits and place skip so."""
+    cdef int i, c, a
+    cdef double r2, d
+    for i in range(n):
+        for a in range(3):
+            balls[4 * i + a] = (tris[9 * i + a] + tris[9 * i + 3 + a] + tris[9 * i + 6 + a]) / 3.0
+        r2 = 0.0
+        for c in range(3):
+            d = (sq(tris[9 * i + 3 * c] - balls[4 * i]) + sq(tris[9 * i + 3 * c + 1] - balls[4 * i + 1])
+                 + sq(tris[9 * i + 3 * c + 2] - balls[4 * i + 2]))
+            if d > r2:
+                r2 = d
+        balls[4 * i + 3] = sqrt(r2) * (1.0 + 1e-12) + 1e-300
+
+
+cdef inline bint ball_beyond(const double* ball, const double* x, double r) noexcept nogil:
+    """Is x farther than r from the ball (so from its triangle)?"""
+    return sq(x[0] - ball[0]) + sq(x[1] - ball[1]) + sq(x[2] - ball[2]) > sq(ball[3] + r)
+
+
 cdef extern from *:
     """
     /* slots for new pieces: taken by the pass driver's threads at once (relaxed: the
@@ -1029,6 +1052,7 @@ cdef class Bound:
         """May half-edge h collapse (``r`` goes, ``k`` moves to ``p``) and the mesh stay
         within eps of the original both ways?  Writes ``pending`` of the new faces."""
         cdef double tris[9 * BOUND_MAX_FAN]
+        cdef double balls[4 * BOUND_MAX_FAN]
         cdef int fids[BOUND_MAX_FAN]
         cdef int vids[3 * BOUND_MAX_FAN]
         cdef int fa = h // 3
@@ -1044,6 +1068,7 @@ cdef class Bound:
         n = self.collect(k, fa, fb, p, tris, fids, vids, n)
         if n < 0:
             return False
+        face_balls(tris, n, balls)
         # original -> simplified: the pieces on every face the collapse changes, each within
         # eps of one new face; a face whose ball of pieces lies so near one new face passes
         # whole
@@ -1064,7 +1089,7 @@ cdef class Bound:
                         if not ok and lim >= 0.0 and tri_sqdist(&self.sphere[f, 0], &tris[9 * i]) <= lim * lim:
                             ok = True
                     while q >= 0 and not ok:
-                        if not self.fits(self.ptri[q], self.pcode[q], tris, n, &hint):
+                        if not self.fits(self.ptri[q], self.pcode[q], tris, balls, n, &hint):
                             return False
                         q = self.nxt[q]
                 y = he_ring_next(self.m, y)
@@ -1111,12 +1136,14 @@ cdef class Bound:
         faces around k (:meth:`place`), set those faces' certificates; returns the largest
         (the bound this collapse guarantees for what it changed), also kept in ``last[k]``."""
         cdef double tris[9 * BOUND_MAX_FAN]
+        cdef double balls[4 * BOUND_MAX_FAN]
         cdef int fids[BOUND_MAX_FAN]
         cdef int n, i, q, nq, hint = -1
         cdef double worst = 0.0
         n = self.collect(k, -1, -1, &self.P[self.stride * k], tris, fids, NULL, 0)
         if n < 0:
             n = 0
+        face_balls(tris, n, balls)
         for i in range(n):
             self.cert[fids[i]] = self.pending[fids[i]]
             self.ctri[fids[i]] = self.pending_tri[fids[i]]
@@ -1124,7 +1151,7 @@ cdef class Bound:
         q = chain
         while q >= 0:
             nq = self.nxt[q]
-            self.place(q, tris, fids, n, &hint)
+            self.place(q, tris, balls, fids, n, &hint)
             q = nq
         for i in range(n):
             self.fit_sphere(fids[i])
@@ -1160,7 +1187,8 @@ cdef class Bound:
             for a in range(3):
                 x[3 * c + a] = self.base[t, a] + u[c] * self.base[t, 3 + a] + v[c] * self.base[t, 6 + a]
 
-    cdef bint fits(self, int t, int code, const double* tris, int n, int* hint) noexcept nogil:
+    cdef bint fits(self, int t, int code, const double* tris, const double* balls, int n,
+                   int* hint) noexcept nogil:
         """Is piece ``code`` of original triangle t within eps of the new faces ``tris``
         (n)?  A piece whose three corners are within eps of one face is (convexity); else
         its four children are tried, down to depth tdepth[t], where a piece that fits no
@@ -1178,7 +1206,8 @@ cdef class Bound:
             if j >= 0 and corners_sqdist(x, &tris[9 * j], self.eps2) <= self.eps2:
                 continue
             for i in range(n):
-                if i != j and corners_sqdist(x, &tris[9 * i], self.eps2) <= self.eps2:
+                if i != j and not ball_beyond(&balls[4 * i], x, self.eps) and \
+                        corners_sqdist(x, &tris[9 * i], self.eps2) <= self.eps2:
                     hint[0] = i
                     break
             else:
@@ -1188,7 +1217,8 @@ cdef class Bound:
                 sp += 4
         return True
 
-    cdef void place(self, int q, const double* tris, const int* fids, int n, int* hint) noexcept nogil:
+    cdef void place(self, int q, const double* tris, const double* balls, const int* fids, int n,
+                    int* hint) noexcept nogil:
         """Attach piece q (its face is gone) to the new face nearest its three corners, if
         that holds them within eps; else split it as :meth:`fits` did (child 0 keeps slot
         q, the others take new slots) and place the children.  Each face's certificate
@@ -1211,6 +1241,8 @@ cdef class Bound:
             bv = corners_sqdist(x, &tris[9 * best], INFINITY) if best >= 0 else INFINITY
             for i in range(n):
                 if i != hint[0]:
+                    if bv < INFINITY and ball_beyond(&balls[4 * i], x, sqrt(bv)):
+                        continue               # its first corner is farther than the best
                     v = corners_sqdist(x, &tris[9 * i], bv)
                     if v < bv:
                         bv = v
