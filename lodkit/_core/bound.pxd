@@ -50,7 +50,8 @@ cdef class Bound:
     cdef int build(self, int* idx, const double* cent, const double* tb, int n) noexcept nogil
     cdef bint within(self, const double* x, double d2) noexcept nogil
     cdef double nearest2(self, const double* x, double stop2, int* near) noexcept nogil
-    cdef double cover2(self, const double* t, const int* hints, int* cover, bint least) noexcept nogil
+    cdef double cover2(self, const double* t, const int* hints, int* cover, bint least,
+                       bint search=*) noexcept nogil
     cdef double pair_cover2(self, const double* t, int ta, int tb) noexcept nogil
     cdef double patch_cover(self, const double* t, const int* seeds, int n_seeds, int* cover) noexcept nogil
     cdef double vertex_dist2(self, int v, const double* x, int* near) noexcept nogil

@@ -532,13 +532,15 @@ cdef class Bound:
             sp += 2
         return best
 
-    cdef double cover2(self, const double* t, const int* hints, int* cover, bint least) noexcept nogil:
+    cdef double cover2(self, const double* t, const int* hints, int* cover, bint least,
+                       bint search=True) noexcept nogil:
         """min over original triangles T of max over t's corners of their squared distance
         to T, if that is at most eps**2 (``cover`` gets that T's row), else INFINITY (and
         -1).  The three ``hints`` (rows, -1 none) are tried first: the best of them within
         eps bounds the search from the start, which then prunes all the more; unless
         ``least``, it is the answer (some T within eps, not the nearest: a certificate all
-        the same, found without searching)."""
+        the same, found without searching).  Unless ``search``, no hint within eps is the
+        answer too (INFINITY, without searching)."""
         cdef int stack[BOUND_STACK]
         cdef int sp = 1, node, i, c, a
         cdef double found = INFINITY, bound = self.eps2, d, lb, v
@@ -550,7 +552,7 @@ cdef class Bound:
                     bound = v
                     found = v
                     cover[0] = hints[c]
-        if self.n_nodes == 0 or (found <= self.eps2 and not least):
+        if self.n_nodes == 0 or (found <= self.eps2 and not least) or (found > self.eps2 and not search):
             return found
         stack[0] = 0
         while sp > 0:
@@ -884,11 +886,14 @@ cdef class Bound:
         cdef double* u
         cdef int n = 1, d, i, c, found
         cdef double worst2 = 0.0, b, hs, lim2, mx, v
-        # (a) on the face itself first: most faces pass whole, and need nothing else
+        # (a) on the face itself first: most faces pass whole, and need nothing else (the
+        # triangle that covered it before the collapse; the search for any other waits
+        # until the flat patch has failed)
         hint[0] = cover[0]
         hint[1] = hint[2] = -1
-        b = self.cover2(t, hint, cover, True)
+        b = self.cover2(t, hint, &found, True, False)
         if b <= self.eps2:
+            cover[0] = found
             return sqrt(b)
         for i in range(9):
             st[i] = t[i]
@@ -914,6 +919,12 @@ cdef class Bound:
         if b >= 0.0:
             cover[0] = found
             return b
+        # (a) again, any input triangle (a search of the hierarchy)
+        hint[2] = dt[2]
+        b = self.cover2(t, hint, &found, True)
+        if b <= self.eps2:
+            cover[0] = found
+            return sqrt(b)
         cover[0] = dt[0]
         dep[0] = 0
         while n > 0:
