@@ -11,8 +11,10 @@ simplified -> original
     its midpoint subdivision (up to BOUND_MAX_DEPTH levels), is covered so -- or by two
     triangles that share an edge, each on its side of the plane between them, or, for a
     piece t of covering radius h(t) (the farthest a point of t is from its nearest
-    corner), if each corner is within ``eps - h(t)`` of O (triangle inequality).  A corner
-    farther than ``eps`` from O refuses the collapse outright.
+    corner), if each corner is within ``eps - h(t)`` of O (triangle inequality) -- or by a
+    flat patch of O under it (``patch_cover``: input triangles within eps of t's plane whose
+    projections cover t's).  A corner farther than ``eps`` from O refuses the collapse
+    outright.
 
 original -> simplified
     The same convexity the other way: each triangle T of O is attached to a face F of the
