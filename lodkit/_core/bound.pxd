@@ -8,6 +8,8 @@ cdef enum:
     BOUND_STACK = 64         # BVH traversal stack
     BOUND_PIECE_DEPTH = 13   # midpoint subdivisions of an original triangle at most (bound.pyx: the codes)
     BOUND_PIECE_STACK = 3 * BOUND_PIECE_DEPTH + 4    # a depth-first split of one piece
+    BOUND_PATCH_MAX = 256    # input triangles a flat-patch certificate takes at most (bound.pyx)
+    BOUND_PATCH_HASH = 1024  # its set of the input triangles looked at (a power of two)
 
 
 cdef class Bound:
@@ -24,6 +26,7 @@ cdef class Bound:
     cdef int[::1] first               # leaf: first triangle
     cdef int[::1] count               # leaf: number of triangles
     cdef int n_nodes
+    cdef int[:, ::1] nbr              # (n_tri, 3) the triangle across edge j (corner j to j + 1), -1 none
     # the pieces of the original (bound.pyx), attached to the face slots of the current mesh
     cdef double[:, ::1] base          # (n_tri, 9) in BVH order: a, b - a, c - a
     cdef int[::1] tdepth              # (n_tri,) the depth its pieces split to at most
@@ -47,8 +50,10 @@ cdef class Bound:
     cdef int build(self, int* idx, const double* cent, const double* tb, int n) noexcept nogil
     cdef bint within(self, const double* x, double d2) noexcept nogil
     cdef double nearest2(self, const double* x, double stop2, int* near) noexcept nogil
-    cdef double cover2(self, const double* t, const int* hints, int* cover, bint least) noexcept nogil
+    cdef double cover2(self, const double* t, const int* hints, int* cover, bint least,
+                       bint search=*) noexcept nogil
     cdef double pair_cover2(self, const double* t, int ta, int tb) noexcept nogil
+    cdef double patch_cover(self, const double* t, const int* seeds, int n_seeds, int* cover) noexcept nogil
     cdef double vertex_dist2(self, int v, const double* x, int* near) noexcept nogil
     cdef double face_value(self, const double* t, int* cover, const int* vids, double* p2,
                            int* p_near) noexcept nogil
@@ -58,6 +63,8 @@ cdef class Bound:
     cdef int commit_begin(self, int h, int r, int k) noexcept nogil
     cdef double commit_end(self, int k, int chain) noexcept nogil
     cdef void corners(self, int t, int code, double* x) noexcept nogil
-    cdef bint fits(self, int t, int code, const double* tris, int n, int* hint) noexcept nogil
-    cdef void place(self, int q, const double* tris, const int* fids, int n, int* hint) noexcept nogil
+    cdef bint fits(self, int t, int code, const double* tris, const double* balls, int n,
+                   int* hint) noexcept nogil
+    cdef void place(self, int q, const double* tris, const double* balls, const int* fids, int n,
+                    int* hint) noexcept nogil
     cdef void fit_sphere(self, int f) noexcept nogil

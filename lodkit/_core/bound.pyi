@@ -30,5 +30,7 @@ class Bound:
         """The largest certificate of a live face."""
     def distance(self, x: np.ndarray) -> np.ndarray:
         """Distance from each point (k, 3) to the original."""
+    def patch_distance(self, t: np.ndarray) -> float:
+        """The flat-patch certificate of triangle ``t`` (9,) alone, or -1."""
     def face_distance(self, t: np.ndarray) -> float:
         """The certified distance of triangle ``t`` (9,) to the original, or -1."""

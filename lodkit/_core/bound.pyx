@@ -11,8 +11,10 @@ simplified -> original
     its midpoint subdivision (up to BOUND_MAX_DEPTH levels), is covered so -- or by two
     triangles that share an edge, each on its side of the plane between them, or, for a
     piece t of covering radius h(t) (the farthest a point of t is from its nearest
-    corner), if each corner is within ``eps - h(t)`` of O (triangle inequality).  A corner
-    farther than ``eps`` from O refuses the collapse outright.
+    corner), if each corner is within ``eps - h(t)`` of O (triangle inequality) -- or by a
+    flat patch of O under it (``patch_cover``: input triangles within eps of t's plane whose
+    projections cover t's).  A corner farther than ``eps`` from O refuses the collapse
+    outright.
 
 original -> simplified
     The same convexity the other way: each triangle T of O is attached to a face F of the
@@ -36,7 +38,7 @@ all inside the collapse's closed 1-rings.
 """
 import numpy as np
 cimport numpy as cnp
-from libc.math cimport sqrt, INFINITY
+from libc.math cimport sqrt, fabs, INFINITY
 
 from .halfedge cimport HalfEdgeMesh, he_prev, he_dest, he_ring_next
 from .vec3 cimport point_triangle_sqdist, same_point, sub3, dot3, norm3
@@ -161,6 +163,141 @@ cdef inline double corners_sqdist(const double* x, const double* t, double lim2)
     return d if d > v else v
 
 
+# The flat-patch certificate (Bound.patch_cover): a triangle t, and the input triangles near
+# it projected onto t's plane.  PATCH_MARGIN (normalised units: the positions have a unit
+# diagonal) is the margin of every test in that plane, far above the rounding of the
+# projected coordinates (about 1e-16).
+cdef double PATCH_MARGIN = 1e-10
+# where in t the patch's winding number is counted (barycentric weights): the centroid,
+# then two points no regular grid puts on its lines
+cdef double PATCH_AT[9]
+PATCH_AT[:] = [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0, 0.4142135, 0.3183099, 0.2674766, 0.2718282, 0.4472136, 0.2809582]
+
+
+cdef struct Frame:
+    double o[3]          # t's first corner
+    double u[3]          # unit vectors in t's plane
+    double v[3]
+    double n[3]          # t's unit normal (u x v)
+    double p[6]          # t's corners in (u, v): (0, 0), then b, c (counter-clockwise)
+    double d[6]          # t's edges' unit directions (corner k to k + 1)
+    double lo[2]         # t's box in the plane, grown by the margin
+    double hi[2]
+
+
+cdef inline void frame_project(const Frame* f, const double* x, double* uv, double* h) noexcept nogil:
+    """x in the frame: (u, v) in the plane, and h its signed distance from the plane."""
+    cdef double r0 = x[0] - f.o[0], r1 = x[1] - f.o[1], r2 = x[2] - f.o[2]
+    uv[0] = f.u[0] * r0 + f.u[1] * r1 + f.u[2] * r2
+    uv[1] = f.v[0] * r0 + f.v[1] * r1 + f.v[2] * r2
+    h[0] = f.n[0] * r0 + f.n[1] * r1 + f.n[2] * r2
+
+
+cdef inline double frame_inside(const Frame* f, int k, const double* q) noexcept nogil:
+    """The distance of q (in the plane) inside edge k of t's projection (negative: outside)."""
+    return f.d[2 * k] * (q[1] - f.p[2 * k + 1]) - f.d[2 * k + 1] * (q[0] - f.p[2 * k])
+
+
+cdef bint frame_apart(const Frame* f, const double* q, int m) noexcept nogil:
+    """Is the convex hull of the m points q (in the plane: m = 2 a segment, 3 a triangle)
+    apart from t's projection shrunk by the margin (the points at least PATCH_MARGIN inside
+    each of its edges)?  True only if a line separates them: an edge of t shifted inwards by
+    the margin with all of q outside it, or an edge of q's hull with t's three corners more
+    than the margin beyond it (and q's hull on its other side).  False can mean "not sure"."""
+    cdef int k, i, j
+    cdef double lo, hi, ex, ey, le, s0, s1, s2, third
+    # the boxes first
+    lo = hi = q[0]
+    for i in range(1, m):
+        if q[2 * i] < lo:
+            lo = q[2 * i]
+        if q[2 * i] > hi:
+            hi = q[2 * i]
+    if hi < f.lo[0] or lo > f.hi[0]:
+        return True
+    lo = hi = q[1]
+    for i in range(1, m):
+        if q[2 * i + 1] < lo:
+            lo = q[2 * i + 1]
+        if q[2 * i + 1] > hi:
+            hi = q[2 * i + 1]
+    if hi < f.lo[1] or lo > f.hi[1]:
+        return True
+    for k in range(3):
+        for i in range(m):
+            if frame_inside(f, k, &q[2 * i]) >= PATCH_MARGIN:
+                break
+        else:
+            return True
+    for i in range(m if m == 3 else 1):
+        j = (i + 1) % m
+        ex = q[2 * j] - q[2 * i]
+        ey = q[2 * j + 1] - q[2 * i + 1]
+        le = sqrt(ex * ex + ey * ey)
+        if not (le > 0.0):
+            continue
+        s0 = (ex * (f.p[1] - q[2 * i + 1]) - ey * (f.p[0] - q[2 * i])) / le
+        s1 = (ex * (f.p[3] - q[2 * i + 1]) - ey * (f.p[2] - q[2 * i])) / le
+        s2 = (ex * (f.p[5] - q[2 * i + 1]) - ey * (f.p[4] - q[2 * i])) / le
+        third = 0.0
+        if m == 3:
+            third = ex * (q[2 * ((i + 2) % 3) + 1] - q[2 * i + 1]) - ey * (q[2 * ((i + 2) % 3)] - q[2 * i])
+        if third >= 0.0 and s0 < -PATCH_MARGIN and s1 < -PATCH_MARGIN and s2 < -PATCH_MARGIN:
+            return True
+        if third <= 0.0 and s0 > PATCH_MARGIN and s1 > PATCH_MARGIN and s2 > PATCH_MARGIN:
+            return True
+    return False
+
+
+cdef inline int winding(const double* q, const double* x) noexcept nogil:
+    """The winding number of triangle q's boundary (in the plane, q[0] -> q[1] -> q[2]) around
+    x: +1 inside a counter-clockwise q, -1 inside a clockwise one, 0 outside; 2 when x is
+    too near one of q's edge lines to tell (within PATCH_MARGIN) and the others do not
+    decide."""
+    cdef int k, j, pos = 0, neg = 0, amb = 0
+    cdef double ex, ey, c, le
+    for k in range(3):
+        j = (k + 1) % 3
+        ex = q[2 * j] - q[2 * k]
+        ey = q[2 * j + 1] - q[2 * k + 1]
+        c = ex * (x[1] - q[2 * k + 1]) - ey * (x[0] - q[2 * k])
+        le = PATCH_MARGIN * sqrt(ex * ex + ey * ey)
+        if c > le:
+            pos += 1
+        elif c < -le:
+            neg += 1
+        else:
+            amb += 1
+    if pos > 0 and neg > 0:
+        return 0
+    if amb > 0:
+        return 2
+    return 1 if pos == 3 else -1
+
+
+cdef void face_balls(const double* tris, int n, double* balls) noexcept nogil:
+    """A ball around each of the n triangles (centroid, farthest corner; 4 doubles each, the
+    radius a hair large for rounding): a point farther than r from a ball is farther than r
+    from its triangle, which fits and place skip so."""
+    cdef int i, c, a
+    cdef double r2, d
+    for i in range(n):
+        for a in range(3):
+            balls[4 * i + a] = (tris[9 * i + a] + tris[9 * i + 3 + a] + tris[9 * i + 6 + a]) / 3.0
+        r2 = 0.0
+        for c in range(3):
+            d = (sq(tris[9 * i + 3 * c] - balls[4 * i]) + sq(tris[9 * i + 3 * c + 1] - balls[4 * i + 1])
+                 + sq(tris[9 * i + 3 * c + 2] - balls[4 * i + 2]))
+            if d > r2:
+                r2 = d
+        balls[4 * i + 3] = sqrt(r2) * (1.0 + 1e-12) + 1e-300
+
+
+cdef inline bint ball_beyond(const double* ball, const double* x, double r) noexcept nogil:
+    """Is x farther than r from the ball (so from its triangle)?"""
+    return sq(x[0] - ball[0]) + sq(x[1] - ball[1]) + sq(x[2] - ball[2]) > sq(ball[3] + r)
+
+
 cdef extern from *:
     """
     /* slots for new pieces: taken by the pass driver's threads at once (relaxed: the
@@ -228,6 +365,16 @@ cdef class Bound:
             self.n_nodes = 0
         tri = np.ascontiguousarray(tris[idx]) if n_tri else np.zeros((1, 9))
         self.tri = tri
+        # each triangle's neighbours across its edges (BVH rows; the half-edge twins: the
+        # same two corners the other way round), for the flat-patch certificate
+        row_of_face = np.full(max(hm.n_faces, 1), -1, dtype=np.intc)
+        row_of_face[faces[idx]] = np.arange(n_tri, dtype=np.intc)
+        if n_tri:
+            tw = np.asarray(hm.twins)[(3 * faces[idx])[:, None] + np.arange(3)]
+            self.nbr = np.ascontiguousarray(np.where(tw >= 0, row_of_face[np.maximum(tw, 0) // 3], -1),
+                                            dtype=np.intc)
+        else:
+            self.nbr = np.full((1, 3), -1, dtype=np.intc)
         # each triangle's own box, a cheap test before its distance
         self.tbox = np.ascontiguousarray(tb[idx]) if n_tri else np.zeros((1, 6))
         # the pieces of the original: at first each triangle whole (a piece of depth 0, code
@@ -387,13 +534,15 @@ cdef class Bound:
             sp += 2
         return best
 
-    cdef double cover2(self, const double* t, const int* hints, int* cover, bint least) noexcept nogil:
+    cdef double cover2(self, const double* t, const int* hints, int* cover, bint least,
+                       bint search=True) noexcept nogil:
         """min over original triangles T of max over t's corners of their squared distance
         to T, if that is at most eps**2 (``cover`` gets that T's row), else INFINITY (and
         -1).  The three ``hints`` (rows, -1 none) are tried first: the best of them within
         eps bounds the search from the start, which then prunes all the more; unless
         ``least``, it is the answer (some T within eps, not the nearest: a certificate all
-        the same, found without searching)."""
+        the same, found without searching).  Unless ``search``, no hint within eps is the
+        answer too (INFINITY, without searching)."""
         cdef int stack[BOUND_STACK]
         cdef int sp = 1, node, i, c, a
         cdef double found = INFINITY, bound = self.eps2, d, lb, v
@@ -405,7 +554,7 @@ cdef class Bound:
                     bound = v
                     found = v
                     cover[0] = hints[c]
-        if self.n_nodes == 0 or (found <= self.eps2 and not least):
+        if self.n_nodes == 0 or (found <= self.eps2 and not least) or (found > self.eps2 and not search):
             return found
         stack[0] = 0
         while sp > 0:
@@ -540,6 +689,173 @@ cdef class Bound:
                     return INFINITY
         return v
 
+    cdef double patch_cover(self, const double* t, const int* seeds, int n_seeds, int* cover) noexcept nogil:
+        """A certified bound (<= eps) on the distance of triangle t's points to the original
+        from a patch of input triangles under it, or -1 (docs/error-bound.md, "a flat
+        patch").  Project onto t's plane; the patch is the input triangles, connected
+        across their edges to the first of ``seeds`` (rows, -1 none) that qualifies, whose
+        projection is not apart from t's (shrunk by the margin) -- each of them with its
+        corners within eps of the plane, else -1.  If no edge of the original's border in
+        the patch meets t's shrunk projection and the patch's triangles wind around a point
+        of it, they cover it all: each point x of t has a point y of the original straight
+        above or below it, |x - y| = |h(y)| at most the largest |h| of the patch's corners
+        (h affine on each triangle).  The margins add their slack to the bound.  ``cover``
+        gets the seed."""
+        cdef Frame f
+        cdef int rows[BOUND_PATCH_MAX]
+        cdef double q2[6 * BOUND_PATCH_MAX]
+        cdef int seen[BOUND_PATCH_HASH]
+        cdef double e1[3]
+        cdef double e2[3]
+        cdef double x0[2]
+        cdef double q[6]
+        cdef double hq[3]
+        cdef double l1, l2, l3, big, area, r, slack, lim, H = 0.0
+        cdef int i, j, k, c, n = 0, head = 0, n_seen = 0, T, N, w, tries
+        cdef unsigned int hsh
+        # the frame: u along t's first edge, n its normal, v = n x u
+        for i in range(3):
+            f.o[i] = t[i]
+            e1[i] = t[3 + i] - t[i]
+            e2[i] = t[6 + i] - t[i]
+        l1 = norm3(e1)
+        f.n[0] = e1[1] * e2[2] - e1[2] * e2[1]
+        f.n[1] = e1[2] * e2[0] - e1[0] * e2[2]
+        f.n[2] = e1[0] * e2[1] - e1[1] * e2[0]
+        area = norm3(f.n)                      # twice t's area
+        if not (l1 > 0.0 and area > 0.0):
+            return -1.0
+        for i in range(3):
+            f.u[i] = e1[i] / l1
+            f.n[i] /= area
+        f.v[0] = f.n[1] * f.u[2] - f.n[2] * f.u[1]
+        f.v[1] = f.n[2] * f.u[0] - f.n[0] * f.u[2]
+        f.v[2] = f.n[0] * f.u[1] - f.n[1] * f.u[0]
+        f.p[0] = f.p[1] = 0.0
+        frame_project(&f, &t[3], &f.p[2], &hq[0])
+        frame_project(&f, &t[6], &f.p[4], &hq[0])
+        for k in range(3):
+            j = (k + 1) % 3
+            f.d[2 * k] = f.p[2 * j] - f.p[2 * k]
+            f.d[2 * k + 1] = f.p[2 * j + 1] - f.p[2 * k + 1]
+            l2 = sqrt(f.d[2 * k] * f.d[2 * k] + f.d[2 * k + 1] * f.d[2 * k + 1])
+            if not (l2 > 0.0):
+                return -1.0
+            f.d[2 * k] /= l2
+            f.d[2 * k + 1] /= l2
+        for i in range(2):
+            f.lo[i] = f.p[i]
+            f.hi[i] = f.p[i]
+            for k in range(1, 3):
+                if f.p[2 * k + i] < f.lo[i]:
+                    f.lo[i] = f.p[2 * k + i]
+                if f.p[2 * k + i] > f.hi[i]:
+                    f.hi[i] = f.p[2 * k + i]
+            f.lo[i] -= 2.0 * PATCH_MARGIN
+            f.hi[i] += 2.0 * PATCH_MARGIN
+        # the slack: a point of t is within margin * (longest edge / inradius) of t shrunk
+        # by the margin (a homothety about the incentre), plus the margin for rounding
+        l2 = norm3(e2)
+        l3 = sqrt(sq(t[6] - t[3]) + sq(t[7] - t[4]) + sq(t[8] - t[5]))
+        big = l1 if l1 > l2 else l2
+        if l3 > big:
+            big = l3
+        r = area / (l1 + l2 + l3)              # the inradius: twice the area over the perimeter
+        if not (r > 4.0 * PATCH_MARGIN and big < 1e4 * r):
+            return -1.0                        # a sliver: the slack would not stay small
+        slack = PATCH_MARGIN * (2.0 + big / r)
+        lim = self.eps - slack
+        if not (lim > 0.0):
+            return -1.0
+        for i in range(BOUND_PATCH_HASH):
+            seen[i] = -1
+        # the seed: the first that is near t's projection (all of them are marked seen)
+        for c in range(n_seeds):
+            T = seeds[c]
+            if T < 0:
+                continue
+            hsh = (<unsigned int>T * 2654435761u) & (BOUND_PATCH_HASH - 1)
+            while seen[hsh] >= 0 and seen[hsh] != T:
+                hsh = (hsh + 1) & (BOUND_PATCH_HASH - 1)
+            if seen[hsh] == T:
+                continue
+            for k in range(3):
+                frame_project(&f, &self.tri[T, 3 * k], &q[2 * k], &hq[k])
+            if frame_apart(&f, q, 3) or fabs(hq[0]) > lim or fabs(hq[1]) > lim or fabs(hq[2]) > lim:
+                continue                       # not marked: if the patch reaches it, it decides
+            seen[hsh] = T
+            n_seen += 1
+            rows[0] = T
+            for k in range(6):
+                q2[k] = q[k]
+            for k in range(3):
+                if fabs(hq[k]) > H:
+                    H = fabs(hq[k])
+            n = 1
+            break
+        if n == 0:
+            return -1.0
+        # grow it across the edges (breadth first)
+        while head < n:
+            T = rows[head]
+            head += 1
+            for j in range(3):
+                N = self.nbr[T, j]
+                if N < 0:
+                    # a border edge of the original: it must stay apart from t
+                    q[0] = q2[6 * (head - 1) + 2 * j]
+                    q[1] = q2[6 * (head - 1) + 2 * j + 1]
+                    q[2] = q2[6 * (head - 1) + 2 * ((j + 1) % 3)]
+                    q[3] = q2[6 * (head - 1) + 2 * ((j + 1) % 3) + 1]
+                    if not frame_apart(&f, q, 2):
+                        return -1.0
+                    continue
+                hsh = (<unsigned int>N * 2654435761u) & (BOUND_PATCH_HASH - 1)
+                while seen[hsh] >= 0 and seen[hsh] != N:
+                    hsh = (hsh + 1) & (BOUND_PATCH_HASH - 1)
+                if seen[hsh] == N:
+                    continue
+                if n_seen >= BOUND_PATCH_HASH // 2:
+                    return -1.0
+                seen[hsh] = N
+                n_seen += 1
+                for k in range(3):
+                    frame_project(&f, &self.tri[N, 3 * k], &q[2 * k], &hq[k])
+                if frame_apart(&f, q, 3):
+                    continue                   # its edges are apart from t too
+                if fabs(hq[0]) > lim or fabs(hq[1]) > lim or fabs(hq[2]) > lim:
+                    return -1.0
+                if n >= BOUND_PATCH_MAX:
+                    return -1.0
+                rows[n] = N
+                for k in range(6):
+                    q2[6 * n + k] = q[k]
+                for k in range(3):
+                    if fabs(hq[k]) > H:
+                        H = fabs(hq[k])
+                n += 1
+        # the winding number around a point inside t's shrunk projection: the centroid, or
+        # (on an edge of the patch, as on a regular grid) two points off-centre
+        for tries in range(3):
+            x0[0] = PATCH_AT[3 * tries] * f.p[0] + PATCH_AT[3 * tries + 1] * f.p[2] + PATCH_AT[3 * tries + 2] * f.p[4]
+            x0[1] = PATCH_AT[3 * tries] * f.p[1] + PATCH_AT[3 * tries + 1] * f.p[3] + PATCH_AT[3 * tries + 2] * f.p[5]
+            for k in range(3):
+                if frame_inside(&f, k, x0) < 2.0 * PATCH_MARGIN:
+                    return -1.0
+            w = 0
+            for i in range(n):
+                c = winding(&q2[6 * i], x0)
+                if c == 2:
+                    w = 2 * BOUND_PATCH_MAX + 1
+                    break
+                w += c
+            if w != 2 * BOUND_PATCH_MAX + 1:
+                break
+        if w == 0 or w == 2 * BOUND_PATCH_MAX + 1:
+            return -1.0
+        cover[0] = rows[0]
+        return H + slack
+
     cdef double face_value(self, const double* t, int* cover, const int* vids, double* p2,
                            int* p_near) noexcept nogil:
         """A certified upper bound (<= eps) on the distance of triangle ``t``'s points to
@@ -572,11 +888,14 @@ cdef class Bound:
         cdef double* u
         cdef int n = 1, d, i, c, found
         cdef double worst2 = 0.0, b, hs, lim2, mx, v
-        # (a) on the face itself first: most faces pass whole, and need nothing else
+        # (a) on the face itself first: most faces pass whole, and need nothing else (the
+        # triangle that covered it before the collapse; the search for any other waits
+        # until the flat patch has failed)
         hint[0] = cover[0]
         hint[1] = hint[2] = -1
-        b = self.cover2(t, hint, cover, True)
+        b = self.cover2(t, hint, &found, True, False)
         if b <= self.eps2:
+            cover[0] = found
             return sqrt(b)
         for i in range(9):
             st[i] = t[i]
@@ -595,6 +914,19 @@ cdef class Bound:
                 dt[c] = p_near[0]
             if du[c] > self.eps2:
                 return -1.0
+        # (d) a flat patch of the original under the whole face
+        hint[1] = dt[0]
+        hint[2] = dt[1]
+        b = self.patch_cover(t, hint, 3, &found)
+        if b >= 0.0:
+            cover[0] = found
+            return b
+        # (a) again, any input triangle (a search of the hierarchy)
+        hint[2] = dt[2]
+        b = self.cover2(t, hint, &found, True)
+        if b <= self.eps2:
+            cover[0] = found
+            return sqrt(b)
         cover[0] = dt[0]
         dep[0] = 0
         while n > 0:
@@ -633,6 +965,13 @@ cdef class Bound:
                 if b > worst2:
                     worst2 = b
                 continue
+            if d > 0:
+                # (d) a flat patch of the original under the piece
+                b = self.patch_cover(s, &dt[3 * n], 3, &found)
+                if b >= 0.0:
+                    if b * b > worst2:
+                        worst2 = b * b
+                    continue
             if d >= BOUND_MAX_DEPTH:
                 return -1.0
             for i in range(3):
@@ -726,6 +1065,7 @@ cdef class Bound:
         """May half-edge h collapse (``r`` goes, ``k`` moves to ``p``) and the mesh stay
         within eps of the original both ways?  Writes ``pending`` of the new faces."""
         cdef double tris[9 * BOUND_MAX_FAN]
+        cdef double balls[4 * BOUND_MAX_FAN]
         cdef int fids[BOUND_MAX_FAN]
         cdef int vids[3 * BOUND_MAX_FAN]
         cdef int fa = h // 3
@@ -741,6 +1081,7 @@ cdef class Bound:
         n = self.collect(k, fa, fb, p, tris, fids, vids, n)
         if n < 0:
             return False
+        face_balls(tris, n, balls)
         # original -> simplified: the pieces on every face the collapse changes, each within
         # eps of one new face; a face whose ball of pieces lies so near one new face passes
         # whole
@@ -761,7 +1102,7 @@ cdef class Bound:
                         if not ok and lim >= 0.0 and tri_sqdist(&self.sphere[f, 0], &tris[9 * i]) <= lim * lim:
                             ok = True
                     while q >= 0 and not ok:
-                        if not self.fits(self.ptri[q], self.pcode[q], tris, n, &hint):
+                        if not self.fits(self.ptri[q], self.pcode[q], tris, balls, n, &hint):
                             return False
                         q = self.nxt[q]
                 y = he_ring_next(self.m, y)
@@ -808,12 +1149,14 @@ cdef class Bound:
         faces around k (:meth:`place`), set those faces' certificates; returns the largest
         (the bound this collapse guarantees for what it changed), also kept in ``last[k]``."""
         cdef double tris[9 * BOUND_MAX_FAN]
+        cdef double balls[4 * BOUND_MAX_FAN]
         cdef int fids[BOUND_MAX_FAN]
         cdef int n, i, q, nq, hint = -1
         cdef double worst = 0.0
         n = self.collect(k, -1, -1, &self.P[self.stride * k], tris, fids, NULL, 0)
         if n < 0:
             n = 0
+        face_balls(tris, n, balls)
         for i in range(n):
             self.cert[fids[i]] = self.pending[fids[i]]
             self.ctri[fids[i]] = self.pending_tri[fids[i]]
@@ -821,7 +1164,7 @@ cdef class Bound:
         q = chain
         while q >= 0:
             nq = self.nxt[q]
-            self.place(q, tris, fids, n, &hint)
+            self.place(q, tris, balls, fids, n, &hint)
             q = nq
         for i in range(n):
             self.fit_sphere(fids[i])
@@ -857,7 +1200,8 @@ cdef class Bound:
             for a in range(3):
                 x[3 * c + a] = self.base[t, a] + u[c] * self.base[t, 3 + a] + v[c] * self.base[t, 6 + a]
 
-    cdef bint fits(self, int t, int code, const double* tris, int n, int* hint) noexcept nogil:
+    cdef bint fits(self, int t, int code, const double* tris, const double* balls, int n,
+                   int* hint) noexcept nogil:
         """Is piece ``code`` of original triangle t within eps of the new faces ``tris``
         (n)?  A piece whose three corners are within eps of one face is (convexity); else
         its four children are tried, down to depth tdepth[t], where a piece that fits no
@@ -875,7 +1219,8 @@ cdef class Bound:
             if j >= 0 and corners_sqdist(x, &tris[9 * j], self.eps2) <= self.eps2:
                 continue
             for i in range(n):
-                if i != j and corners_sqdist(x, &tris[9 * i], self.eps2) <= self.eps2:
+                if i != j and not ball_beyond(&balls[4 * i], x, self.eps) and \
+                        corners_sqdist(x, &tris[9 * i], self.eps2) <= self.eps2:
                     hint[0] = i
                     break
             else:
@@ -885,7 +1230,8 @@ cdef class Bound:
                 sp += 4
         return True
 
-    cdef void place(self, int q, const double* tris, const int* fids, int n, int* hint) noexcept nogil:
+    cdef void place(self, int q, const double* tris, const double* balls, const int* fids, int n,
+                    int* hint) noexcept nogil:
         """Attach piece q (its face is gone) to the new face nearest its three corners, if
         that holds them within eps; else split it as :meth:`fits` did (child 0 keeps slot
         q, the others take new slots) and place the children.  Each face's certificate
@@ -908,6 +1254,8 @@ cdef class Bound:
             bv = corners_sqdist(x, &tris[9 * best], INFINITY) if best >= 0 else INFINITY
             for i in range(n):
                 if i != hint[0]:
+                    if bv < INFINITY and ball_beyond(&balls[4 * i], x, sqrt(bv)):
+                        continue               # its first corner is farther than the best
                     v = corners_sqdist(x, &tris[9 * i], bv)
                     if v < bv:
                         bv = v
@@ -1017,6 +1365,22 @@ cdef class Bound:
             near = -1
             out[i] = sqrt(self.nearest2(&X[i, 0], -1.0, &near))
         return out
+
+    def patch_distance(self, t):
+        """patch_cover for one triangle (9,) (tests), seeded with the input triangles
+        nearest its centroid and its corners: its certified distance, or -1."""
+        cdef double[::1] a = np.ascontiguousarray(t, dtype=np.float64).reshape(-1)
+        cdef double ctr[3]
+        cdef int seeds[4]
+        cdef int c, cover = -1
+        for c in range(3):
+            ctr[c] = (a[c] + a[3 + c] + a[6 + c]) / 3.0
+        seeds[0] = -1
+        self.nearest2(ctr, 0.0, &seeds[0])
+        for c in range(3):
+            seeds[1 + c] = -1
+            self.nearest2(&a[3 * c], 0.0, &seeds[1 + c])
+        return self.patch_cover(&a[0], seeds, 4, &cover)
 
     def face_distance(self, t):
         """face_value for one triangle (9,) (tests): its certified distance, or -1."""
