@@ -765,7 +765,6 @@ def test_truncated_solve_near_rank_deficient_matches_eigh(rank):
     characteristic cubic from its upper bound, the trigonometric solution where Newton would
     be slow) keeps the same directions as numpy's eigh and the Jacobi reference, and lands
     on the same point, with b both consistent (planes through a common point) and not."""
-    from lodkit._core.quadric import truncated_solve_rank
     rng = np.random.default_rng(10 + rank)
     for trial in range(400):
         strong = rng.uniform(0.02, 1.0, size=rank) * 10.0 ** rng.uniform(-6, 6)
@@ -774,13 +773,19 @@ def test_truncated_solve_near_rank_deficient_matches_eigh(rank):
         A = R @ np.diag(np.concatenate([strong, weak])) @ R.T
         A = 0.5 * (A + A.T)
         b = rng.normal(size=3) * strong.max() if trial % 2 else -A @ rng.normal(size=3)
-        x0 = rng.normal(size=3)
-        want = _reference_truncated(A, b, x0)
-        scale = 1.0 + np.linalg.norm(want - x0)
-        for method in ("closed", "jacobi"):
-            got, k = truncated_solve_rank(_quadric_row(A, b), x0, method)
-            assert k == rank, (method, trial, k)
-            assert np.linalg.norm(got - want) <= 1e-7 * scale, (method, trial, got, want)
+        _check_truncated(A, b, rng.normal(size=3), rank, trial)
+
+
+def _check_truncated(A, b, x0, want_k, case):
+    """The closed-form and Jacobi truncated solves of (A, b) about x0: ``want_k`` strong
+    directions and numpy eigh's point."""
+    from lodkit._core.quadric import truncated_solve_rank
+    want = _reference_truncated(A, b, x0)
+    scale = 1.0 + np.linalg.norm(want - x0)
+    for method in ("closed", "jacobi"):
+        got, k = truncated_solve_rank(_quadric_row(A, b), x0, method)
+        assert k == want_k, (method, case, k)
+        assert np.linalg.norm(got - want) <= 1e-7 * scale, (method, case, got, want)
 
 
 @pytest.mark.parametrize("eig", [
@@ -795,21 +800,13 @@ def test_truncated_solve_near_rank_deficient_matches_eigh(rank):
 def test_truncated_solve_repeated_eigenvalues(eig):
     """Double and triple roots of the characteristic cubic, rotated off the axes: the same
     directions and point as numpy's eigh."""
-    from lodkit._core.quadric import truncated_solve_rank
     rng = np.random.default_rng(7)
     want_k = sum(e > 1e-3 * max(eig) for e in eig)
     for _ in range(50):
         R = _rotation(rng)
         A = R @ np.diag(eig) @ R.T
         A = 0.5 * (A + A.T)
-        b = rng.normal(size=3)
-        x0 = rng.normal(size=3)
-        want = _reference_truncated(A, b, x0)
-        scale = 1.0 + np.linalg.norm(want - x0)
-        for method in ("closed", "jacobi"):
-            got, k = truncated_solve_rank(_quadric_row(A, b), x0, method)
-            assert k == want_k, (method, eig, k)
-            assert np.linalg.norm(got - want) <= 1e-7 * scale, (method, eig, got, want)
+        _check_truncated(A, rng.normal(size=3), rng.normal(size=3), want_k, eig)
 
 
 def test_truncated_solve_flat_and_diagonal_cases():

@@ -177,6 +177,23 @@ cdef void sym3_eigenvalues(const double* q, double* w) noexcept nogil:
     w[1] = 3.0 * m - w[0] - w[2]
 
 
+cdef inline void shifted_row(const double* q, double lam, int i, double* r) noexcept nogil:
+    """Row ``i`` of the quadric's 3x3 block minus ``lam`` I (the block stored as q[0..5] =
+    a11 a12 a13 a22 a23 a33)."""
+    if i == 0:
+        r[0] = q[0] - lam
+        r[1] = q[1]
+        r[2] = q[2]
+    elif i == 1:
+        r[0] = q[1]
+        r[1] = q[3] - lam
+        r[2] = q[4]
+    else:
+        r[0] = q[2]
+        r[1] = q[4]
+        r[2] = q[5] - lam
+
+
 cdef inline double longer_cross(const double* a, const double* b, double* v, double best) noexcept nogil:
     """``v = a x b`` if that is longer than ``best`` (a squared length); the longer one's."""
     cdef double c[3]
@@ -198,15 +215,9 @@ cdef bint sym3_eigenvector(const double* q, double lam, double* v) noexcept nogi
     cdef double r1[3]
     cdef double r2[3]
     cdef double n, best
-    r0[0] = q[0] - lam
-    r0[1] = q[1]
-    r0[2] = q[2]
-    r1[0] = q[1]
-    r1[1] = q[3] - lam
-    r1[2] = q[4]
-    r2[0] = q[2]
-    r2[1] = q[4]
-    r2[2] = q[5] - lam
+    shifted_row(q, lam, 0, r0)
+    shifted_row(q, lam, 1, r1)
+    shifted_row(q, lam, 2, r2)
     cross3(r0, r1, v)
     best = dot3(v, v)
     best = longer_cross(r0, r2, v, best)
@@ -234,27 +245,8 @@ cdef inline bint rank1_eigenvector(const double* q, double lam, double* v) noexc
         k = 1
     if q[5] > (q[3] if k == 1 else q[0]):
         k = 2
-    if k == 0:                              # rows 1 and 2
-        r0[0] = q[1]
-        r0[1] = q[3] - lam
-        r0[2] = q[4]
-        r1[0] = q[2]
-        r1[1] = q[4]
-        r1[2] = q[5] - lam
-    elif k == 1:                            # rows 0 and 2
-        r0[0] = q[0] - lam
-        r0[1] = q[1]
-        r0[2] = q[2]
-        r1[0] = q[2]
-        r1[1] = q[4]
-        r1[2] = q[5] - lam
-    else:                                   # rows 0 and 1
-        r0[0] = q[0] - lam
-        r0[1] = q[1]
-        r0[2] = q[2]
-        r1[0] = q[1]
-        r1[1] = q[3] - lam
-        r1[2] = q[4]
+    shifted_row(q, lam, 1 if k == 0 else 0, r0)   # the two rows other than k
+    shifted_row(q, lam, 1 if k == 2 else 2, r1)
     cross3(r0, r1, v)
     n = dot3(v, v)
     if not (n > 0.0):
