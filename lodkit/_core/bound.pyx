@@ -126,6 +126,20 @@ cdef enum:
     PIECE_DEPTH_SHIFT = 2 * PIECE_BITS + 1
 
 
+cdef inline double corners_box_sqdist(const double* b, const double* t, double lim2) noexcept nogil:
+    """The largest squared distance of the three corners of ``t`` (9 doubles) to box ``b``,
+    or, once one exceeds ``lim2``, that one (enough to know the triangle is out of reach)."""
+    cdef double lb = 0.0, d
+    cdef int c
+    for c in range(3):
+        d = box_sqdist(b, &t[3 * c])
+        if d > lb:
+            lb = d
+            if lb > lim2:
+                break
+    return lb
+
+
 cdef inline int piece_depth(int code) noexcept nogil:
     return code >> PIECE_DEPTH_SHIFT
 
@@ -545,7 +559,7 @@ cdef class Bound:
         answer too (INFINITY, without searching)."""
         cdef int stack[BOUND_STACK]
         cdef int sp = 1, node, i, c, a
-        cdef double found = INFINITY, bound = self.eps2, d, lb, v
+        cdef double found = INFINITY, bound = self.eps2, v
         cover[0] = -1
         for c in range(3):
             if hints[c] >= 0:
@@ -560,23 +574,11 @@ cdef class Bound:
         while sp > 0:
             sp -= 1
             node = stack[sp]
-            lb = 0.0
-            for c in range(3):
-                d = box_sqdist(&self.box[node, 0], &t[3 * c])
-                if d > lb:
-                    lb = d
-                    if lb > bound:
-                        break
-            if lb > bound:
+            if corners_box_sqdist(&self.box[node, 0], t, bound) > bound:
                 continue
             if self.left[node] < 0:
                 for i in range(self.first[node], self.first[node] + self.count[node]):
-                    lb = 0.0
-                    for c in range(3):
-                        d = box_sqdist(&self.tbox[i, 0], &t[3 * c])
-                        if d > lb:
-                            lb = d
-                    if lb > bound:
+                    if corners_box_sqdist(&self.tbox[i, 0], t, bound) > bound:
                         continue               # a corner is farther than the bound
                     v = corners_sqdist(t, &self.tri[i, 0], bound)
                     if v <= bound:
