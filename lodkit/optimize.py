@@ -44,7 +44,7 @@ from .errors import MeshError, OptionError
 from .evaluate import sample_surface
 from .geometry import face_normals, triangle_quality, weld_positions
 from .mesh import Mesh, as_mesh, is_open3d
-from .retile import SurfaceProjector, face_twins
+from .retile import SurfaceProjector, crease_edges, face_twins
 
 __all__ = ["OptimizeResult", "optimize"]
 
@@ -229,16 +229,9 @@ def crease_samples(V: np.ndarray, F: np.ndarray, angle: float, spacing: float) -
     Fw = Fw[(Fw[:, 0] != Fw[:, 1]) & (Fw[:, 1] != Fw[:, 2]) & (Fw[:, 0] != Fw[:, 2])]
     if Fw.shape[0] < 2:
         return np.zeros((0, 3))
-    n, _ = face_normals(P, Fw)
-    twins = face_twins(Fw)
-    h = np.arange(twins.size)
-    t = np.asarray(twins, dtype=np.int64)
-    sel = (t > h) & (np.einsum("ij,ij->i", n[h // 3], n[np.maximum(t, 0) // 3]) < math.cos(math.radians(angle)))
-    hc = h[sel]
+    hc, a, b = crease_edges(P, Fw, face_twins(Fw), math.cos(math.radians(angle)))
     if hc.size == 0:
         return np.zeros((0, 3))
-    a = Fw.reshape(-1)[hc]
-    b = Fw[hc // 3, (hc % 3 + 1) % 3]
     length = np.linalg.norm(P[a] - P[b], axis=1)
     m = P.shape[0]
     _, comp = connected_components(coo_matrix((np.ones(a.size), (a, b)), shape=(m, m)), directed=False)

@@ -769,20 +769,27 @@ def _corners(pts, cum, length, spacing, cos_corner):
     return np.asarray(sorted(chosen), dtype=np.int64)
 
 
+def crease_edges(P, F, twins, cos_limit):
+    """The interior edges of (P, F) whose two faces' unit normals have a dot product below
+    ``cos_limit``, once each (the half-edge of the pair with the smaller number; ``twins``
+    from :func:`face_twins`): (half-edges, their start vertices, their end vertices)."""
+    n, _ = face_normals(P, F)
+    h = np.arange(twins.size)
+    t = np.asarray(twins)
+    sel = (t > h) & (np.einsum("ij,ij->i", n[h // 3], n[np.maximum(t, 0) // 3]) < cos_limit)
+    hc = h[sel]
+    Ff = F.reshape(-1)
+    return hc, Ff[hc], Ff[3 * (hc // 3) + (hc % 3 + 1) % 3]
+
+
 def _crease_lines(P, F, twins, cos_feature):
     """Crease lines: chains of interior edges whose two faces' normals differ by more than
     acos(cos_feature), split at vertices where other than two crease edges meet.  Returns
     (open lines, closed loops), each an array of half-edges in walking order."""
-    n, _ = face_normals(P, F)
-    h = np.arange(twins.size)
-    t = np.asarray(twins)
-    sel = (t > h) & (np.einsum("ij,ij->i", n[h // 3], n[np.maximum(t, 0) // 3]) < cos_feature)
-    hc = h[sel]
+    hc, a, b = crease_edges(P, F, twins, cos_feature)
     if hc.size == 0:
         return [], []
-    Ff = F.reshape(-1)
-    a = Ff[hc]
-    b = Ff[3 * (hc // 3) + (hc % 3 + 1) % 3]
+    t = np.asarray(twins)
     adj = {}
     for e, (x, y) in enumerate(zip(a.tolist(), b.tolist())):
         adj.setdefault(x, []).append(e)
