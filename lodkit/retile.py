@@ -229,6 +229,9 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
     surf = SurfaceProjector(P0, F0)
     from scipy.spatial import cKDTree
 
+    # the boundary and crease lines, densely sampled (the same for every pass)
+    dense_tree = (cKDTree(_boundary_samples(P0, F0, loops + creases + lines, edge_len / 8.0))
+                  if loops or creases or lines else None)
     errors = []
     best = None
     for pass_ in range(refine + 1):
@@ -288,9 +291,8 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
         # an interior point the repulsion pushed over a boundary was projected back onto it:
         # it would make slivers with the boundary points, so it goes
         n_dropped = 0
-        if (loops or creases or lines) and n_inner:
-            dense = _boundary_samples(P0, F0, loops + creases + lines, edge_len / 8.0)
-            near = cKDTree(dense).query(X)[0] < _BOUNDARY_GAP * edge_len
+        if dense_tree is not None and n_inner:
+            near = dense_tree.query(X)[0] < _BOUNDARY_GAP * edge_len
             n_dropped = int(np.count_nonzero(near))
             if n_dropped:
                 X, face, w = X[~near], face[~near], w[~near]
