@@ -103,6 +103,8 @@ cdef class EdgeCollapser:
     cdef bint fan_ok(self, int center, int fa, int fb, int skip_c, int skip_d, const double* p,
                      double* dvol, double* min_q) noexcept nogil
     cdef double fan_worst_quality(self, int center, double floor) noexcept nogil
+    cdef bint knife(self, int r, int k, int fa, int fb) noexcept nogil
+    cdef int fan_faces(self, int center, int fa, int fb, int* out) noexcept nogil
     cdef bint geometry_ok(self, int h, int r, int k, const double* p, int skip_c, int skip_d,
                           double* dvol_out) noexcept nogil
     cdef bint place_ok(self, int h, int r, int k, double* p, double* cost_err, double limit,

@@ -35,8 +35,12 @@ from .common cimport (QSIZE, VSTRIDE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, RUN_
 from .quadric cimport (AttributeQuadrics, sq, collapse_error, quadric_eval, quadric_sum, take_if_lower, quadric_solve,
                        quadric_solve_truncated, within_reach, Rows, face_normal16)
 from .checks cimport (CheckLimits, check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality,
-                      face_volume, turns_inside_out, sides_of_a_sheet)
+                      face_volume, turns_inside_out, sides_of_a_sheet, flat_sides)
 from .fields cimport FieldSet, STEP_VFIELD, STEP_EFIELD
+
+cdef enum:
+    KNIFE_FAN = 64      # faces of a fan the knife test reads (more: the rest is not looked at)
+
 from .common cimport RUN_INTERRUPTED, PARALLEL_MIN_VERTICES
 from .interrupt cimport signal_pending, raise_pending, INTERRUPT_EVERY
 
@@ -841,6 +845,8 @@ cdef class EdgeCollapser:
             # not be worse than min(min_quality, the worst face of both fans before)
             if min_q < self.fan_worst_quality(r, min_q) and min_q < self.fan_worst_quality(k, min_q):
                 return False
+        if self.lim.check_knife and self.knife(r, k, fa, fb):
+            return False
         if self.closed_volume != 0.0:
             # a closed surface must not be turned inside out (locally valid faces can still
             # enclose a negative volume once the mesh is down to a handful of faces)
@@ -853,6 +859,51 @@ cdef class EdgeCollapser:
             return False                     # would leave the error bound (last: the costliest check)
         dvol_out[0] = dvol
         return True
+
+    cdef bint knife(self, int r, int k, int fa, int fb) noexcept nogil:
+        """Would the collapse make a knife edge: join the two flat sides of a thin sheet
+        (``flat_sides``: input faces facing exactly opposite ways, a CAD plate's top and
+        bottom), one side in each end's fan, when neither fan held both sides before?  Its
+        quadric cost is small (a rim vertex of a plate stands for little area) but it tilts
+        every face of the new fan through the thickness (issue 17, docs/algorithms.md)."""
+        cdef int fr[KNIFE_FAN]
+        cdef int fk[KNIFE_FAN]
+        cdef int nr = self.fan_faces(r, fa, fb, fr)
+        cdef int nk = self.fan_faces(k, fa, fb, fk)
+        cdef int i, j
+        cdef bint cross = False
+        for i in range(nr):
+            for j in range(nk):
+                if flat_sides(self.N0, fr[i], fk[j]):
+                    cross = True
+                    break
+            if cross:
+                break
+        if not cross:
+            return False
+        for i in range(nr):
+            for j in range(i + 1, nr):
+                if flat_sides(self.N0, fr[i], fr[j]):
+                    return False
+        for i in range(nk):
+            for j in range(i + 1, nk):
+                if flat_sides(self.N0, fk[i], fk[j]):
+                    return False
+        return True
+
+    cdef int fan_faces(self, int center, int fa, int fb, int* out) noexcept nogil:
+        """The faces around ``center`` but fa and fb, into ``out`` (at most KNIFE_FAN); their count."""
+        cdef int start = self.m.v_he[center]
+        cdef int y = start
+        cdef int f, n = 0
+        while True:
+            f = y // 3
+            if f != fa and f != fb and n < KNIFE_FAN:
+                out[n] = f
+                n += 1
+            y = he_ring_next(self.m, y)
+            if y < 0 or y == start:
+                return n
 
     cdef double fan_worst_quality(self, int center, double floor) noexcept nogil:
         """The lowest quality among the faces around ``center`` as they are (the ones a
@@ -1332,7 +1383,7 @@ cdef class EdgeCollapser:
         cdef double cost, err, dv, vol
         cdef CheckLimits saved = self.lim
         out = {"fixed": 0, "topology": 0, "quality": 0, "input_face": 0, "fold": 0, "turn": 0, "volume": 0,
-               "several": 0, "free": 0}
+               "knife": 0, "several": 0, "free": 0}
         for e in range(self.hm.n_edges):
             if not self.m.edge_alive[e]:
                 continue
@@ -1360,7 +1411,7 @@ cdef class EdgeCollapser:
                 out["free"] += 1
                 continue
             reason = "several"
-            for name in ("quality", "input_face", "fold", "turn", "volume"):
+            for name in ("quality", "input_face", "fold", "turn", "volume", "knife"):
                 self.lim = saved
                 vol = self.closed_volume
                 if name == "quality":
@@ -1371,6 +1422,8 @@ cdef class EdgeCollapser:
                     self.lim.check_fold = False
                 elif name == "turn":
                     self.lim.cos_max_angle = -2.0
+                elif name == "knife":
+                    self.lim.check_knife = False
                 else:
                     self.closed_volume = 0.0
                 ok = self.geometry_ok(h, r, k, p, -1, -1, &dv)
@@ -1401,6 +1454,15 @@ cdef class EdgeCollapser:
         self.lim.min_quality = min_quality
         self.collapses_since_rescan += 1
 
+    def allow_knives(self):
+        """Switch the knife test off (a collapse may join the two sides of a thin sheet) and
+        give every live candidate another chance on the next ``run``: ``simplify``'s
+        relaxation step when the checks leave no collapse."""
+        if self.released:
+            raise RuntimeError("this EdgeCollapser was released")
+        self.lim.check_knife = False
+        self.collapses_since_rescan += 1
+
     def allow_end_fallback(self):
         """From the next ``run`` on, a candidate whose planned position fails the checks may
         collapse at an end or the midpoint of its edge (``place_ok``), and every live candidate gets another
@@ -1428,6 +1490,11 @@ cdef class EdgeCollapser:
         if self.released:
             raise RuntimeError("this EdgeCollapser was released")
         raise RuntimeError("check_face needs an EdgeCollapser made with operator=1 (triangle)")
+
+    @property
+    def knife_test(self):
+        """Is the knife test on (``allow_knives`` switches it off)?"""
+        return bool(self.lim.check_knife)
 
     @property
     def n_tri_collapses(self):
