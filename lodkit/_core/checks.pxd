@@ -76,9 +76,10 @@ cdef inline bint sides_of_a_sheet(const short* N0, int f, int g) noexcept nogil:
 
 cdef inline bint flat_sides(const short* N0, int f, int g) noexcept nogil:
     """Do faces ``f`` and ``g`` stand for input faces facing exactly opposite ways (their
-    normals' dot product below -0.9999: within ~0.8 degrees), the two flat sides of a sheet such as a CAD plate's top and
-    bottom?  The edge driver's knife test (``EdgeCollapser.knife``); a smooth thin part (an
-    ear, a horn) has no two input faces that parallel, so it is left alone."""
+    normals' dot product below -0.9999: within ~0.8 degrees), the two flat sides of a sheet
+    such as a CAD plate's top and bottom?  The edge driver's knife test
+    (``EdgeCollapser.knife``); a smooth thin part (an ear, a horn) seldom has two input
+    faces that parallel, so it is left alone."""
     return (<double>N0[3 * f] * N0[3 * g] + <double>N0[3 * f + 1] * N0[3 * g + 1]
             + <double>N0[3 * f + 2] * N0[3 * g + 2]) < -0.9999 * 32767.0 * 32767.0
 
