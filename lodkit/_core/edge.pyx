@@ -40,6 +40,7 @@ from .fields cimport FieldSet, STEP_VFIELD, STEP_EFIELD
 
 cdef enum:
     KNIFE_FAN = 64      # faces of a fan the knife test reads (more: the rest is not looked at)
+    KNIFE_BOX_SLACK = 3  # normal_box units (256 / 32767): exactly opposite normals' components sum to within 2.3
 
 from .common cimport RUN_INTERRUPTED, PARALLEL_MIN_VERTICES
 from .interrupt cimport signal_pending, raise_pending, INTERRUPT_EVERY
@@ -179,6 +180,7 @@ cdef class EdgeCollapser:
         self.Q = &self.vdata[0, 0] if n else NULL
         self.P = &self.vdata[0, QSIZE] if n else NULL
         self._input_faces(threads, closed_connected and n and hm.n_faces)
+        self.normal_boxes()
         cdef int v
         with nogil:
             for v in prange(n, num_threads=threads, schedule="static"):
@@ -232,6 +234,65 @@ cdef class EdgeCollapser:
                         if self.m.face_alive[f]:
                             self.closed_volume += vol6[f - lo]
                 lo = hi
+
+    cdef void normal_boxes(self):
+        """``normal_box``: for each vertex, the box (lowest and highest x, y, z, in units
+        of 256 / 32767, rounded outwards) of the input normals of its faces; a collapse's
+        kept vertex takes the union of both ends' boxes (``merge_box``), so that a vertex's
+        box holds the input normals of every face around it, then and later.  The knife
+        test's pre-filter (``opposite_boxes``).  One pass over the faces, each scattered to
+        its corners (a walk around each vertex would miss the second fan of a vertex where
+        two fans meet, and the output would change: boot)."""
+        cdef int n = self.hm.n_vertices
+        cdef int nf = self.hm.n_faces
+        cdef int f, i, j, v
+        cdef signed char lo, hi
+        self.normal_box = np.empty(6 * n if n else 6, dtype=np.int8)
+        self.NB = &self.normal_box[0]
+        cdef signed char* B = self.NB
+        cdef const short* N = self.N0
+        cdef const int* corner = self.m.corner
+        cdef const unsigned char* alive = self.m.face_alive
+        with nogil:
+            for v in range(n):
+                for i in range(3):
+                    B[6 * v + i] = 127
+                    B[6 * v + 3 + i] = -128
+            for f in range(nf):
+                if not alive[f]:
+                    continue
+                for i in range(3):
+                    lo = <signed char>(N[3 * f + i] >> 8)            # floor(N / 256)
+                    hi = <signed char>(-((-N[3 * f + i]) >> 8))      # ceil(N / 256)
+                    for j in range(3):
+                        v = corner[3 * f + j]
+                        if lo < B[6 * v + i]:
+                            B[6 * v + i] = lo
+                        if hi > B[6 * v + 3 + i]:
+                            B[6 * v + 3 + i] = hi
+
+    cdef void merge_box(self, int r, int k) noexcept nogil:
+        """After a collapse of ``r`` into ``k``: k's normal box takes in r's."""
+        cdef int i
+        for i in range(3):
+            if self.NB[6 * r + i] < self.NB[6 * k + i]:
+                self.NB[6 * k + i] = self.NB[6 * r + i]
+            if self.NB[6 * r + 3 + i] > self.NB[6 * k + 3 + i]:
+                self.NB[6 * k + 3 + i] = self.NB[6 * r + 3 + i]
+
+    cdef bint opposite_boxes(self, int r, int k) noexcept nogil:
+        """Could a face around ``r`` and one around ``k`` stand for input faces facing
+        exactly opposite ways (``flat_sides``)?  Their normals' components would sum to
+        about 0 (within 0.018 of a unit normal, 2.3 box units), so along each axis the lowest of r's box
+        plus the lowest of k's is at most KNIFE_BOX_SLACK and the highest plus the highest
+        at least -KNIFE_BOX_SLACK.  False: the knife test has nothing to find (on a smooth
+        surface nearly always: a fan's normals lie in a narrow cone)."""
+        cdef int i
+        for i in range(3):
+            if (<int>self.NB[6 * r + i] + self.NB[6 * k + i] > KNIFE_BOX_SLACK
+                    or <int>self.NB[6 * r + 3 + i] + self.NB[6 * k + 3 + i] < -KNIFE_BOX_SLACK):
+                return False
+        return True
 
     cdef int n_candidates(self):
         """The heap's capacity: one candidate per edge."""
@@ -868,10 +929,13 @@ cdef class EdgeCollapser:
         every face of the new fan through the thickness (issue 17, docs/algorithms.md)."""
         cdef int fr[KNIFE_FAN]
         cdef int fk[KNIFE_FAN]
-        cdef int nr = self.fan_faces(r, fa, fb, fr)
-        cdef int nk = self.fan_faces(k, fa, fb, fk)
+        cdef int nr, nk
         cdef int i, j
         cdef bint cross = False
+        if not self.opposite_boxes(r, k):
+            return False
+        nr = self.fan_faces(r, fa, fb, fr)
+        nk = self.fan_faces(k, fa, fb, fk)
         for i in range(nr):
             for j in range(nk):
                 if flat_sides(self.N0, fr[i], fk[j]):
@@ -1214,6 +1278,7 @@ cdef class EdgeCollapser:
             chain = self.bound.commit_begin(h, r, k)
         self.hm.collapse_uncounted(h, r, dead, merged_into)
         self.vflags[k] |= self.vflags[r] & VERTEX_BOUNDARY
+        self.merge_box(r, k)
         if self.fields.n_vfields or self.fields.n_efields:
             self.fields.merge(r, k, dead, merged_into)
         quadric_sum(&self.Q[VSTRIDE * k], &self.Q[VSTRIDE * r], &self.Q[VSTRIDE * k])
@@ -1533,6 +1598,8 @@ cdef class EdgeCollapser:
         self.heap = IndexedHeap(0)
         self.face_n0 = np.zeros(3, dtype=np.int16)
         self.N0 = &self.face_n0[0]
+        self.normal_box = np.zeros(6, dtype=np.int8)
+        self.NB = &self.normal_box[0]
         self.pos_out = np.ascontiguousarray(np.asarray(self.vdata)[:, QSIZE:])
         self.vdata = np.zeros((1, VSTRIDE))
         self.Q = &self.vdata[0, 0]

@@ -234,7 +234,8 @@ def raise_if_failed(collapser, compiled: Compiled) -> None:
 #: the stop census's names (EdgeCollapser.refusal_census) as the stop detail words them
 CENSUS_WORDS = {"fixed": "locked or boundary rules", "topology": "link condition (topology)",
                 "quality": "quality", "input_face": "turn from the input face", "fold": "fold",
-                "turn": "normal turn", "volume": "enclosed volume", "several": "more than one check",
+                "turn": "normal turn", "volume": "enclosed volume",
+                "knife": "knife edge (two sides of a thin sheet)", "several": "more than one check",
                 "free": "no check"}
 
 
