@@ -230,14 +230,18 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
     from scipy.spatial import cKDTree
 
     # the boundary and crease lines, densely sampled (the same for every pass)
-    dense_tree = (cKDTree(_boundary_samples(P0, F0, loops + creases + lines, edge_len / 8.0))
+    dense_tree = (cKDTree(_boundary_samples(P0, F0, loops + creases + lines, edge_len / 32.0))
                   if loops or creases or lines else None)
     errors = []
     best = None
     for pass_ in range(refine + 1):
         if pass_:
             t = time.perf_counter()
-        B, bface, bw, kept, bh, bt = _boundary_points(P0, F0, loops + creases, edge_len, rng, corner_angle, lines)
+        # the lines get the local target spacing, edge_len / sqrt(weight), of the denser side
+        hscale = np.sqrt(np.maximum(weight[np.arange(twins0.size) // 3],
+                                    np.where(twins0 >= 0, weight[np.maximum(twins0, 0) // 3], 0.0)))
+        B, bface, bw, kept, bh, bt = _boundary_points(P0, F0, loops + creases, edge_len, rng, corner_angle, lines,
+                                                      hscale)
         n_inner = n_vertices - B.shape[0] - kept.size
         if n_inner < 1:
             raise OptionError(f"n_vertices={n_vertices} is too few: the boundary loops"
@@ -254,7 +258,10 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
         t = time.perf_counter()
 
         r_face = _RADIUS * 2.0 * np.sqrt(wsum / (math.pi * n_vertices * weight))
-        rb = np.full(B.shape[0], edge_len)
+        rb = r_face[bface] if B.shape[0] else np.zeros(0)
+        if B.shape[0] and bh.size:
+            on_crease = twins0[bh] >= 0
+            rb[on_crease] = np.minimum(rb[on_crease], r_face[twins0[bh[on_crease]] // 3])
         nb = normals0[bface] if B.shape[0] else np.zeros((0, 3))
         bar = Progress(iterations, enabled=progress)
         for it in range(iterations):
@@ -292,7 +299,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
         # it would make slivers with the boundary points, so it goes
         n_dropped = 0
         if dense_tree is not None and n_inner:
-            near = dense_tree.query(X)[0] < _BOUNDARY_GAP * edge_len
+            near = dense_tree.query(X)[0] < _BOUNDARY_GAP * edge_len / np.sqrt(weight[face])
             n_dropped = int(np.count_nonzero(near))
             if n_dropped:
                 X, face, w = X[~near], face[~near], w[~near]
@@ -300,7 +307,11 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
         # two points left almost on top of each other (across a fold the repulsion did not see)
         if n_inner > 1:
             Q = np.concatenate([X, B])
-            pairs = cKDTree(Q).query_pairs(_MIN_GAP * edge_len, output_type="ndarray")
+            gap = _MIN_GAP * edge_len / np.sqrt(np.concatenate([weight[face], weight[bface]]))
+            pairs = cKDTree(Q).query_pairs(float(gap.max()), output_type="ndarray")
+            if pairs.size:
+                pairs = pairs[np.linalg.norm(Q[pairs[:, 0]] - Q[pairs[:, 1]], axis=1)
+                              < np.minimum(gap[pairs[:, 0]], gap[pairs[:, 1]])]
             drop = np.zeros(Q.shape[0], dtype=bool)
             for i, j in pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))] if pairs.size else ():
                 if not drop[i] and not drop[j]:
@@ -675,12 +686,14 @@ def _boundary_loops(F: np.ndarray, twins: np.ndarray) -> list[np.ndarray]:
     return loops
 
 
-def _boundary_points(P, F, loops, spacing, rng, corner_angle, open_lines=()):
+def _boundary_points(P, F, loops, spacing, rng, corner_angle, open_lines=(), hscale=None):
     """Points along each boundary loop (and crease line): its corners (vertices where the
     line turns by more than ``corner_angle`` degrees; an open line's two ends) stay as they
     are, the stretches between them get points spread evenly by arc length (a loop without
     corners: random phase).  Returns (points (b, 3), face (b,), barycentric weights (b, 3),
-    corner vertex slots (c,), half-edge (b,), parameter along it (b,))."""
+    corner vertex slots (c,), half-edge (b,), parameter along it (b,)).  ``hscale`` (3 m,),
+    per half-edge: the spacing there is ``spacing / hscale`` (the points are spread evenly in
+    the length scaled by it); None: 1 everywhere."""
     pts, faces, ws, corners, hs, ts = [], [], [], [], [], []
     Ff = F.reshape(-1)
     cos_corner = math.cos(math.radians(corner_angle))
@@ -693,30 +706,33 @@ def _boundary_points(P, F, loops, spacing, rng, corner_angle, open_lines=()):
         if not length > 0:
             continue
         cum = np.concatenate([[0.0], np.cumsum(seg)])
+        # the scaled length (even spacing in it: the local spacing in the true length)
+        wcum = cum if hscale is None else np.concatenate([[0.0], np.cumsum(seg * hscale[loop])])
+        wlength = float(wcum[-1])
         if not closed:
             corners.append(np.array([a[0], b[-1]]))
-            k = int(round(length / spacing))
+            k = int(round(wlength / spacing))
             if k < 2:
                 continue
-            s = np.arange(1, k) * (length / k)
+            s = np.arange(1, k) * (wlength / k)
             s = [s]
             cidx = np.zeros(0, dtype=np.int64)
         else:
             cidx = _corners(P[a], cum, length, spacing, cos_corner)
             s = []
         for c0, c1 in zip(cidx, np.r_[cidx[1:], cidx[:1] + loop.size]) if closed else ():
-            s0, s1 = cum[c0], cum[c1] if c1 <= loop.size else cum[c1 - loop.size] + length
+            s0, s1 = wcum[c0], wcum[c1] if c1 <= loop.size else wcum[c1 - loop.size] + wlength
             k = int(round((s1 - s0) / spacing))             # stretches, k - 1 inner points
             if k >= 2:
-                s.append(np.mod(s0 + np.arange(1, k) * ((s1 - s0) / k), length))
+                s.append(np.mod(s0 + np.arange(1, k) * ((s1 - s0) / k), wlength))
         if closed and cidx.size + sum(x.size for x in s) < 3:     # no corners, or too few points
-            k = max(3, int(round(length / spacing)))
-            s = [(np.arange(k) + rng.random()) * (length / k)]
+            k = max(3, int(round(wlength / spacing)))
+            s = [(np.arange(k) + rng.random()) * (wlength / k)]
         elif closed:
             corners.append(a[cidx])
             if not s:
                 continue
-        s = np.concatenate(s)
+        s = np.interp(np.concatenate(s), wcum, cum)                   # back to the true length
         n = s.size
         e = np.clip(np.searchsorted(cum, s, side="right") - 1, 0, loop.size - 1)
         tpar = np.clip((s - cum[e]) / np.where(seg[e] > 0, seg[e], 1.0), 0.02, 0.98)
