@@ -765,62 +765,78 @@ cdef class EdgeCollapser:
         go with the kept vertex at one of the edge's ends or its midpoint -- the cheapest
         first -- if that passes every check and costs no more than ``limit``, what the driver would take
         next anyway (the greedy driver: the heap's top; the pass driver: the pass's dearest
-        candidate; < 0: no fallback).  Then ``p`` and ``cost_err`` (cost, error) are
+        candidate; < 0: no fallback).  Under an error bound the cost limit is not applied:
+        the bound is what stops a bounded run.  Then ``p`` and ``cost_err`` (cost, error) are
         updated.  Without it, a refusal sends the driver to a costlier collapse elsewhere
         (issue 17: the thin-CAD set stopped above its targets; docs/algorithms.md)."""
         cdef double q[QSIZE]
-        cdef double alt[3][3]
+        cdef double alt[9]
         cdef double ca[3]
-        cdef int order[3]
         cdef double c, err
-        cdef int i, j, first
-        cdef const double* x
+        cdef int j, n
         if self.geometry_ok(h, r, k, p, -1, -1, dvol_out):
             return True
-        if not self.end_fallback:
+        if not self.end_fallback or limit < 0.0:
             return False
-        # only where plan() chose a free optimal placement: neither end fixed, on the border
-        # or a seam, no fields, kernels or attribute quadrics in the cost, no error bound
-        if (limit < 0.0 or self.opt.placement != PLACE_OPTIMAL or self.opt.has_extras or self.aq.dim > 0
-                or self.bound is not None):
-            return False
-        if (self.vflags[k] | self.vflags[r]) & (VERTEX_FIXED | VERTEX_BOUNDARY):
-            return False
-        if self.SP != NULL and (self.SP[k] != SEAM_NONE or self.SP[r] != SEAM_NONE):
-            return False
-        if same_point(p, &self.P[VSTRIDE * k]) or same_point(p, &self.P[VSTRIDE * r]):
-            return False                     # an end was planned already: nothing else to try
-        quadric_sum(&self.Q[VSTRIDE * k], &self.Q[VSTRIDE * r], q)
-        for i in range(3):
-            alt[0][i] = self.P[VSTRIDE * k + i]
-            alt[1][i] = self.P[VSTRIDE * r + i]
-            alt[2][i] = 0.5 * (alt[0][i] + alt[1][i])
-        for i in range(3):
-            ca[i] = quadric_eval(q, alt[i])
-            order[i] = i
-        for i in range(3):
-            for j in range(i + 1, 3):
-                if ca[order[j]] < ca[order[i]]:
-                    first = order[i]
-                    order[i] = order[j]
-                    order[j] = first
-        for j in range(3):
-            i = order[j]
-            x = alt[i]
-            c = ca[i] if ca[i] > 0.0 else 0.0
-            if self.opt.quadric_weight * c > limit:
+        n = self.end_points(r, k, p, alt, ca, q)
+        for j in range(n):
+            c = ca[j]
+            if self.opt.quadric_weight * c > limit and self.bound is None:
+                # (under an error bound the bound, not the quadric cost, is the limit: a
+                # bounded run only gets here once no planned collapse stays within it)
                 return False
             err = collapse_error(c, q[10], self.opt.error_scale)
             if err > self.opt.max_error:
                 return False
-            if self.geometry_ok(h, r, k, x, -1, -1, dvol_out):
-                p[0] = x[0]
-                p[1] = x[1]
-                p[2] = x[2]
+            if self.geometry_ok(h, r, k, &alt[3 * j], -1, -1, dvol_out):
+                p[0] = alt[3 * j]
+                p[1] = alt[3 * j + 1]
+                p[2] = alt[3 * j + 2]
                 cost_err[0] = self.opt.quadric_weight * c
                 cost_err[1] = err
                 return True
         return False
+
+    cdef int end_points(self, int r, int k, const double* p, double* alt, double* ca, double* q) noexcept nogil:
+        """``place_ok``'s other placements for collapsing ``r`` into ``k`` (planned at ``p``):
+        the edge's two ends and its midpoint, in rising quadric cost -- ``alt`` (3 x 3) the
+        points, ``ca`` their costs (clamped at 0), ``q`` the summed quadric.  Returns 3, or 0
+        where there is no other placement: only where plan() chose a free optimal placement
+        (neither end fixed, on the border or a seam, no fields, kernels or attribute
+        quadrics in the cost) and did not plan an end already."""
+        cdef double pts[3][3]
+        cdef double cost[3]
+        cdef int order[3]
+        cdef int i, j, t
+        if self.opt.placement != PLACE_OPTIMAL or self.opt.has_extras or self.aq.dim > 0:
+            return 0
+        if (self.vflags[k] | self.vflags[r]) & (VERTEX_FIXED | VERTEX_BOUNDARY):
+            return 0
+        if self.SP != NULL and (self.SP[k] != SEAM_NONE or self.SP[r] != SEAM_NONE):
+            return 0
+        if same_point(p, &self.P[VSTRIDE * k]) or same_point(p, &self.P[VSTRIDE * r]):
+            return 0
+        quadric_sum(&self.Q[VSTRIDE * k], &self.Q[VSTRIDE * r], q)
+        for i in range(3):
+            pts[0][i] = self.P[VSTRIDE * k + i]
+            pts[1][i] = self.P[VSTRIDE * r + i]
+            pts[2][i] = 0.5 * (pts[0][i] + pts[1][i])
+        for i in range(3):
+            cost[i] = quadric_eval(q, pts[i])
+            order[i] = i
+        for i in range(3):
+            for j in range(i + 1, 3):
+                if cost[order[j]] < cost[order[i]]:
+                    t = order[i]
+                    order[i] = order[j]
+                    order[j] = t
+        for j in range(3):
+            i = order[j]
+            ca[j] = cost[i] if cost[i] > 0.0 else 0.0
+            alt[3 * j] = pts[i][0]
+            alt[3 * j + 1] = pts[i][1]
+            alt[3 * j + 2] = pts[i][2]
+        return 3
 
     cdef bint geometry_ok(self, int h, int r, int k, const double* p, int skip_c, int skip_d,
                           double* dvol_out) noexcept nogil:
@@ -1287,8 +1303,11 @@ cdef class EdgeCollapser:
         if self.bound is None or self.released:
             return 0
         cdef Bound b = self.bound
-        cdef int e, h, r, hs, k, rs, ks, n = 0
+        cdef int e, h, r, hs, k, rs, ks, j, na, n = 0
         cdef double p[3]
+        cdef double alt[9]
+        cdef double ca[3]
+        cdef double q[QSIZE]
         cdef double dv2[2]
         cdef double cost, err, dv
         cdef bint ok
@@ -1310,7 +1329,22 @@ cdef class EdgeCollapser:
                 if ok and (not b.check(h, r, k, p) or not b.check(hs, rs, ks, p)):
                     n += 1
                 continue
-            ok = self.hm.link_ok(h) and self.geometry_ok(h, r, k, p, -1, -1, &dv)
+            if not self.hm.link_ok(h):
+                self.bound = b
+                continue
+            ok = self.geometry_ok(h, r, k, p, -1, -1, &dv)
+            if not ok and self.end_fallback:
+                # (after simplify's last step a refused plan may go at an end or the midpoint)
+                na = self.end_points(r, k, p, alt, ca, q)
+                for j in range(na):
+                    if collapse_error(ca[j], q[10], self.opt.error_scale) > self.opt.max_error:
+                        break
+                    if self.geometry_ok(h, r, k, &alt[3 * j], -1, -1, &dv):
+                        p[0] = alt[3 * j]
+                        p[1] = alt[3 * j + 1]
+                        p[2] = alt[3 * j + 2]
+                        ok = True
+                        break
             self.bound = b
             if ok and not b.check(h, r, k, p):
                 n += 1
