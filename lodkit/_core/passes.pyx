@@ -912,19 +912,27 @@ cdef class PassDriver:
         return self.fan_inside(u, lo) and self.fan_inside(v, lo)
 
     cdef bint fan_inside(self, int w, int lo) noexcept nogil:
-        cdef int start, y, ny, t
+        """Are w, its neighbours and the vertices across the far edges of its fan in the
+        block?  (A face's third corner is the next face's far end, so only the last face
+        of an open fan has its third corner tested apart.)"""
+        cdef const int* corner = self.m.corner
+        cdef const int* twin = self.m.twin
+        cdef int start, y, ny, t, nx
         if not self.in_block(w, lo):
             return False
         start = self.m.v_he[w]
         y = start
         while True:
-            if not self.in_block(he_dest(self.m, y), lo) or not self.in_block(self.m.corner[he_prev(y)], lo):
+            nx = he_next(y)
+            if not self.in_block(corner[nx], lo):
                 return False
-            t = self.m.twin[he_next(y)]
-            if t >= 0 and not self.in_block(self.m.corner[he_prev(t)], lo):
+            t = twin[nx]
+            if t >= 0 and not self.in_block(corner[he_prev(t)], lo):
                 return False
-            ny = he_ring_next(self.m, y)
-            if ny < 0 or ny == start:
+            ny = twin[he_prev(y)]                    # he_ring_next
+            if ny < 0:
+                return self.in_block(corner[he_prev(y)], lo)
+            if ny == start:
                 return True
             y = ny
 
