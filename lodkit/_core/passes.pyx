@@ -600,15 +600,18 @@ cdef class PassDriver:
                 hist[bucket_of(cost[i])] += 1
 
     cdef inline void rank_one(self, int e) noexcept nogil:
-        cdef int h, r, hs, rc
+        """Plan dirty live edge ``e`` (rank_range has checked it is one) into its state and
+        cost.  (``plan_he`` straight from the edge's half-edge: ``plan`` is the same call
+        through one more frame.)"""
+        cdef int h = self.m.edge_he[e]
+        cdef int r, hs, rc
         cdef double c, err
         cdef double p[3]
-        if self.state[e] != ST_DIRTY or not self.m.edge_alive[e]:
-            return
         # without an error limit the ranking needs no error (nor the provenance the core
         # works out with it): check() plans the candidates of a pass again, in full
         err = 0.0
-        rc = self.c.plan(e, &h, &r, &hs, p, &c, &err if self.c.opt.max_error < INFINITY else NULL)
+        rc = self.c.plan_he(h, self.m.corner[h], he_dest(self.m, h), &h, &r, &hs, p, &c,
+                            &err if self.c.opt.max_error < INFINITY else NULL)
         if rc < 0:
             self.state[e] = ST_NONE
         elif hs >= 0 and self.m.edge[h] != e:
