@@ -816,18 +816,24 @@ cdef class PassDriver:
         cdef const int* edge = self.m.edge
         cdef const int* corner = self.m.corner
         cdef const int* twin = self.m.twin
+        cdef unsigned char* refused = &self.c.refused[0]
+        cdef bint wide = self.c.opt.wide_recost
         cdef int start = self.m.v_he[k]
         cdef int y = start
-        cdef int ny
-        self.c.refused[k] = 0
+        cdef int ny, w
+        refused[k] = 0
         while True:
             state[edge[y]] = ST_DIRTY
-            self.dirty_neighbour(corner[he_next(y)], state)
+            w = corner[he_next(y)]
+            if wide or refused[w]:                   # else dirty_neighbour has nothing to do
+                self.dirty_neighbour(w, state)
             ny = twin[he_prev(y)]                    # he_ring_next
             if ny < 0:
                 y = he_prev(y)
                 state[edge[y]] = ST_DIRTY
-                self.dirty_neighbour(corner[y], state)
+                w = corner[y]
+                if wide or refused[w]:
+                    self.dirty_neighbour(w, state)
                 return
             if ny == start:
                 return
