@@ -742,9 +742,12 @@ cdef class EdgeCollapser:
                                     e1[i] = B[i] - C[i]
                                     e2[i] = X[i] - C[i]
                                 cross3(e1, e2, ng)
-                                lg = sqrt(dot3(ng, ng))
-                                if new_fold(n1, len1, n0, len0, ng, lg) and not sides_of_a_sheet(N0, f, g):
-                                    return False
+                                # new_fold wants n1 . ng < FOLD_COS * len1 * lg <= 0 (FOLD_COS < 0):
+                                # never so when n1 . ng >= 0 (nor NaN), the common case: no lg needed
+                                if dot3(n1, ng) < 0.0:
+                                    lg = sqrt(dot3(ng, ng))
+                                    if new_fold(n1, len1, n0, len0, ng, lg) and not sides_of_a_sheet(N0, f, g):
+                                        return False
                         if (prev_ok > 0.0 and folds(n1, len1, prev_n1, prev_ok)
                                 and not sides_of_a_sheet(N0, f, prev_f)):
                             return False

@@ -135,15 +135,15 @@ cdef class HalfEdgeMesh:
         cdef int v = self.dest(h)
         cdef int su = self.source(u)
         cdef int sv = self.source(v)
-        cdef int common, x
+        cdef int common, x, valence_u0
         cdef int expected = self._link_expected(h)
         if expected < 0:
             return False
         if not self.has_copies:
             # no split copies: the scratch-free count, which threads may run at once
-            common = self._count_common_local(u, v)
+            common = self._count_common_local(u, v, &valence_u0)
             if common >= 0:
-                return self._link_tail(h, common, expected, -1)
+                return self._link_tail(h, common, expected, valence_u0)
         self.stamp_counter += 1
         if self.stamp_counter == 0x7fffffff:
             self.stamp[:] = 0
@@ -197,11 +197,12 @@ cdef class HalfEdgeMesh:
                 return False    # the two ends and their common neighbours form a tetrahedron
         return True
 
-    cdef int _count_common_local(self, int u, int v) noexcept nogil:
+    cdef int _count_common_local(self, int u, int v, int* valence_u) noexcept nogil:
         """The neighbours of u that are also neighbours of v (u, v themselves not counted,
         each once), without the shared stamp array, so threads can ask at once; -1 when u has
         more than MAX_VALENCE neighbours (then the stamps count).  Slots are vertices here
-        (no split copies)."""
+        (no split copies).  ``valence_u`` gets u's valence (its ring's length, as
+        ``valence``), which the tetrahedron test would otherwise walk again."""
         cdef int ring[MAX_VALENCE + 1]
         cdef int n = 0, common = 0, nx
         cdef int start = self.c.v_he[u]
@@ -219,6 +220,7 @@ cdef class HalfEdgeMesh:
             x = nx
             if x == start:
                 break
+        valence_u[0] = n
         start = self.c.v_he[v]
         x = start
         while True:
