@@ -482,6 +482,18 @@ _RELAX_TURN = 30.0
 _RELAX_QUALITY = 0.3
 
 
+def _new_interior_points(F: np.ndarray, n: int, n0: int, nX: int):
+    """(movable, edges): which of the n slots are new interior points -- slots n0 .. n0 + nX
+    - 1 not on a boundary edge of ``F`` (those were placed along it and stay) -- and F's
+    half-edges as sorted vertex pairs ((3 m, 2), one row per face corner)."""
+    movable = np.zeros(n, dtype=bool)
+    movable[n0:n0 + nX] = True
+    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    uniq, count = np.unique(e, axis=0, return_counts=True)
+    movable[uniq[count == 1].reshape(-1)] = False
+    return movable, e
+
+
 def _relax(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, rounds: int) -> int:
     """Tangential relaxation of the new interior points (slots n0 .. n0 + nX - 1) of the
     re-tiled faces ``F``, in place in ``P2``; their closest input faces and barycentric
@@ -493,12 +505,7 @@ def _relax(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, rounds: int) 
     and old vertices stay.  Returns the moves kept."""
     F = np.asarray(F, dtype=np.int64)
     n = P2.shape[0]
-    movable = np.zeros(n, dtype=bool)
-    movable[n0:n0 + nX] = True
-    # points on a boundary edge stay (they were placed along it)
-    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    uniq, count = np.unique(e, axis=0, return_counts=True)
-    movable[uniq[count == 1].reshape(-1)] = False
+    movable, _ = _new_interior_points(F, n, n0, nX)
     if not movable.any():
         return 0
     corners = F.reshape(-1)
@@ -568,11 +575,7 @@ def _fit_normal(P2, F, n0: int, nX: int, surf, normals0, rounds: int) -> int:
     _RELAX_QUALITY that was above it is undone.  Returns the vertices moved."""
     F = np.asarray(F, dtype=np.int64)
     n = P2.shape[0]
-    movable = np.zeros(n, dtype=bool)
-    movable[n0:n0 + nX] = True
-    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    uniq, count = np.unique(e, axis=0, return_counts=True)
-    movable[uniq[count == 1].reshape(-1)] = False            # boundary points stay
+    movable, e = _new_interior_points(F, n, n0, nX)
     idx = np.flatnonzero(movable & np.isin(np.arange(n), F))
     if idx.size == 0 or rounds < 1:
         return 0
