@@ -774,9 +774,36 @@ cdef int count_fans(const int* twin, const int* first, const int* out_he, int v,
                     int* first_start) noexcept nogil:
     """How many fans (edge-connected runs of faces) meet at ``v``, found in the order of
     its outgoing half-edges; ``first_start`` gets the first fan's first half-edge (-1:
-    no face).  Marks v's outgoing half-edges in ``seen`` (they are v's alone)."""
+    no face).  One walk round the first fan; when it holds all of v's outgoing
+    half-edges (a manifold vertex: nearly all of them) that is the answer.  Otherwise
+    the fans are walked in turn, v's outgoing half-edges marked in ``seen`` (they are
+    v's alone: cleared here first)."""
     cdef int s, h, start, t, nf = 0
+    cdef int deg = first[v + 1] - first[v]
     first_start[0] = -1
+    if deg == 0:
+        return 0
+    # walk back from v's first outgoing half-edge to a border (or round to it), counting
+    h = out_he[first[v]]
+    start = h
+    nf = 1
+    while twin[start] >= 0:
+        t = he_next(twin[start])
+        if t == h:
+            break
+        start = t
+        nf += 1
+    if twin[start] < 0:
+        t = twin[he_prev(h)]          # an open fan: on forward from h to its end
+        while t >= 0:
+            nf += 1
+            t = twin[he_prev(t)]
+    if nf == deg:
+        first_start[0] = start
+        return 1
+    nf = 0
+    for s in range(first[v], first[v + 1]):
+        seen[out_he[s]] = 0
     for s in range(first[v], first[v + 1]):
         h = out_he[s]
         if seen[h]:
@@ -830,7 +857,7 @@ def build(faces, int n_vertices, int threads=1, bint take=False):
     cdef int[::1] vstart = np.empty(n, dtype=np.intc)
     cdef int[::1] nfans = np.empty(n, dtype=np.intc)
     cdef long long[:, ::1] buf
-    cdef int h, a, b, v, t, s, bad_h = -1, maxdeg = 0, n_edges = 0, n_nm = 0, acc, size
+    cdef int h, a, b, c, f, v, t, s, bad_h = -1, maxdeg = 0, n_edges = 0, n_nm = 0, acc, size
     cdef int n_new, k, start, fan_vertex, n_extra = 0
     with nogil:
         # ---- outgoing half-edges by vertex (CSR: out_he[first[v]:first[v + 1]], h ascending)
@@ -873,11 +900,14 @@ def build(faces, int n_vertices, int threads=1, bint take=False):
             n_edges_at[v] = acc
             acc += size
         n_edges = acc
-        for h in prange(H, num_threads=threads, schedule="static"):
-            a = corner[h]
-            b = corner[he_next(h)]
-            edge[h] += n_edges_at[a if a < b else b]
-            flags[h] = 0
+        # (count_fans clears the flags it uses itself: nm_vertex has been read off them)
+        for f in prange(<int>m, num_threads=threads, schedule="static"):
+            a = corner[3 * f]
+            b = corner[3 * f + 1]
+            c = corner[3 * f + 2]
+            edge[3 * f] += n_edges_at[a if a < b else b]
+            edge[3 * f + 1] += n_edges_at[b if b < c else c]
+            edge[3 * f + 2] += n_edges_at[c if c < a else a]
         for v in prange(n, num_threads=threads, schedule="static", chunksize=4096):
             nfans[v] = count_fans(&twin[0], &first[0], &out_he[0], v, &flags[0], &vstart[v])
         for v in range(n):
@@ -887,7 +917,6 @@ def build(faces, int n_vertices, int threads=1, bint take=False):
     #      of v's outgoing half-edges) gets a new slot, numbered in the order of v
     cdef int[::1] source = np.arange(n + n_extra, dtype=np.intc)
     cdef int[::1] vhe
-    cdef unsigned char[::1] multi = (np.asarray(nfans) > 1).astype(np.uint8)
     if n_extra == 0:
         vhe = vstart
     else:
@@ -943,13 +972,21 @@ def build(faces, int n_vertices, int threads=1, bint take=False):
     hm.has_copies = n_new > n
     if hm.has_copies:
         hm.vertex_source = src
-    bad = np.asarray(nm_vertex).astype(bool) | np.asarray(multi).astype(bool)
-    hm.locked = bad[src].astype(np.uint8)
+    # locked: a vertex on a non-manifold edge or with several fans, and every copy (made
+    # for a vertex with several fans); alive: a vertex no face uses has no half-edge, it is
+    # not part of the surface
+    cdef unsigned char[::1] locked = np.empty(n_new, dtype=np.uint8)
+    cdef unsigned char[::1] vertex_alive = np.empty(n_new, dtype=np.uint8)
+    cdef int n_alive = 0
+    with nogil:
+        for v in range(n_new):
+            locked[v] = 1 if v >= n or nm_vertex[v] or nfans[v] > 1 else 0
+            vertex_alive[v] = vhe[v] >= 0
+            n_alive += vertex_alive[v]
+    hm.locked = locked
     hm.face_alive = np.ones(m, dtype=np.uint8)
-    # a vertex no face uses has no half-edge: it is not part of the surface
-    vertex_alive = (np.asarray(vhe) >= 0).astype(np.uint8)
     hm.vertex_alive = vertex_alive
-    hm.n_alive_vertices = int(vertex_alive.sum())
+    hm.n_alive_vertices = n_alive
     hm.edge_alive = np.ones(n_edges, dtype=np.uint8)
     hm.stamp = np.zeros(n_new, dtype=np.intc)
     # copies of one input vertex form a cycle through next_copy (-1: no copies)
