@@ -215,19 +215,28 @@ cdef class EdgeCollapser:
         self.face_n0 = np.zeros(3 * m, dtype=np.int16)
         self.N0 = &self.face_n0[0] if m else NULL
         cdef double[::1] vol6 = np.empty(min(m, VOLUME_RUN) if closed else 1, dtype=np.float64)
+        # the loops read locals: a store through ``self`` would make the compiler load
+        # self.m, self.N0 and self.P again for every face (and face_volume6 is a method call)
+        cdef const HEArrays* he = self.m
+        cdef short* N0 = self.N0
+        cdef const double* P = self.P
+        cdef double* V = &vol6[0]
+        cdef double total = 0.0
         lo = 0
         with nogil:
             while lo < m:
                 hi = min(lo + <int>VOLUME_RUN, m)
                 for f in prange(lo, hi, num_threads=threads, schedule="static"):
-                    face_normal16(self.m, rows, f, &self.N0[3 * f])
+                    face_normal16(he, rows, f, &N0[3 * f])
                     if closed:
-                        vol6[f - lo] = self.face_volume6(f)
+                        V[f - lo] = face_volume(&P[VSTRIDE * he.corner[3 * f]], &P[VSTRIDE * he.corner[3 * f + 1]],
+                                                &P[VSTRIDE * he.corner[3 * f + 2]])
                 if closed:
                     for f in range(lo, hi):
-                        if self.m.face_alive[f]:
-                            self.closed_volume += vol6[f - lo]
+                        if he.face_alive[f]:
+                            total += V[f - lo]
                 lo = hi
+        self.closed_volume += total
 
     cdef int n_candidates(self):
         """The heap's capacity: one candidate per edge."""
