@@ -27,6 +27,7 @@ from ._core.halfedge import (
     faces_by_first_slot,
     morton_permutation,
     normalised_positions,
+    used_vertices,
 )
 from .errors import MeshError
 from .geometry import box_diagonal
@@ -106,8 +107,7 @@ def prepare(mesh: Mesh, *, memory_order: bool = False, threads: int = 1, width: 
     else:
         input_face = np.arange(faces.shape[0], dtype=np.int32)
     del degenerate
-    used = np.zeros(mesh.n_vertices, dtype=bool)
-    used[faces.reshape(-1)] = True
+    used = used_vertices(faces, mesh.n_vertices)
     input_vertex = np.flatnonzero(used).astype(np.int32)
     del used
     if input_vertex.size == mesh.n_vertices:
@@ -132,9 +132,10 @@ def prepare(mesh: Mesh, *, memory_order: bool = False, threads: int = 1, width: 
         perm = morton_permutation(mesh.vertices, input_vertex, (lo, hi), threads)
         slot_of = np.empty_like(perm)
         slot_of[perm] = np.arange(perm.size, dtype=np.int32)
-        input_vertex = input_vertex[perm]
+        # (an arange taken through a permutation is the permutation: no gather)
+        input_vertex = perm if input_vertex.size == mesh.n_vertices else input_vertex[perm]
         compact, by_first = faces_by_first_slot(compact, int(input_vertex.size), True, slot_of, threads)
-        input_face = input_face[by_first]
+        input_face = by_first if not n_degenerate else input_face[by_first]
         del perm, slot_of, by_first
     # compact is ours to hand over unless it is still the caller's face array
     hm = build(compact, int(input_vertex.size), threads, take=compact is not mesh.faces)
@@ -460,7 +461,7 @@ def extract(work: Work, run: Run):
     slot_to_out[slots] = inverse.reshape(-1)
     out_faces = slot_to_out[faces_slots].astype(np.int32)
     rep = slots[first]
-    verts = src.vertices[vertex_map].copy()
+    verts = src.vertices[vertex_map]             # (a gather: a new array)
     if run.moved is not None:
         moved = run.moved[rep]
         verts[moved] = run.positions[rep[moved]] * prep.scale + prep.center

@@ -1245,6 +1245,26 @@ def faces_by_first_slot(faces, int n_vertices, bint reorder=False, remap=None, i
     return ordered, out
 
 
+def used_vertices(faces, int n_vertices):
+    """(n_vertices,) bool: which vertices (m, 3) ``faces`` use (``used[faces] = True``
+    without numpy's fancy-index machinery); ValueError for an index outside."""
+    cdef const int[::1] F = np.ascontiguousarray(faces, dtype=np.intc).reshape(-1)
+    used = np.zeros(n_vertices, dtype=bool)
+    cdef unsigned char[::1] U = used.view(np.uint8)
+    cdef Py_ssize_t i, bad = -1
+    cdef int a
+    with nogil:
+        for i in range(F.shape[0]):
+            a = F[i]
+            if <unsigned int>a >= <unsigned int>n_vertices:
+                bad = i
+                break
+            U[a] = 1
+    if bad >= 0:
+        raise ValueError(f"face {bad // 3} has a vertex index outside 0..{n_vertices - 1}")
+    return used
+
+
 def bounding_box(points, index=None):
     """(lo, hi): the corners of the bounding box of (n, 3) ``points`` (or of
     ``points[index]``, without the copy), n >= 1."""
