@@ -166,6 +166,7 @@ class Work:
     pair_report: dict | None = None
     welded_faces: np.ndarray | None = None   # after pair contraction / pruning: input face of each face
     prune_report: dict | None = None
+    normals: np.ndarray | None = None   # (3 m,) int16 input face normals for the edge collapser, or None
 
     @property
     def positions(self) -> np.ndarray:
@@ -174,13 +175,16 @@ class Work:
 
 
 def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolute: bool = False,
-          fix_seams: bool = False, memory_order: bool = False, prune: float | None = None) -> Work:
+          fix_seams: bool = False, memory_order: bool = False, prune: float | None = None,
+          input_normals: bool = False) -> Work:
     """Everything before the metrics: pair contraction (when ``pair_threshold`` is given),
     :func:`prepare`, the fixed vertices (non-manifold copies, ``locked``, the boundary
     under "lock", attribute seam copies that stay -- every seam copy with ``fix_seams``, for
     a driver that cannot keep a seam closed), the attribute block and the vertex rows with
     the plain face quadrics (they place the vertex and measure the error when no quadric
-    metric is given)."""
+    metric is given).  ``input_normals``: also the input faces' int16 unit normals (the
+    edge collapser's; made from the face planes the quadrics need anyway, not in a face
+    pass of the collapser's own)."""
     input_faces, pair_report, welded_faces = src.n_faces, None, None
     if pair_threshold is not None:
         src, welded_faces, pair_report = contract_pairs(
@@ -205,7 +209,8 @@ def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolu
     attributes = np.concatenate([arr[prep.input_vertex] for arr in attrs.values()], axis=1) if attrs else None
     vdata = prep.rows                            # the positions are in place; the quadrics follow
     prep.positions = prep.rows = None
-    vertex_quadrics(hm, vdata[:, QSIZE:], 0.0, out=vdata, threads=threads)
+    normals = np.zeros(3 * hm.n_faces, dtype=np.int16) if input_normals else None
+    vertex_quadrics(hm, vdata[:, QSIZE:], 0.0, out=vdata, threads=threads, normals=normals)
     n_seam_fixed = 0
     seams = seam_partners(src, prep, fixed)
     if settings["boundary"][0] == "lock":
@@ -216,7 +221,7 @@ def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolu
         fixed |= stays
         n_seam_fixed = int(np.count_nonzero(stays))
     return Work(src, prep, fixed, seams, n_seam_fixed, names, layout, attributes, vdata,
-                input_faces, pair_report, welded_faces, prune_report)
+                input_faces, pair_report, welded_faces, prune_report, normals)
 
 
 #: twice a face's area at most this times its summed squared edge lengths: zero area, up to
