@@ -97,17 +97,18 @@ def prepare(mesh: Mesh, *, memory_order: bool = False, threads: int = 1, width: 
     faces = mesh.faces
     if faces.shape[0] == 0:
         raise MeshError("the mesh has no faces")
-    degenerate = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 0] == faces[:, 2])
-    n_degenerate = int(np.count_nonzero(degenerate))
+    # the used vertices (of the faces without a repeated index) and the faces with one,
+    # in one pass over the faces
+    used, n_degenerate = used_vertices(faces, mesh.n_vertices)
     if n_degenerate == faces.shape[0]:
         raise MeshError(f"all {faces.shape[0]} faces repeat a vertex index (zero area); nothing to simplify")
     if n_degenerate:
+        degenerate = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 0] == faces[:, 2])
         input_face = np.flatnonzero(~degenerate).astype(np.int32)
         faces = faces[input_face]
+        del degenerate
     else:
         input_face = np.arange(faces.shape[0], dtype=np.int32)
-    del degenerate
-    used = used_vertices(faces, mesh.n_vertices)
     input_vertex = np.flatnonzero(used).astype(np.int32)
     del used
     if input_vertex.size == mesh.n_vertices:

@@ -717,13 +717,15 @@ cdef int pair_at(const int* corner, const int* first, const int* out_he, int v, 
     ``nm_he`` and counted in ``n_nm``).  Writes ``local``: the edge's number among v's, in
     (w, h) order; returns how many edges v has."""
     cdef int k = 0, s, h, p, w, i, j, t, x0, x1, ne = 0
+    cdef unsigned int r
     for s in range(first[v], first[v + 1]):
         h = out_he[s]
-        w = corner[he_next(h)]
+        r = <unsigned int>h % 3               # (one unsigned remainder for next and prev)
+        w = corner[h + 1 if r != 2 else h - 2]
         if w > v:
             buf[k] = (<long long>w << 32) | h
             k += 1
-        p = he_prev(h)
+        p = h - 1 if r != 0 else h + 2
         w = corner[p]
         if w > v:
             buf[k] = (<long long>w << 32) | p
@@ -1032,12 +1034,18 @@ def triangulation_ok(triangles, int k, bint closed):
 def count_face_components(HalfEdgeMesh hm):
     """Number of components of the live faces, faces joined across twin half-edges."""
     cdef int m = hm.n_faces
-    cdef unsigned char[::1] seen = np.zeros(max(m, 1), dtype=np.uint8)
-    cdef int[::1] stack = np.empty(max(m, 1), dtype=np.intc)
+    cdef unsigned char[::1] seen_a = np.zeros(max(m, 1), dtype=np.uint8)
+    cdef int[::1] stack_a = np.empty(max(m, 1), dtype=np.intc)
+    # raw pointers in locals: a byte store may alias anything, so loads through ``hm`` or a
+    # memoryview would be made again after every mark
+    cdef unsigned char* seen = &seen_a[0]
+    cdef int* stack = &stack_a[0]
+    cdef const int* twin = hm.c.twin
+    cdef const unsigned char* alive = hm.c.face_alive
     cdef int f, g, top, i, t, n_comp = 0
     with nogil:
         for f in range(m):
-            if seen[f] or not hm.c.face_alive[f]:
+            if seen[f] or not alive[f]:
                 continue
             n_comp += 1
             seen[f] = 1
@@ -1047,11 +1055,13 @@ def count_face_components(HalfEdgeMesh hm):
                 top -= 1
                 g = stack[top]
                 for i in range(3):
-                    t = hm.c.twin[3 * g + i]
-                    if t >= 0 and not seen[t // 3]:
-                        seen[t // 3] = 1
-                        stack[top] = t // 3
-                        top += 1
+                    t = twin[3 * g + i]
+                    if t >= 0:
+                        t = <int>(<unsigned int>t // 3)
+                        if not seen[t]:
+                            seen[t] = 1
+                            stack[top] = t
+                            top += 1
     return n_comp
 
 
@@ -1246,23 +1256,34 @@ def faces_by_first_slot(faces, int n_vertices, bint reorder=False, remap=None, i
 
 
 def used_vertices(faces, int n_vertices):
-    """(n_vertices,) bool: which vertices (m, 3) ``faces`` use (``used[faces] = True``
-    without numpy's fancy-index machinery); ValueError for an index outside."""
-    cdef const int[::1] F = np.ascontiguousarray(faces, dtype=np.intc).reshape(-1)
+    """(used, n_degenerate): ``used`` (n_vertices,) bool, which vertices the faces of (m, 3)
+    ``faces`` without a repeated index use (``used[faces[ok]] = True`` without numpy's
+    temporaries and fancy-index machinery), ``n_degenerate`` how many faces repeat an
+    index; ValueError for an index outside."""
+    cdef const int[:, ::1] F = np.ascontiguousarray(faces, dtype=np.intc).reshape(-1, 3)
     used = np.zeros(n_vertices, dtype=bool)
-    cdef unsigned char[::1] U = used.view(np.uint8)
-    cdef Py_ssize_t i, bad = -1
-    cdef int a
+    cdef unsigned char* U = <unsigned char*>cnp.PyArray_DATA(used)
+    cdef const int* G = &F[0, 0] if F.shape[0] else NULL
+    cdef Py_ssize_t f, bad = -1, n_degenerate = 0
+    cdef int a, b, c
+    cdef unsigned int n = <unsigned int>n_vertices
     with nogil:
-        for i in range(F.shape[0]):
-            a = F[i]
-            if <unsigned int>a >= <unsigned int>n_vertices:
-                bad = i
+        for f in range(F.shape[0]):
+            a = G[3 * f]
+            b = G[3 * f + 1]
+            c = G[3 * f + 2]
+            if <unsigned int>a >= n or <unsigned int>b >= n or <unsigned int>c >= n:
+                bad = f
                 break
+            if a == b or b == c or a == c:
+                n_degenerate += 1
+                continue
             U[a] = 1
+            U[b] = 1
+            U[c] = 1
     if bad >= 0:
-        raise ValueError(f"face {bad // 3} has a vertex index outside 0..{n_vertices - 1}")
-    return used
+        raise ValueError(f"face {bad} has a vertex index outside 0..{n_vertices - 1}")
+    return used, n_degenerate
 
 
 def bounding_box(points, index=None):
