@@ -113,7 +113,7 @@ cdef class EdgeCollapser:
                  double quadric_weight=1.0, double error_scale=1.0,
                  vertex_fields=None, vertex_rules=None, edge_fields=None, edge_rules=None,
                  kernels=(), bint use_heap=True, attribute_quadrics=None, attribute_columns=None,
-                 steps=None, seam_partners=None, error_bound=None, int threads=1):
+                 steps=None, seam_partners=None, error_bound=None, int threads=1, input_normals=None):
         cdef int n = hm.n_vertices
         self.hm = hm
         # One row per vertex: the quadric (11 doubles) then the position (3), so that a
@@ -174,7 +174,7 @@ cdef class EdgeCollapser:
         self.closed_volume = 0.0
         self.Q = &self.vdata[0, 0] if n else NULL
         self.P = &self.vdata[0, QSIZE] if n else NULL
-        self._input_faces(threads, closed_connected and n and hm.n_faces)
+        self._input_faces(threads, closed_connected and n and hm.n_faces, input_normals)
         cdef int v
         with nogil:
             for v in prange(n, num_threads=threads, schedule="static"):
@@ -200,9 +200,11 @@ cdef class EdgeCollapser:
             with nogil:
                 self.rescan()
 
-    def _input_faces(self, int threads, bint closed):
+    def _input_faces(self, int threads, bint closed, normals=None):
         """``face_n0``, the unit normals of the input faces (the checks measure turns from
-        them) and, when ``closed``, ``closed_volume``: one pass over the faces on
+        them; ``normals``: the (3 m,) int16 array ``vertex_quadrics(normals=)`` filled from
+        the positions as they are, taken as it is) and, when ``closed``, ``closed_volume``:
+        one pass over the faces on
         ``threads`` (each face loads its corners once for both), the volumes then summed in
         face order (one sum: the same bits for any number of threads).  The faces go in
         runs of VOLUME_RUN, so that the volumes need a small buffer, not 8 bytes a face
@@ -212,22 +214,40 @@ cdef class EdgeCollapser:
         cdef Rows rows
         rows.p = self.P
         rows.s = VSTRIDE
-        self.face_n0 = np.zeros(3 * m, dtype=np.int16)
+        cdef bint given = normals is not None
+        if given:
+            if not (isinstance(normals, np.ndarray) and normals.dtype == np.int16 and normals.shape == (3 * m,)):
+                raise ValueError(f"input_normals must be a ({3 * m},) int16 array")
+            self.face_n0 = normals
+        else:
+            self.face_n0 = np.zeros(3 * m, dtype=np.int16)
         self.N0 = &self.face_n0[0] if m else NULL
         cdef double[::1] vol6 = np.empty(min(m, VOLUME_RUN) if closed else 1, dtype=np.float64)
+        # the loops read locals: a store through ``self`` would make the compiler load
+        # self.m, self.N0 and self.P again for every face (and face_volume6 is a method call)
+        cdef const HEArrays* he = self.m
+        cdef short* N0 = self.N0
+        cdef const double* P = self.P
+        cdef double* V = &vol6[0]
+        cdef double total = 0.0
         lo = 0
+        if given and not closed:
+            return
         with nogil:
             while lo < m:
                 hi = min(lo + <int>VOLUME_RUN, m)
                 for f in prange(lo, hi, num_threads=threads, schedule="static"):
-                    face_normal16(self.m, rows, f, &self.N0[3 * f])
+                    if not given:
+                        face_normal16(he, rows, f, &N0[3 * f])
                     if closed:
-                        vol6[f - lo] = self.face_volume6(f)
+                        V[f - lo] = face_volume(&P[VSTRIDE * he.corner[3 * f]], &P[VSTRIDE * he.corner[3 * f + 1]],
+                                                &P[VSTRIDE * he.corner[3 * f + 2]])
                 if closed:
                     for f in range(lo, hi):
-                        if self.m.face_alive[f]:
-                            self.closed_volume += vol6[f - lo]
+                        if he.face_alive[f]:
+                            total += V[f - lo]
                 lo = hi
+        self.closed_volume += total
 
     cdef int n_candidates(self):
         """The heap's capacity: one candidate per edge."""
@@ -1503,7 +1523,16 @@ cdef class EdgeCollapser:
         self.heap = IndexedHeap(0)
         self.face_n0 = np.zeros(3, dtype=np.int16)
         self.N0 = &self.face_n0[0]
-        self.pos_out = np.ascontiguousarray(np.asarray(self.vdata)[:, QSIZE:])
+        # (a loop: numpy's copy of the (n, 3) columns of the (n, 14) rows took ~60
+        # instructions a row)
+        cdef Py_ssize_t n = self.vdata.shape[0], v
+        cdef int i
+        self.pos_out = np.empty((n, 3), dtype=np.float64)
+        cdef double[:, ::1] out = self.pos_out
+        with nogil:
+            for v in range(n):
+                for i in range(3):
+                    out[v, i] = self.vdata[v, QSIZE + i]
         self.vdata = np.zeros((1, VSTRIDE))
         self.Q = &self.vdata[0, 0]
         self.P = &self.vdata[0, QSIZE]
