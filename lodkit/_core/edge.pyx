@@ -1326,11 +1326,9 @@ cdef class EdgeCollapser:
         if self.bound is None or self.released:
             return 0
         cdef Bound b = self.bound
-        cdef int e, h, r, hs, k, rs, ks, j, na, n = 0
+        cdef int e, h, r, hs, k, rs, ks, n = 0
         cdef double p[3]
-        cdef double alt[9]
-        cdef double ca[3]
-        cdef double q[QSIZE]
+        cdef double ce[2]
         cdef double dv2[2]
         cdef double cost, err, dv
         cdef bint ok
@@ -1352,22 +1350,9 @@ cdef class EdgeCollapser:
                 if ok and (not b.check(h, r, k, p) or not b.check(hs, rs, ks, p)):
                     n += 1
                 continue
-            if not self.hm.link_ok(h):
-                self.bound = b
-                continue
-            ok = self.geometry_ok(h, r, k, p, -1, -1, &dv)
-            if not ok and self.end_fallback:
-                # (after simplify's last step a refused plan may go at an end or the midpoint)
-                na = self.end_points(r, k, p, alt, ca, q)
-                for j in range(na):
-                    if collapse_error(ca[j], q[10], self.opt.error_scale) > self.opt.max_error:
-                        break
-                    if self.geometry_ok(h, r, k, &alt[3 * j], -1, -1, &dv):
-                        p[0] = alt[3 * j]
-                        p[1] = alt[3 * j + 1]
-                        p[2] = alt[3 * j + 2]
-                        ok = True
-                        break
+            # the planned point, or after simplify's last step an end or the midpoint (the
+            # bound is off here, so no cost limit: place_ok's own fallback)
+            ok = self.hm.link_ok(h) and self.place_ok(h, r, k, p, ce, INFINITY, &dv)
             self.bound = b
             if ok and not b.check(h, r, k, p):
                 n += 1
