@@ -36,6 +36,16 @@ def plane(n: int = 25) -> lodkit.Mesh:
     return lodkit.Mesh(v, np.r_[np.c_[a, b, c], np.c_[a, c, d]])
 
 
+def gaussian_bump(n: int, height: float, width2: float) -> lodkit.Mesh:
+    """plane(n) with a round bump in the middle: z = height * exp(-r^2 / width2), r the
+    distance to (0.5, 0.5)."""
+    src = plane(n)
+    v = src.vertices.copy()
+    r2 = (v[:, 0] - 0.5) ** 2 + (v[:, 1] - 0.5) ** 2
+    v[:, 2] = height * np.exp(-r2 / width2)
+    return lodkit.Mesh(v, src.faces)
+
+
 def sphere() -> lodkit.Mesh:
     return o3d_mesh(o3d.geometry.TriangleMesh.create_sphere(1.0, 16))
 
@@ -128,11 +138,7 @@ def test_plane_corners_kept():
 
 def test_adaptive_density_puts_more_points_where_it_curves():
     # a plane with a round bump in the middle: curved there, flat elsewhere
-    src = plane(40)
-    v = src.vertices.copy()
-    r2 = (v[:, 0] - 0.5) ** 2 + (v[:, 1] - 0.5) ** 2
-    v[:, 2] = 0.15 * np.exp(-r2 / 0.01)
-    src = lodkit.Mesh(v, src.faces)
+    src = gaussian_bump(40, 0.15, 0.01)
     flat = retile(src, 200, adapt=0.0)
     curved = retile(src, 200, adapt=4.0)
 
@@ -144,11 +150,7 @@ def test_adaptive_density_puts_more_points_where_it_curves():
 
 def test_equalize_density_follows_curvature_and_stays_on_the_surface():
     # the same bump: equalize puts more points on it than uniform density, all on the surface
-    src = plane(40)
-    v = src.vertices.copy()
-    r2 = (v[:, 0] - 0.5) ** 2 + (v[:, 1] - 0.5) ** 2
-    v[:, 2] = 0.15 * np.exp(-r2 / 0.01)
-    src = lodkit.Mesh(v, src.faces)
+    src = gaussian_bump(40, 0.15, 0.01)
     flat = retile(src, 200)
     eq = retile(src, 200, equalize=True)
     assert np.count_nonzero(eq.mesh.vertices[:, 2] > 0.02) > 1.3 * np.count_nonzero(flat.mesh.vertices[:, 2] > 0.02)
@@ -164,11 +166,7 @@ def test_equalize_density_follows_curvature_and_stays_on_the_surface():
 def test_refine_lowers_the_hausdorff_error_of_a_sharp_bump():
     # a plane with a narrow, tall bump: uniform points cut its top; the error-driven passes
     # move points there, and the pass kept has the smallest error of those measured
-    src = plane(60)
-    v = src.vertices.copy()
-    r2 = (v[:, 0] - 0.5) ** 2 + (v[:, 1] - 0.5) ** 2
-    v[:, 2] = 0.2 * np.exp(-r2 / 0.002)
-    src = lodkit.Mesh(v, src.faces)
+    src = gaussian_bump(60, 0.2, 0.002)
     plain = retile(src, 150)
     ref = retile(src, 150, refine=2)
     h_plain = lodkit.evaluate(src, plain.mesh, samples=20000).distance.hausdorff
