@@ -8,7 +8,8 @@ count n_q; then
 
 * retile to n_q vertices (adapt 0; adapt 2 for the curvature-adaptive density; equalize for
   the density proportional to curvature; features=40 for crease lines kept; refine=3 for
-  the error-driven density);
+  the error-driven density; features=40 with refine=3 for CAD parts; fit=4, lodkit's addition,
+  the vertices moved along their normals to straddle the input);
 * optimize with the QEM result as its start and ``n_vertices=n_q`` (the same count, kept
   within 1% by annealing c_rep): both "lower error than QEM at the same count" and "as a
   post-process it lowers QEM's error" are read off this one run.
@@ -47,6 +48,11 @@ from lodkit.retile import retile  # noqa: E402
 
 MESHES = {"bunny": "bunny.ply", "igea": "igea.ply", "fandisk": "fandisk.obj", "cow": "cow.obj"}
 SAMPLES = 100_000
+# retile rows: (label, adapt, features, equalize, refine, fit)
+VARIANTS = (("retile", 0.0, None, False, 0, 0), ("retile_adapt2", 2.0, None, False, 0, 0),
+            ("retile_equalize", 0.0, None, True, 0, 0), ("retile_features40", 0.0, 40.0, False, 0, 0),
+            ("retile_refine3", 0.0, None, False, 3, 0), ("retile_features40_refine3", 0.0, 40.0, False, 3, 0),
+            ("retile_refine3_fit4", 0.0, None, False, 3, 4), ("retile_features40_refine3_fit4", 0.0, 40.0, False, 3, 4))
 
 
 def measure(src, out, seconds, t_in) -> dict:
@@ -71,8 +77,7 @@ def main(argv=None) -> int:
                     help="which of retile, optimize to run (QEM always runs; rows of the others already "
                          "in --out are kept)")
     ap.add_argument("--variants", default="",
-                    help="comma-separated retile rows to run (retile, retile_adapt2, retile_equalize, "
-                         "retile_features40, retile_refine3); default all")
+                    help="comma-separated retile rows to run (" + ", ".join(v[0] for v in VARIANTS) + "); default all")
     ap.add_argument("--out", default=str(HERE / "results" / "global_methods.json"))
     args = ap.parse_args(argv)
     names = args.mesh or list(MESHES)
@@ -97,15 +102,12 @@ def main(argv=None) -> int:
             qem = lodkit.simplify(src, target_faces=max(4, int(round(2 * f * src.n_vertices))))
             row["qem"] = measure(src, qem.mesh, time.perf_counter() - t0, t_in)
             n = row["qem"]["vertices"]
-            variants = (("retile", 0.0, None, False, 0), ("retile_adapt2", 2.0, None, False, 0),
-                        ("retile_equalize", 0.0, None, True, 0), ("retile_features40", 0.0, 40.0, False, 0),
-                        ("retile_refine3", 0.0, None, False, 3))
-            for label, adapt, features, equalize, refine in variants if "retile" in methods else ():
+            for label, adapt, features, equalize, refine, fit in VARIANTS if "retile" in methods else ():
                 if args.variants and label not in args.variants.split(","):
                     continue
                 t0 = time.perf_counter()
                 try:
-                    r = retile(src, n, adapt=adapt, features=features, equalize=equalize, refine=refine)
+                    r = retile(src, n, adapt=adapt, features=features, equalize=equalize, refine=refine, fit=fit)
                 except lodkit.LodkitError as exc:       # e.g. more crease points than the budget
                     row[label] = {"error": str(exc)}
                     continue
@@ -130,8 +132,7 @@ def table(results) -> str:
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for key, row in results.items():
         q = row["qem"]
-        for label in ("qem", "retile", "retile_adapt2", "retile_equalize", "retile_features40", "retile_refine3",
-                      "optimize"):
+        for label in ("qem", *(v[0] for v in VARIANTS), "optimize"):
             r = row.get(label)
             if r is None:
                 continue

@@ -27,6 +27,7 @@ from ._core.halfedge import (
     faces_by_first_slot,
     morton_permutation,
     normalised_positions,
+    used_vertices,
 )
 from .errors import MeshError
 from .geometry import box_diagonal
@@ -96,18 +97,18 @@ def prepare(mesh: Mesh, *, memory_order: bool = False, threads: int = 1, width: 
     faces = mesh.faces
     if faces.shape[0] == 0:
         raise MeshError("the mesh has no faces")
-    degenerate = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 0] == faces[:, 2])
-    n_degenerate = int(np.count_nonzero(degenerate))
+    # the used vertices (of the faces without a repeated index) and the faces with one,
+    # in one pass over the faces
+    used, n_degenerate = used_vertices(faces, mesh.n_vertices)
     if n_degenerate == faces.shape[0]:
         raise MeshError(f"all {faces.shape[0]} faces repeat a vertex index (zero area); nothing to simplify")
     if n_degenerate:
+        degenerate = (faces[:, 0] == faces[:, 1]) | (faces[:, 1] == faces[:, 2]) | (faces[:, 0] == faces[:, 2])
         input_face = np.flatnonzero(~degenerate).astype(np.int32)
         faces = faces[input_face]
+        del degenerate
     else:
         input_face = np.arange(faces.shape[0], dtype=np.int32)
-    del degenerate
-    used = np.zeros(mesh.n_vertices, dtype=bool)
-    used[faces.reshape(-1)] = True
     input_vertex = np.flatnonzero(used).astype(np.int32)
     del used
     if input_vertex.size == mesh.n_vertices:
@@ -132,9 +133,10 @@ def prepare(mesh: Mesh, *, memory_order: bool = False, threads: int = 1, width: 
         perm = morton_permutation(mesh.vertices, input_vertex, (lo, hi), threads)
         slot_of = np.empty_like(perm)
         slot_of[perm] = np.arange(perm.size, dtype=np.int32)
-        input_vertex = input_vertex[perm]
+        # (an arange taken through a permutation is the permutation: no gather)
+        input_vertex = perm if input_vertex.size == mesh.n_vertices else input_vertex[perm]
         compact, by_first = faces_by_first_slot(compact, int(input_vertex.size), True, slot_of, threads)
-        input_face = input_face[by_first]
+        input_face = by_first if not n_degenerate else input_face[by_first]
         del perm, slot_of, by_first
     # compact is ours to hand over unless it is still the caller's face array
     hm = build(compact, int(input_vertex.size), threads, take=compact is not mesh.faces)
@@ -165,6 +167,7 @@ class Work:
     pair_report: dict | None = None
     welded_faces: np.ndarray | None = None   # after pair contraction / pruning: input face of each face
     prune_report: dict | None = None
+    normals: np.ndarray | None = None   # (3 m,) int16 input face normals for the edge collapser, or None
 
     @property
     def positions(self) -> np.ndarray:
@@ -173,13 +176,16 @@ class Work:
 
 
 def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolute: bool = False,
-          fix_seams: bool = False, memory_order: bool = False, prune: float | None = None) -> Work:
+          fix_seams: bool = False, memory_order: bool = False, prune: float | None = None,
+          input_normals: bool = False) -> Work:
     """Everything before the metrics: pair contraction (when ``pair_threshold`` is given),
     :func:`prepare`, the fixed vertices (non-manifold copies, ``locked``, the boundary
     under "lock", attribute seam copies that stay -- every seam copy with ``fix_seams``, for
     a driver that cannot keep a seam closed), the attribute block and the vertex rows with
     the plain face quadrics (they place the vertex and measure the error when no quadric
-    metric is given)."""
+    metric is given).  ``input_normals``: also the input faces' int16 unit normals (the
+    edge collapser's; made from the face planes the quadrics need anyway, not in a face
+    pass of the collapser's own)."""
     input_faces, pair_report, welded_faces = src.n_faces, None, None
     if pair_threshold is not None:
         src, welded_faces, pair_report = contract_pairs(
@@ -204,7 +210,8 @@ def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolu
     attributes = np.concatenate([arr[prep.input_vertex] for arr in attrs.values()], axis=1) if attrs else None
     vdata = prep.rows                            # the positions are in place; the quadrics follow
     prep.positions = prep.rows = None
-    vertex_quadrics(hm, vdata[:, QSIZE:], 0.0, out=vdata, threads=threads)
+    normals = np.zeros(3 * hm.n_faces, dtype=np.int16) if input_normals else None
+    vertex_quadrics(hm, vdata[:, QSIZE:], 0.0, out=vdata, threads=threads, normals=normals)
     n_seam_fixed = 0
     seams = seam_partners(src, prep, fixed)
     if settings["boundary"][0] == "lock":
@@ -215,7 +222,7 @@ def start(src: Mesh, settings: dict, *, locked=None, pair_threshold=None, absolu
         fixed |= stays
         n_seam_fixed = int(np.count_nonzero(stays))
     return Work(src, prep, fixed, seams, n_seam_fixed, names, layout, attributes, vdata,
-                input_faces, pair_report, welded_faces, prune_report)
+                input_faces, pair_report, welded_faces, prune_report, normals)
 
 
 #: twice a face's area at most this times its summed squared edge lengths: zero area, up to
@@ -460,7 +467,7 @@ def extract(work: Work, run: Run):
     slot_to_out[slots] = inverse.reshape(-1)
     out_faces = slot_to_out[faces_slots].astype(np.int32)
     rep = slots[first]
-    verts = src.vertices[vertex_map].copy()
+    verts = src.vertices[vertex_map]             # (a gather: a new array)
     if run.moved is not None:
         moved = run.moved[rep]
         verts[moved] = run.positions[rep[moved]] * prep.scale + prep.center

@@ -220,9 +220,12 @@ def simplify(
     for m in metrics:
         m.check_ready()          # options a metric cannot run without, before any work
 
+    # the pass driver (the memory order's only user) takes the input normals the quadrics' face
+    # pass makes
+    order = runner.memory_order(metrics, settings)
     work = _pipeline.start(src, settings, locked=locked, pair_threshold=pair_threshold,
                            absolute=absolute, fix_seams=runner.FIX_SEAMS,
-                           memory_order=runner.memory_order(metrics, settings), prune=prune_size)
+                           memory_order=order, prune=prune_size, input_normals=order)
     ctx = _pipeline.metric_context(work, settings)
     compiled = runner.setup(metrics, ctx, work)
     del ctx         # what the metrics keep of it they hold themselves; the rest may be freed

@@ -44,7 +44,7 @@ from .errors import MeshError, OptionError
 from .evaluate import sample_surface
 from .geometry import face_normals, triangle_quality, weld_positions
 from .mesh import Mesh, as_mesh, is_open3d
-from .retile import SurfaceProjector, crease_edges, face_twins
+from .retile import CREASE_MIN_LENGTH, SurfaceProjector, crease_edges, face_twins
 
 __all__ = ["OptimizeResult", "optimize"]
 
@@ -61,10 +61,9 @@ _GAIN = 1e-12
 #: default crease angle (degrees): fandisk's creases are 60-90 degrees; a scan's noise makes
 #: isolated edges that steep too, which the length filter drops
 DEFAULT_CREASE_ANGLE = 60.0
-# a crease network (connected crease edges) shorter than this fraction of the bbox diagonal
-# is noise (bunny's and igea's longest are 0.068 and 0.02; fandisk's one network is 8.9,
-# cow's 7 kept 0.13-0.27)
-_CREASE_MIN_LENGTH = 0.1
+# a crease network (connected crease edges) shorter than retile.CREASE_MIN_LENGTH of the bbox
+# diagonal is noise (at 60 degrees bunny's and igea's longest are 0.068 and 0.02; fandisk's
+# one network is 8.9, cow's 7 kept 0.13-0.27)
 # the weight of a crease sample's squared distance (to the sharp edges) in E
 _CREASE_WEIGHT = 1.0
 _NONE = np.zeros(0, dtype=np.int64)
@@ -221,27 +220,16 @@ def _sample_spacing(V, F, n: int) -> float:
 def crease_samples(V: np.ndarray, F: np.ndarray, angle: float, spacing: float) -> np.ndarray:
     """(k, 3) points along the creases of (V, F), about ``spacing`` apart: the edges whose two
     faces' normals differ by more than ``angle`` degrees, in connected networks at least
-    _CREASE_MIN_LENGTH (of the bbox diagonal of V) long."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
+    CREASE_MIN_LENGTH (of the bbox diagonal of V) long."""
     P, Fw = weld_positions(np.asarray(V, dtype=np.float64), np.asarray(F, dtype=np.int64))
     Fw = Fw[(Fw[:, 0] != Fw[:, 1]) & (Fw[:, 1] != Fw[:, 2]) & (Fw[:, 0] != Fw[:, 2])]
     if Fw.shape[0] < 2:
         return np.zeros((0, 3))
-    hc, a, b = crease_edges(P, Fw, face_twins(Fw), math.cos(math.radians(angle)))
+    diag = float(np.linalg.norm(P.max(axis=0) - P.min(axis=0)))
+    hc, a, b = crease_edges(P, Fw, face_twins(Fw), math.cos(math.radians(angle)), CREASE_MIN_LENGTH * diag)
     if hc.size == 0:
         return np.zeros((0, 3))
     length = np.linalg.norm(P[a] - P[b], axis=1)
-    m = P.shape[0]
-    _, comp = connected_components(coo_matrix((np.ones(a.size), (a, b)), shape=(m, m)), directed=False)
-    ecomp = comp[a]
-    total = np.bincount(ecomp, weights=length, minlength=comp.max() + 1)
-    diag = float(np.linalg.norm(P.max(axis=0) - P.min(axis=0)))
-    keep = total[ecomp] >= _CREASE_MIN_LENGTH * diag
-    a, b, length = a[keep], b[keep], length[keep]
-    if a.size == 0:
-        return np.zeros((0, 3))
     k = np.maximum(1, np.ceil(length / max(spacing, 1e-300))).astype(np.int64)
     e = np.repeat(np.arange(a.size), k)
     first = np.repeat(np.cumsum(k) - k, k)

@@ -75,6 +75,9 @@ _EQ_CAP = 99.0
 # most _REFINE_CLAMP either way.  Power 2 (right for creases, where the error ~ edge) and
 # points pinned at the largest errors were tried on bunny@2% and did not do better.
 _REFINE_POWER = 1.0
+#: crease networks (connected crease edges) shorter in total than this fraction of the bbox
+#: diagonal are not creases (retile's ``features``, optimize's crease samples)
+CREASE_MIN_LENGTH = 0.1
 _REFINE_CLAMP = 4.0
 
 
@@ -136,7 +139,7 @@ class RetileResult:
 
 def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False, iterations: int = 30,
            flip_angle: float = 25.0, corner_angle: float = 30.0, features: float | None = None, relax: int = 3,
-           refine: int = 0, seed: int = 0, progress: bool = False) -> RetileResult:
+           refine: int = 0, fit: int = 0, seed: int = 0, progress: bool = False) -> RetileResult:
     """Re-tile ``mesh`` with about ``n_vertices`` new, evenly spread vertices (Turk 1992).
 
     n_vertices : number of new vertices (>= 4); boundary loops take a share proportional
@@ -153,8 +156,9 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
     corner_angle : boundary vertices where the boundary turns by more than this (degrees)
                  are kept as they are (they count towards ``n_vertices``)
     features   : None (default), or an angle in degrees: edges whose faces' normals differ
-                 by more than it are creases; crease lines get their own points (like
-                 boundaries), their ends and sharp turns stay, and the removal keeps them
+                 by more than it are creases (in networks at least CREASE_MIN_LENGTH of the
+                 bbox diagonal long); crease lines get their own points (like boundaries, at
+                 the local spacing), their ends and sharp turns stay, and the removal keeps them
     relax      : rounds of tangential relaxation after the final flips (lodkit's addition,
                  0: Turk's steps only): each new interior point moves half-way to the
                  area-weighted centroid of its faces within its tangent plane, back onto
@@ -167,11 +171,15 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
                  points; of the ``refine + 1`` passes, the one with the smallest largest
                  error (a Hausdorff estimate) is returned (report["refine_errors"],
                  report["refine_pass"])
+    fit        : rounds (lodkit's addition, NOT Turk's method; 0: off) that move the new
+                 interior vertices along their normals so that the result straddles the
+                 input instead of lying on one side of it (at most a quarter of the mean edge
+                 length off the surface; connectivity unchanged; report["fitted"])
     seed       : the random points come from ``numpy.random.default_rng(seed)``
 
     The output keeps the input's topology: the old vertices go by vertex removal with the
     driver's link-condition and orientation checks.  Sharp creases are resampled, hence
-    blurred (docs/retile.md).  Raises MeshError for an unusable mesh, OptionError for bad
+    blurred unless ``features`` keeps them (docs/retile.md).  Raises MeshError for an unusable mesh, OptionError for bad
     options.
     """
     t0 = time.perf_counter()
@@ -180,6 +188,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
     iterations = _count("iterations", iterations, 0)
     relax = _count("relax", relax, 0)
     refine = _count("refine", refine, 0)
+    fit = _count("fit", fit, 0)
     adapt = finite_number("adapt", adapt)
     if adapt < 0:
         raise OptionError(f"adapt must be >= 0, got {adapt!r}")
@@ -230,14 +239,18 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
     from scipy.spatial import cKDTree
 
     # the boundary and crease lines, densely sampled (the same for every pass)
-    dense_tree = (cKDTree(_boundary_samples(P0, F0, loops + creases + lines, edge_len / 8.0))
+    dense_tree = (cKDTree(_boundary_samples(P0, F0, loops + creases + lines, edge_len / 32.0))
                   if loops or creases or lines else None)
     errors = []
     best = None
     for pass_ in range(refine + 1):
         if pass_:
             t = time.perf_counter()
-        B, bface, bw, kept, bh, bt = _boundary_points(P0, F0, loops + creases, edge_len, rng, corner_angle, lines)
+        # the lines get the local target spacing, edge_len / sqrt(weight), of the denser side
+        hscale = np.sqrt(np.maximum(weight[np.arange(twins0.size) // 3],
+                                    np.where(twins0 >= 0, weight[np.maximum(twins0, 0) // 3], 0.0)))
+        B, bface, bw, kept, bh, bt = _boundary_points(P0, F0, loops + creases, edge_len, rng, corner_angle, lines,
+                                                      hscale)
         n_inner = n_vertices - B.shape[0] - kept.size
         if n_inner < 1:
             raise OptionError(f"n_vertices={n_vertices} is too few: the boundary loops"
@@ -254,7 +267,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
         t = time.perf_counter()
 
         r_face = _RADIUS * 2.0 * np.sqrt(wsum / (math.pi * n_vertices * weight))
-        rb = np.full(B.shape[0], edge_len)
+        rb = edge_len / hscale[bh] if B.shape[0] else np.zeros(0)      # the local spacing
         nb = normals0[bface] if B.shape[0] else np.zeros((0, 3))
         bar = Progress(iterations, enabled=progress)
         for it in range(iterations):
@@ -292,7 +305,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
         # it would make slivers with the boundary points, so it goes
         n_dropped = 0
         if dense_tree is not None and n_inner:
-            near = dense_tree.query(X)[0] < _BOUNDARY_GAP * edge_len
+            near = dense_tree.query(X)[0] < _BOUNDARY_GAP * edge_len / np.sqrt(weight[face])
             n_dropped = int(np.count_nonzero(near))
             if n_dropped:
                 X, face, w = X[~near], face[~near], w[~near]
@@ -300,7 +313,11 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
         # two points left almost on top of each other (across a fold the repulsion did not see)
         if n_inner > 1:
             Q = np.concatenate([X, B])
-            pairs = cKDTree(Q).query_pairs(_MIN_GAP * edge_len, output_type="ndarray")
+            gap = _MIN_GAP * edge_len / np.sqrt(np.concatenate([weight[face], weight[bface]]))
+            pairs = cKDTree(Q).query_pairs(float(gap.max()), output_type="ndarray")
+            if pairs.size:
+                pairs = pairs[np.linalg.norm(Q[pairs[:, 0]] - Q[pairs[:, 1]], axis=1)
+                              < np.minimum(gap[pairs[:, 0]], gap[pairs[:, 1]])]
             drop = np.zeros(Q.shape[0], dtype=bool)
             for i, j in pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))] if pairs.size else ():
                 if not drop[i] and not drop[j]:
@@ -337,9 +354,10 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
         fixed[n0:] = 1
         fixed[kept] = 1                                                    # boundary corners stay
         fixed[:n0][np.asarray(hm.locked_vertices, dtype=bool)[:n0]] = 1     # non-manifold copies stay
-        kernel = kern.RetileKernel(-2.0 if features is None else math.cos(math.radians(features)))
+        # (no crease network long enough: no creases for the kernel and the flips either)
+        kernel = kern.RetileKernel(math.cos(math.radians(features)) if lines or creases else -2.0)
         crease_vertex = None
-        if features is not None:
+        if lines or creases:
             crease_vertex = np.zeros(n0 + n_new, dtype=np.uint8)
             crease_vertex[n0 + nX + np.flatnonzero(on)] = 1
             crease_vertex[np.unique(F0.reshape(-1)[np.concatenate(lines + creases)])
@@ -400,6 +418,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
         (_, kept_pass, P2, F, n_new, nX, all_face, all_w, B, kept, on, n_dropped, removals, held,
          n_collapsed, flips, relaxed, n_old_kept) = best
     t = time.perf_counter()
+    fitted = _fit_normal(P2, F, n0, nX, surf, normals0, fit) if fit and nX else 0
     used = np.zeros(n0 + n_new, dtype=bool)
     used[F.reshape(-1)] = True
     # old vertices: one output vertex per input vertex (split copies weld back)
@@ -450,6 +469,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
             "relaxed_moves": relaxed,
             "refine_errors": errors,
             "refine_pass": kept_pass if refine else 0,
+            "fitted": fitted,
             "times": times,
         },
     )
@@ -460,6 +480,18 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
 #: many degrees, or end below this quality while it was better before
 _RELAX_TURN = 30.0
 _RELAX_QUALITY = 0.3
+
+
+def _new_interior_points(F: np.ndarray, n: int, n0: int, nX: int):
+    """(movable, edges): which of the n slots are new interior points -- slots n0 .. n0 + nX
+    - 1 not on a boundary edge of ``F`` (those were placed along it and stay) -- and F's
+    half-edges as sorted vertex pairs ((3 m, 2), one row per face corner)."""
+    movable = np.zeros(n, dtype=bool)
+    movable[n0:n0 + nX] = True
+    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    uniq, count = np.unique(e, axis=0, return_counts=True)
+    movable[uniq[count == 1].reshape(-1)] = False
+    return movable, e
 
 
 def _relax(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, rounds: int) -> int:
@@ -473,12 +505,7 @@ def _relax(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, rounds: int) 
     and old vertices stay.  Returns the moves kept."""
     F = np.asarray(F, dtype=np.int64)
     n = P2.shape[0]
-    movable = np.zeros(n, dtype=bool)
-    movable[n0:n0 + nX] = True
-    # points on a boundary edge stay (they were placed along it)
-    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    uniq, count = np.unique(e, axis=0, return_counts=True)
-    movable[uniq[count == 1].reshape(-1)] = False
+    movable, _ = _new_interior_points(F, n, n0, nX)
     if not movable.any():
         return 0
     corners = F.reshape(-1)
@@ -530,6 +557,91 @@ def _relax(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, rounds: int) 
         all_w[rows] = w[keep]
         kept_moves += int(np.count_nonzero(keep))
     return kept_moves
+
+
+#: fit: a vertex moves by at most this fraction of its mean edge length in all
+_FIT_MAX = 0.25
+
+
+def _fit_normal(P2, F, n0: int, nX: int, surf, normals0, rounds: int) -> int:
+    """``fit`` (lodkit's addition, not Turk's): ``rounds`` rounds that move each new interior
+    point (slots n0 .. n0 + nX - 1 of ``P2``, in place) along its vertex normal so that the
+    re-tiling straddles the input instead of lying on one side of it.  The signed distances
+    (output minus input, along the input's normal) of the samples on a vertex's faces --
+    their centroids and edge midpoints to the input, the input's vertices to them -- span
+    [lo, hi]; the vertex moves by -(lo + hi) / 4 (half-way to the centre of the span, as its
+    neighbours move too), at most _FIT_MAX of its mean edge length from the surface in all.
+    A move that turns one of its faces by more than _RELAX_TURN degrees or leaves one below
+    _RELAX_QUALITY that was above it is undone.  Returns the vertices moved."""
+    F = np.asarray(F, dtype=np.int64)
+    n = P2.shape[0]
+    movable, e = _new_interior_points(F, n, n0, nX)
+    idx = np.flatnonzero(movable & np.isin(np.arange(n), F))
+    if idx.size == 0 or rounds < 1:
+        return 0
+    import open3d as o3d
+
+    corners = F.reshape(-1)
+    el = np.linalg.norm(P2[e[:, 0]] - P2[e[:, 1]], axis=1)
+    deg = np.bincount(e.reshape(-1), minlength=n)
+    mean_edge = np.bincount(e.reshape(-1), weights=np.repeat(el, 2), minlength=n) / np.maximum(deg, 1)
+    origin = P2[idx].copy()
+    V0 = surf.V
+    cos_turn = math.cos(math.radians(_RELAX_TURN))
+    for _ in range(rounds):
+        normals, area = face_normals(P2, F)
+        q_before = triangle_quality(P2, F)
+        vn = np.zeros((n, 3))
+        for k in range(3):
+            vn[:, k] = np.bincount(corners, weights=np.repeat(normals[:, k] * area, 3), minlength=n)
+        ln = np.linalg.norm(vn, axis=1, keepdims=True)
+        vn = np.divide(vn, ln, out=np.zeros_like(vn), where=ln > 0)
+        # output samples to the input: (x - closest) . input normal
+        S = np.concatenate([P2[F].mean(axis=1), 0.5 * (P2[F] + P2[F[:, [1, 2, 0]]]).reshape(-1, 3)])
+        s_face = np.concatenate([np.arange(F.shape[0]), np.repeat(np.arange(F.shape[0]), 3)])
+        fi, w, _ = surf.closest(S)
+        cp = np.einsum("nk,nkj->nj", w, V0[surf.F[fi]])
+        d = np.einsum("ij,ij->i", S - cp, normals0[fi])
+        # input vertices to the output: (closest - y) . input normal at y (its face's)
+        scene = o3d.t.geometry.RaycastingScene()
+        scene.add_triangles(o3d.core.Tensor(P2.astype(np.float32)), o3d.core.Tensor(F.astype(np.uint32)))
+        res = scene.compute_closest_points(o3d.core.Tensor(V0.astype(np.float32)))
+        vf = np.full(V0.shape[0], -1, dtype=np.int64)
+        vf[surf.F.reshape(-1)] = np.repeat(np.arange(surf.F.shape[0]), 3)
+        ok = vf >= 0
+        d_in = np.einsum("ij,ij->i", res["points"].numpy().astype(np.float64)[ok] - V0[ok], normals0[vf[ok]])
+        d = np.concatenate([d, d_in])
+        s_face = np.concatenate([s_face, res["primitive_ids"].numpy().astype(np.int64)[ok]])
+        hi = np.full(n, -np.inf)
+        lo = np.full(n, np.inf)
+        for k in range(3):
+            np.maximum.at(hi, F[s_face, k], d)
+            np.minimum.at(lo, F[s_face, k], d)
+        step = -0.25 * (hi[idx] + lo[idx])
+        step[~np.isfinite(step)] = 0.0
+        old = P2[idx].copy()
+        new = old + step[:, None] * vn[idx]
+        off = new - origin
+        lim = _FIT_MAX * mean_edge[idx]
+        big = np.linalg.norm(off, axis=1) > lim
+        new[big] = origin[big] + off[big] * (lim[big] / np.linalg.norm(off[big], axis=1))[:, None]
+        P2[idx] = new
+        moved = np.ones(idx.size, dtype=bool)
+        at = np.full(n, -1, dtype=np.int64)
+        at[idx] = np.arange(idx.size)
+        while True:
+            n_after, _ = face_normals(P2, F)
+            q_after = triangle_quality(P2, F)
+            bad = (np.einsum("ij,ij->i", n_after, normals) < cos_turn) | \
+                  ((q_after < _RELAX_QUALITY) & (q_after < q_before))
+            rows = at[F[bad].reshape(-1)]
+            rows = rows[(rows >= 0)]
+            rows = rows[moved[rows]]
+            if rows.size == 0:
+                break
+            P2[idx[rows]] = old[rows]
+            moved[rows] = False
+    return int(np.count_nonzero(np.linalg.norm(P2[idx] - origin, axis=1) > 0))
 
 
 def _equalizing_density(P, F, area, edge_len: float) -> np.ndarray:
@@ -675,12 +787,14 @@ def _boundary_loops(F: np.ndarray, twins: np.ndarray) -> list[np.ndarray]:
     return loops
 
 
-def _boundary_points(P, F, loops, spacing, rng, corner_angle, open_lines=()):
+def _boundary_points(P, F, loops, spacing, rng, corner_angle, open_lines=(), hscale=None):
     """Points along each boundary loop (and crease line): its corners (vertices where the
     line turns by more than ``corner_angle`` degrees; an open line's two ends) stay as they
     are, the stretches between them get points spread evenly by arc length (a loop without
     corners: random phase).  Returns (points (b, 3), face (b,), barycentric weights (b, 3),
-    corner vertex slots (c,), half-edge (b,), parameter along it (b,))."""
+    corner vertex slots (c,), half-edge (b,), parameter along it (b,)).  ``hscale`` (3 m,),
+    per half-edge: the spacing there is ``spacing / hscale`` (the points are spread evenly in
+    the length scaled by it); None: 1 everywhere."""
     pts, faces, ws, corners, hs, ts = [], [], [], [], [], []
     Ff = F.reshape(-1)
     cos_corner = math.cos(math.radians(corner_angle))
@@ -693,30 +807,33 @@ def _boundary_points(P, F, loops, spacing, rng, corner_angle, open_lines=()):
         if not length > 0:
             continue
         cum = np.concatenate([[0.0], np.cumsum(seg)])
+        # the scaled length (even spacing in it: the local spacing in the true length)
+        wcum = cum if hscale is None else np.concatenate([[0.0], np.cumsum(seg * hscale[loop])])
+        wlength = float(wcum[-1])
         if not closed:
             corners.append(np.array([a[0], b[-1]]))
-            k = int(round(length / spacing))
+            k = int(round(wlength / spacing))
             if k < 2:
                 continue
-            s = np.arange(1, k) * (length / k)
+            s = np.arange(1, k) * (wlength / k)
             s = [s]
             cidx = np.zeros(0, dtype=np.int64)
         else:
             cidx = _corners(P[a], cum, length, spacing, cos_corner)
             s = []
         for c0, c1 in zip(cidx, np.r_[cidx[1:], cidx[:1] + loop.size]) if closed else ():
-            s0, s1 = cum[c0], cum[c1] if c1 <= loop.size else cum[c1 - loop.size] + length
+            s0, s1 = wcum[c0], wcum[c1] if c1 <= loop.size else wcum[c1 - loop.size] + wlength
             k = int(round((s1 - s0) / spacing))             # stretches, k - 1 inner points
             if k >= 2:
-                s.append(np.mod(s0 + np.arange(1, k) * ((s1 - s0) / k), length))
+                s.append(np.mod(s0 + np.arange(1, k) * ((s1 - s0) / k), wlength))
         if closed and cidx.size + sum(x.size for x in s) < 3:     # no corners, or too few points
-            k = max(3, int(round(length / spacing)))
-            s = [(np.arange(k) + rng.random()) * (length / k)]
+            k = max(3, int(round(wlength / spacing)))
+            s = [(np.arange(k) + rng.random()) * (wlength / k)]
         elif closed:
             corners.append(a[cidx])
             if not s:
                 continue
-        s = np.concatenate(s)
+        s = np.interp(np.concatenate(s), wcum, cum)                   # back to the true length
         n = s.size
         e = np.clip(np.searchsorted(cum, s, side="right") - 1, 0, loop.size - 1)
         tpar = np.clip((s - cum[e]) / np.where(seg[e] > 0, seg[e], 1.0), 0.02, 0.98)
@@ -771,24 +888,38 @@ def _corners(pts, cum, length, spacing, cos_corner):
     return np.asarray(sorted(chosen), dtype=np.int64)
 
 
-def crease_edges(P, F, twins, cos_limit):
+def crease_edges(P, F, twins, cos_limit, min_length: float = 0.0):
     """The interior edges of (P, F) whose two faces' unit normals have a dot product below
     ``cos_limit``, once each (the half-edge of the pair with the smaller number; ``twins``
-    from :func:`face_twins`): (half-edges, their start vertices, their end vertices)."""
+    from :func:`face_twins`): (half-edges, their start vertices, their end vertices).
+    ``min_length`` > 0: only the connected networks of such edges at least that long in
+    total (a scan's noise makes many short "creases"; a CAD part's are long)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
     n, _ = face_normals(P, F)
     h = np.arange(twins.size)
     t = np.asarray(twins)
     sel = (t > h) & (np.einsum("ij,ij->i", n[h // 3], n[np.maximum(t, 0) // 3]) < cos_limit)
     hc = h[sel]
     Ff = F.reshape(-1)
-    return hc, Ff[hc], Ff[3 * (hc // 3) + (hc % 3 + 1) % 3]
+    a, b = Ff[hc], Ff[3 * (hc // 3) + (hc % 3 + 1) % 3]
+    if min_length > 0 and hc.size:
+        m = P.shape[0]
+        _, comp = connected_components(coo_matrix((np.ones(a.size), (a, b)), shape=(m, m)), directed=False)
+        total = np.bincount(comp[a], weights=np.linalg.norm(P[a] - P[b], axis=1), minlength=m)
+        keep = total[comp[a]] >= min_length
+        hc, a, b = hc[keep], a[keep], b[keep]
+    return hc, a, b
 
 
 def _crease_lines(P, F, twins, cos_feature):
     """Crease lines: chains of interior edges whose two faces' normals differ by more than
-    acos(cos_feature), split at vertices where other than two crease edges meet.  Returns
-    (open lines, closed loops), each an array of half-edges in walking order."""
-    hc, a, b = crease_edges(P, F, twins, cos_feature)
+    acos(cos_feature), in networks at least CREASE_MIN_LENGTH of the bbox diagonal long, split
+    at vertices where other than two crease edges meet.  Returns (open lines, closed loops),
+    each an array of half-edges in walking order."""
+    diag = float(np.linalg.norm(P.max(axis=0) - P.min(axis=0)))
+    hc, a, b = crease_edges(P, F, twins, cos_feature, CREASE_MIN_LENGTH * diag)
     if hc.size == 0:
         return [], []
     t = np.asarray(twins)

@@ -324,6 +324,41 @@ def test_set_up_is_the_same_on_any_number_of_threads():
     assert vertex_quadrics(hm, moved, 5.0, threads=2).tobytes() == one.tobytes()
 
 
+def test_vertex_quadrics_make_the_collapsers_input_normals():
+    # vertex_quadrics(normals=) fills the int16 input normals from the face planes it
+    # computes anyway (the pass driver's set-up): the bits face_unit_normals gives, on one
+    # thread and on the threaded scatter, degenerate faces left alone; the quadrics are
+    # unchanged, and a collapser handed them runs as one that made its own
+    from lodkit._core.decimate import face_unit_normals
+
+    vertices, faces = threaded_test_mesh()
+    k = len(vertices)
+    line = np.array([[300.0, 0.0, 0.0], [301.0, 0.0, 0.0], [302.0, 0.0, 0.0]])
+    vertices = np.concatenate([vertices, line])
+    faces = np.concatenate([faces, [[k, k + 1, k + 2]]]).astype(np.int32)   # zero area
+    hm = build(faces, len(vertices), 2)
+    positions = vertices[hm.vertex_sources]
+    want = face_unit_normals(hm, positions, 1)
+    assert not want[-3:].any() and want.any()
+    for threads in (1, 2, 3):
+        normals = np.zeros(3 * hm.n_faces, dtype=np.int16)
+        q = vertex_quadrics(hm, positions, 0.0, threads=threads, normals=normals)
+        assert normals.tobytes() == want.tobytes()
+        assert q.tobytes() == vertex_quadrics(hm, positions, 0.0, threads=threads).tobytes()
+    with pytest.raises(ValueError, match="normals"):
+        vertex_quadrics(hm, positions, 0.0, normals=np.zeros(3, dtype=np.int16))
+    runs = []
+    for given in (False, True):
+        hm = build(faces, len(vertices), 2)
+        normals = np.zeros(3 * hm.n_faces, dtype=np.int16)
+        q = vertex_quadrics(hm, positions, 0.0, normals=normals)
+        collapser = EdgeCollapser(hm, positions, q, None, np.zeros(hm.n_vertices, np.uint8),
+                                  input_normals=normals if given else None)
+        collapser.run(hm.n_faces // 2)
+        runs.append((hm.corners.tobytes(), hm.alive_faces.tobytes(), np.asarray(collapser.positions).tobytes()))
+    assert runs[0] == runs[1]
+
+
 # ---------------------------------------------------------------------- plan_edge
 CONFIGS = [
     (OPTIMAL, PRESERVE, 10.0, False),

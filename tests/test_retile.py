@@ -7,6 +7,8 @@ from __future__ import annotations
 import numpy as np
 import open3d as o3d
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import lodkit
 from conftest import shared_mesh
@@ -32,6 +34,16 @@ def plane(n: int = 25) -> lodkit.Mesh:
     idx = np.arange(n * n).reshape(n, n)
     a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, 1:].ravel(), idx[1:, :-1].ravel()
     return lodkit.Mesh(v, np.r_[np.c_[a, b, c], np.c_[a, c, d]])
+
+
+def gaussian_bump(n: int, height: float, width2: float) -> lodkit.Mesh:
+    """plane(n) with a round bump in the middle: z = height * exp(-r^2 / width2), r the
+    distance to (0.5, 0.5)."""
+    src = plane(n)
+    v = src.vertices.copy()
+    r2 = (v[:, 0] - 0.5) ** 2 + (v[:, 1] - 0.5) ** 2
+    v[:, 2] = height * np.exp(-r2 / width2)
+    return lodkit.Mesh(v, src.faces)
 
 
 def sphere() -> lodkit.Mesh:
@@ -126,11 +138,7 @@ def test_plane_corners_kept():
 
 def test_adaptive_density_puts_more_points_where_it_curves():
     # a plane with a round bump in the middle: curved there, flat elsewhere
-    src = plane(40)
-    v = src.vertices.copy()
-    r2 = (v[:, 0] - 0.5) ** 2 + (v[:, 1] - 0.5) ** 2
-    v[:, 2] = 0.15 * np.exp(-r2 / 0.01)
-    src = lodkit.Mesh(v, src.faces)
+    src = gaussian_bump(40, 0.15, 0.01)
     flat = retile(src, 200, adapt=0.0)
     curved = retile(src, 200, adapt=4.0)
 
@@ -142,11 +150,7 @@ def test_adaptive_density_puts_more_points_where_it_curves():
 
 def test_equalize_density_follows_curvature_and_stays_on_the_surface():
     # the same bump: equalize puts more points on it than uniform density, all on the surface
-    src = plane(40)
-    v = src.vertices.copy()
-    r2 = (v[:, 0] - 0.5) ** 2 + (v[:, 1] - 0.5) ** 2
-    v[:, 2] = 0.15 * np.exp(-r2 / 0.01)
-    src = lodkit.Mesh(v, src.faces)
+    src = gaussian_bump(40, 0.15, 0.01)
     flat = retile(src, 200)
     eq = retile(src, 200, equalize=True)
     assert np.count_nonzero(eq.mesh.vertices[:, 2] > 0.02) > 1.3 * np.count_nonzero(flat.mesh.vertices[:, 2] > 0.02)
@@ -162,11 +166,7 @@ def test_equalize_density_follows_curvature_and_stays_on_the_surface():
 def test_refine_lowers_the_hausdorff_error_of_a_sharp_bump():
     # a plane with a narrow, tall bump: uniform points cut its top; the error-driven passes
     # move points there, and the pass kept has the smallest error of those measured
-    src = plane(60)
-    v = src.vertices.copy()
-    r2 = (v[:, 0] - 0.5) ** 2 + (v[:, 1] - 0.5) ** 2
-    v[:, 2] = 0.2 * np.exp(-r2 / 0.002)
-    src = lodkit.Mesh(v, src.faces)
+    src = gaussian_bump(60, 0.2, 0.002)
     plain = retile(src, 150)
     ref = retile(src, 150, refine=2)
     h_plain = lodkit.evaluate(src, plain.mesh, samples=20000).distance.hausdorff
@@ -303,3 +303,122 @@ def test_features_keep_the_creases_of_a_cube():
     assert sharp.report["quality_mean"] >= MEAN_QUALITY and sharp.report["quality_min"] >= MIN_QUALITY
     with pytest.raises(OptionError, match="features"):
         retile(src, 50, features=0)
+
+
+def closed_cylinder() -> lodkit.Mesh:
+    # flat caps meet the side at two circular creases (90 degrees): a curved crease, like
+    # fandisk's arcs
+    return o3d_mesh(o3d.geometry.TriangleMesh.create_cylinder(0.5, 1.0, 48, 8))
+
+
+def test_features_put_points_on_a_curved_crease_and_keep_its_edges():
+    src = closed_cylinder()
+    plain = retile(src, 300)
+    r = retile(src, 300, features=40.0)
+    assert r.report["crease_lines"] == 2 and r.report["crease_points"] >= 40
+    v = r.mesh.vertices
+    radial = np.hypot(v[:, 0], v[:, 1])
+    # the crease points sit on the rims: on the caps' planes, on the input's rim polygon (between
+    # its chords and its corners at radius 0.5)
+    on_rim = ((radial > 0.5 * np.cos(np.pi / 48) - 1e-9) & (radial < 0.5 + 1e-9)
+              & (np.abs(np.abs(v[:, 2]) - 0.5) < 1e-9))
+    assert np.count_nonzero(on_rim) >= r.report["crease_points"]
+    # the rims are edges of the output: points along the rims lie on output edges, within the
+    # chord errors (the input's 48-gon, and the output's chords between its crease points about
+    # an edge length apart: length^2 / (8 radius)); uniform points cut across the rim instead
+    t = np.linspace(0.0, 2 * np.pi, 400, endpoint=False)
+    rim = np.concatenate([np.c_[0.5 * np.cos(t), 0.5 * np.sin(t), np.full(t.size, z)] for z in (-0.5, 0.5)])
+    sag = 0.5 * (1 - np.cos(np.pi / 48))            # the input's own chord error
+    E = np.unique(np.sort(np.concatenate([r.mesh.faces[:, [0, 1]], r.mesh.faces[:, [1, 2]],
+                                          r.mesh.faces[:, [2, 0]]]), axis=1), axis=0)
+    from lodkit.optimize import closest_on_segments
+
+    _, _, d2 = closest_on_segments(rim, v[E[:, 0]], v[E[:, 1]])
+    spacing = r.report["edge_length"]
+    assert np.sqrt(d2).max() < sag + (1.25 * spacing) ** 2 / (8 * 0.5)
+    _, _, d2_plain = closest_on_segments(rim, plain.mesh.vertices[plain.mesh.faces[:, [0, 1]].reshape(-1, 2)[:, 0]],
+                                         plain.mesh.vertices[plain.mesh.faces[:, [0, 1]].reshape(-1, 2)[:, 1]])
+    assert np.sqrt(d2_plain).max() > 2 * (sag + (1.25 * spacing) ** 2 / (8 * 0.5))
+    h = lodkit.evaluate(src, r.mesh, samples=20000).distance.hausdorff
+    h_plain = lodkit.evaluate(src, plain.mesh, samples=20000).distance.hausdorff
+    assert h < 0.5 * h_plain
+    t0, t1 = lodkit.topology(src), lodkit.topology(r.mesh)
+    assert t1.is_manifold and (t1.genus, t1.n_boundary_loops) == (t0.genus, t0.n_boundary_loops)
+    assert r.report["quality_min"] >= MIN_QUALITY
+
+
+def test_line_points_follow_the_local_spacing():
+    from lodkit.retile import _boundary_points
+
+    # one open line of 20 unit edges along x (half-edges 0, 3, ..., of strip faces); the
+    # spacing on its second half is a quarter of that on its first (hscale 4 there)
+    n = 21
+    P = np.c_[np.arange(n, dtype=float), np.zeros(n), np.zeros(n)]
+    P = np.concatenate([P, P + [0.0, 1.0, 0.0]])
+    F = np.array([[i, i + 1, n + i] for i in range(n - 1)])
+    line = 3 * np.arange(n - 1)
+    hscale = np.ones(3 * F.shape[0])
+    hscale[line[10:]] = 4.0
+    B, _, _, kept, _, _ = _boundary_points(P, F, [], 2.0, np.random.default_rng(0), 30.0, [line], hscale)
+    assert sorted(kept.tolist()) == [0, n - 1]
+    x = np.sort(B[:, 0])
+    gaps = np.diff(np.r_[0.0, x, 20.0])
+    # spread evenly in the scaled length (10 + 40 = 50, 25 stretches of 2): 5 gaps of 2, 20 of
+    # 0.5 (a point that falls on an input vertex is kept 0.02 of an edge into the edge)
+    assert x.size == 24
+    np.testing.assert_allclose(gaps[:5], 2.0, atol=0.041)
+    np.testing.assert_allclose(gaps[5:], 0.5, atol=0.041)
+
+
+def test_short_crease_networks_are_not_creases():
+    from lodkit.retile import crease_edges
+
+    # a plane with one small sharp dent: its creases (a network far shorter than a tenth of
+    # the diagonal) are noise for features=, a cube's 12 edges are not
+    src = plane(161)
+    v = src.vertices.copy()
+    v[np.argmin(np.linalg.norm(v[:, :2] - 0.5, axis=1)), 2] = -0.01
+    dent = lodkit.Mesh(v, src.faces)
+    twins = face_twins(dent.faces)
+    assert crease_edges(dent.vertices, dent.faces, twins, np.cos(np.radians(40)))[0].size > 0
+    assert crease_edges(dent.vertices, dent.faces, twins, np.cos(np.radians(40)), 0.1 * np.sqrt(2))[0].size == 0
+    r = retile(dent, 150, features=40.0)
+    assert r.report["crease_lines"] == 0
+    np.testing.assert_array_equal(r.mesh.faces, retile(dent, 150).mesh.faces)
+
+
+def test_fit_straddles_the_surface():
+    # fit (lodkit's addition): the vertices move along their normals so the chords straddle
+    # the sphere; Hausdorff and mean drop, the topology and the triangles stay
+    src = sphere()
+    on = retile(src, 120)
+    fit = retile(src, 120, fit=4)
+    assert fit.report["fitted"] > 0 and on.report["fitted"] == 0
+    np.testing.assert_array_equal(fit.mesh.faces, on.mesh.faces)
+    d_on = lodkit.evaluate(src, on.mesh, samples=20000).distance
+    d_fit = lodkit.evaluate(src, fit.mesh, samples=20000).distance
+    assert d_fit.hausdorff < 0.8 * d_on.hausdorff
+    assert d_fit.mean < d_on.mean
+    # within _FIT_MAX of the mean edge length of the surface
+    assert off_surface(src, fit.mesh) < 0.25 * fit.report["edge_length"]
+    t = lodkit.topology(fit.mesh)
+    assert t.is_manifold and t.genus == 0
+    assert fit.report["quality_min"] >= MIN_QUALITY
+    with pytest.raises(OptionError, match="fit"):
+        retile(src, 50, fit=-1)
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(kind=st.sampled_from(["torus", "cylinder", "plane", "closed_cylinder"]), n=st.integers(30, 160),
+       seed=st.integers(0, 1000), refine=st.integers(0, 1), features=st.sampled_from([None, 40.0]))
+def test_property_topology_kept(kind, n, seed, refine, features):
+    src = {"torus": torus, "cylinder": open_cylinder, "plane": plane, "closed_cylinder": closed_cylinder}[kind]()
+    try:
+        r = retile(src, n, seed=seed, refine=refine, features=features)
+    except OptionError:                    # more line points than the budget: said so, nothing made
+        assert features is not None or kind in ("cylinder", "plane")
+        return
+    t0, t = lodkit.topology(src), lodkit.topology(r.mesh)
+    assert t.is_manifold and t.is_oriented
+    assert (t.genus, t.n_boundary_loops, t.n_components) == (t0.genus, t0.n_boundary_loops, t0.n_components)
+    assert off_surface(src, r.mesh) < 1e-9

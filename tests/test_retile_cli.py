@@ -40,6 +40,16 @@ def test_retile_cli_refine_is_the_api_call(sphere_ply, tmp_path):
     np.testing.assert_allclose(got.vertices, api.vertices, rtol=0, atol=1e-12)
 
 
+def test_retile_cli_fit_is_the_api_call(sphere_ply, tmp_path):
+    out = tmp_path / "r.ply"
+    assert main(["retile", str(sphere_ply), str(out), "--vertices", "40", "--fit", "2", "--quiet"]) == 0
+    api = lodkit.retile(lodkit.load(sphere_ply), 40, fit=2)
+    assert api.report["fitted"] > 0
+    got = lodkit.load(out)
+    np.testing.assert_array_equal(got.faces, api.mesh.faces)
+    np.testing.assert_allclose(got.vertices, api.mesh.vertices, rtol=0, atol=1e-12)
+
+
 def test_optimize_cli_with_start(sphere_ply, tmp_path, capsys):
     start = tmp_path / "s.ply"
     out = tmp_path / "o.ply"

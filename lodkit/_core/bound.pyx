@@ -188,6 +188,15 @@ cdef double PATCH_AT[9]
 PATCH_AT[:] = [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0, 0.4142135, 0.3183099, 0.2674766, 0.2718282, 0.4472136, 0.2809582]
 
 
+cdef inline int patch_slot(const int* seen, int t) noexcept nogil:
+    """The slot of input triangle t in the flat patch's open-addressing table ``seen``
+    (BOUND_PATCH_HASH slots, -1 empty): where t is, or the empty slot it would take."""
+    cdef int hsh = (<unsigned int>t * 2654435761u) & (BOUND_PATCH_HASH - 1)
+    while seen[hsh] >= 0 and seen[hsh] != t:
+        hsh = (hsh + 1) & (BOUND_PATCH_HASH - 1)
+    return hsh
+
+
 cdef struct Frame:
     double o[3]          # t's first corner
     double u[3]          # unit vectors in t's plane
@@ -776,9 +785,7 @@ cdef class Bound:
             T = seeds[c]
             if T < 0:
                 continue
-            hsh = (<unsigned int>T * 2654435761u) & (BOUND_PATCH_HASH - 1)
-            while seen[hsh] >= 0 and seen[hsh] != T:
-                hsh = (hsh + 1) & (BOUND_PATCH_HASH - 1)
+            hsh = patch_slot(seen, T)
             if seen[hsh] == T:
                 continue
             for k in range(3):
@@ -812,9 +819,7 @@ cdef class Bound:
                     if not frame_apart(&f, q, 2):
                         return -1.0
                     continue
-                hsh = (<unsigned int>N * 2654435761u) & (BOUND_PATCH_HASH - 1)
-                while seen[hsh] >= 0 and seen[hsh] != N:
-                    hsh = (hsh + 1) & (BOUND_PATCH_HASH - 1)
+                hsh = patch_slot(seen, N)
                 if seen[hsh] == N:
                     continue
                 if n_seen >= BOUND_PATCH_HASH // 2:

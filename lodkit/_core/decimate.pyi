@@ -1,7 +1,8 @@
 """Type stubs for lodkit._core.decimate (Cython): the edge-collapse drivers' entry point."""
 from collections.abc import Iterable
 
-from numpy.typing import ArrayLike
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from .edge import EdgeCollapser as _EdgeCollapser
 from .halfedge import HalfEdgeMesh
@@ -39,6 +40,7 @@ def EdgeCollapser(
     operator: int = ...,
     error_bound: tuple[float, float] | None = ...,
     threads: int = ...,
+    input_normals: NDArray[np.int16] | None = ...,
 ) -> _EdgeCollapser:
     """The edge-collapse driver for these arguments: operator 0 with use_heap True
     :class:`lodkit._core.edge.EdgeCollapser`, with use_heap False

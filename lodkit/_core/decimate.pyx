@@ -27,12 +27,15 @@ def EdgeCollapser(HalfEdgeMesh hm, positions, quadrics, attributes, fixed,
                   double quadric_weight=1.0, double error_scale=1.0,
                   vertex_fields=None, vertex_rules=None, edge_fields=None, edge_rules=None,
                   kernels=(), bint use_heap=True, attribute_quadrics=None, attribute_columns=None,
-                  steps=None, seam_partners=None, int operator=OP_EDGE, error_bound=None, int threads=1):
+                  steps=None, seam_partners=None, int operator=OP_EDGE, error_bound=None, int threads=1,
+                  input_normals=None):
     """The edge-collapse driver for these arguments (see the module docstring and
     :class:`lodkit._core.edge.EdgeCollapser` for their meaning); ``operator``: 0 edge
     collapse (the candidates are edges), 1 triangle collapse (faces: a face goes to one point
     as two edge collapses, both checked before either is done; quadric metrics only);
-    ``threads``: OpenMP threads of the set-up (the driver's state is the same for any)."""
+    ``threads``: OpenMP threads of the set-up (the driver's state is the same for any);
+    ``input_normals``: the input faces' int16 normals when ``vertex_quadrics(normals=)``
+    made them already."""
     if operator not in (OP_EDGE, OP_TRIANGLE):
         raise ValueError(f"unknown operator {operator} (0 edge collapse, 1 triangle collapse)")
     if operator == OP_TRIANGLE:
@@ -47,4 +50,5 @@ def EdgeCollapser(HalfEdgeMesh hm, positions, quadrics, attributes, fixed,
                   error_scale=error_scale, vertex_fields=vertex_fields, vertex_rules=vertex_rules,
                   edge_fields=edge_fields, edge_rules=edge_rules, kernels=kernels, use_heap=use_heap,
                   attribute_quadrics=attribute_quadrics, attribute_columns=attribute_columns,
-                  steps=steps, seam_partners=seam_partners, error_bound=error_bound, threads=threads)
+                  steps=steps, seam_partners=seam_partners, error_bound=error_bound, threads=threads,
+                  input_normals=input_normals)

@@ -114,6 +114,7 @@ cdef class EdgeCollapser:
                           double* dvol_out) noexcept nogil
     cdef bint place_ok(self, int h, int r, int k, double* p, double* cost_err, double limit,
                        double* dvol_out) noexcept nogil
+    cdef int end_points(self, int r, int k, const double* p, double* alt, double* ca, double* q) noexcept nogil
     cdef double face_volume6(self, int f) noexcept nogil
     cdef bint ring_has(self, int v, int a, int b) noexcept nogil
     cdef bint pair_ok(self, int h, int r, int k, int hs, int rs, int ks, const double* p,

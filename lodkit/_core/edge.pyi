@@ -76,6 +76,7 @@ class EdgeCollapser:
         seam_partners: ArrayLike | None = ...,
         error_bound: tuple[float, float] | None = ...,
         threads: int = ...,
+        input_normals: NDArray[np.int16] | None = ...,
     ) -> None:
         """quadric_weight: factor of the quadric in the cost (0: the quadric only places);
         error_scale: error = sqrt(error_scale * Q(p) / area); vertex_fields (n, k) and
@@ -87,7 +88,9 @@ class EdgeCollapser:
         steps: (k, 3) rows (kind, first, end) ordering fields and kernels; seam_partners
         (n,) int: each seam vertex's partner slot, -1 off the seams, -2 a seam copy that
         stays (see lodkit._pipeline.seam_partners); error_bound (eps, spacing): the two-sided
-        error bound (lodkit._core.bound), None when off."""
+        error bound (lodkit._core.bound), None when off; input_normals (3 m,) int16: the
+        input faces' normals as ``vertex_quadrics(normals=)`` made them (else computed
+        here)."""
     bound: Bound | None
     def count_bound_refusals(self) -> int:
         """Live candidates that pass every check but the error bound (0 without one)."""

@@ -118,7 +118,7 @@ cdef class EdgeCollapser:
                  double quadric_weight=1.0, double error_scale=1.0,
                  vertex_fields=None, vertex_rules=None, edge_fields=None, edge_rules=None,
                  kernels=(), bint use_heap=True, attribute_quadrics=None, attribute_columns=None,
-                 steps=None, seam_partners=None, error_bound=None, int threads=1):
+                 steps=None, seam_partners=None, error_bound=None, int threads=1, input_normals=None):
         cdef int n = hm.n_vertices
         self.hm = hm
         # One row per vertex: the quadric (11 doubles) then the position (3), so that a
@@ -179,7 +179,7 @@ cdef class EdgeCollapser:
         self.closed_volume = 0.0
         self.Q = &self.vdata[0, 0] if n else NULL
         self.P = &self.vdata[0, QSIZE] if n else NULL
-        self._input_faces(threads, closed_connected and n and hm.n_faces)
+        self._input_faces(threads, closed_connected and n and hm.n_faces, input_normals)
         self.normal_boxes()
         cdef int v
         with nogil:
@@ -206,9 +206,11 @@ cdef class EdgeCollapser:
             with nogil:
                 self.rescan()
 
-    def _input_faces(self, int threads, bint closed):
+    def _input_faces(self, int threads, bint closed, normals=None):
         """``face_n0``, the unit normals of the input faces (the checks measure turns from
-        them) and, when ``closed``, ``closed_volume``: one pass over the faces on
+        them; ``normals``: the (3 m,) int16 array ``vertex_quadrics(normals=)`` filled from
+        the positions as they are, taken as it is) and, when ``closed``, ``closed_volume``:
+        one pass over the faces on
         ``threads`` (each face loads its corners once for both), the volumes then summed in
         face order (one sum: the same bits for any number of threads).  The faces go in
         runs of VOLUME_RUN, so that the volumes need a small buffer, not 8 bytes a face
@@ -218,22 +220,40 @@ cdef class EdgeCollapser:
         cdef Rows rows
         rows.p = self.P
         rows.s = VSTRIDE
-        self.face_n0 = np.zeros(3 * m, dtype=np.int16)
+        cdef bint given = normals is not None
+        if given:
+            if not (isinstance(normals, np.ndarray) and normals.dtype == np.int16 and normals.shape == (3 * m,)):
+                raise ValueError(f"input_normals must be a ({3 * m},) int16 array")
+            self.face_n0 = normals
+        else:
+            self.face_n0 = np.zeros(3 * m, dtype=np.int16)
         self.N0 = &self.face_n0[0] if m else NULL
         cdef double[::1] vol6 = np.empty(min(m, VOLUME_RUN) if closed else 1, dtype=np.float64)
+        # the loops read locals: a store through ``self`` would make the compiler load
+        # self.m, self.N0 and self.P again for every face (and face_volume6 is a method call)
+        cdef const HEArrays* he = self.m
+        cdef short* N0 = self.N0
+        cdef const double* P = self.P
+        cdef double* V = &vol6[0]
+        cdef double total = 0.0
         lo = 0
+        if given and not closed:
+            return
         with nogil:
             while lo < m:
                 hi = min(lo + <int>VOLUME_RUN, m)
                 for f in prange(lo, hi, num_threads=threads, schedule="static"):
-                    face_normal16(self.m, rows, f, &self.N0[3 * f])
+                    if not given:
+                        face_normal16(he, rows, f, &N0[3 * f])
                     if closed:
-                        vol6[f - lo] = self.face_volume6(f)
+                        V[f - lo] = face_volume(&P[VSTRIDE * he.corner[3 * f]], &P[VSTRIDE * he.corner[3 * f + 1]],
+                                                &P[VSTRIDE * he.corner[3 * f + 2]])
                 if closed:
                     for f in range(lo, hi):
-                        if self.m.face_alive[f]:
-                            self.closed_volume += vol6[f - lo]
+                        if he.face_alive[f]:
+                            total += V[f - lo]
                 lo = hi
+        self.closed_volume += total
 
     cdef void normal_boxes(self):
         """``normal_box``: for each vertex, the box (lowest and highest x, y, z, in units
@@ -807,9 +827,12 @@ cdef class EdgeCollapser:
                                     e1[i] = B[i] - C[i]
                                     e2[i] = X[i] - C[i]
                                 cross3(e1, e2, ng)
-                                lg = sqrt(dot3(ng, ng))
-                                if new_fold(n1, len1, n0, len0, ng, lg) and not sides_of_a_sheet(N0, f, g):
-                                    return False
+                                # new_fold wants n1 . ng < FOLD_COS * len1 * lg <= 0 (FOLD_COS < 0):
+                                # never so when n1 . ng >= 0 (nor NaN), the common case: no lg needed
+                                if dot3(n1, ng) < 0.0:
+                                    lg = sqrt(dot3(ng, ng))
+                                    if new_fold(n1, len1, n0, len0, ng, lg) and not sides_of_a_sheet(N0, f, g):
+                                        return False
                         if (prev_ok > 0.0 and folds(n1, len1, prev_n1, prev_ok)
                                 and not sides_of_a_sheet(N0, f, prev_f)):
                             return False
@@ -830,62 +853,78 @@ cdef class EdgeCollapser:
         go with the kept vertex at one of the edge's ends or its midpoint -- the cheapest
         first -- if that passes every check and costs no more than ``limit``, what the driver would take
         next anyway (the greedy driver: the heap's top; the pass driver: the pass's dearest
-        candidate; < 0: no fallback).  Then ``p`` and ``cost_err`` (cost, error) are
+        candidate; < 0: no fallback).  Under an error bound the cost limit is not applied:
+        the bound is what stops a bounded run.  Then ``p`` and ``cost_err`` (cost, error) are
         updated.  Without it, a refusal sends the driver to a costlier collapse elsewhere
         (issue 17: the thin-CAD set stopped above its targets; docs/algorithms.md)."""
         cdef double q[QSIZE]
-        cdef double alt[3][3]
+        cdef double alt[9]
         cdef double ca[3]
-        cdef int order[3]
         cdef double c, err
-        cdef int i, j, first
-        cdef const double* x
+        cdef int j, n
         if self.geometry_ok(h, r, k, p, -1, -1, dvol_out):
             return True
-        if not self.end_fallback:
+        if not self.end_fallback or limit < 0.0:
             return False
-        # only where plan() chose a free optimal placement: neither end fixed, on the border
-        # or a seam, no fields, kernels or attribute quadrics in the cost, no error bound
-        if (limit < 0.0 or self.opt.placement != PLACE_OPTIMAL or self.opt.has_extras or self.aq.dim > 0
-                or self.bound is not None):
-            return False
-        if (self.vflags[k] | self.vflags[r]) & (VERTEX_FIXED | VERTEX_BOUNDARY):
-            return False
-        if self.SP != NULL and (self.SP[k] != SEAM_NONE or self.SP[r] != SEAM_NONE):
-            return False
-        if same_point(p, &self.P[VSTRIDE * k]) or same_point(p, &self.P[VSTRIDE * r]):
-            return False                     # an end was planned already: nothing else to try
-        quadric_sum(&self.Q[VSTRIDE * k], &self.Q[VSTRIDE * r], q)
-        for i in range(3):
-            alt[0][i] = self.P[VSTRIDE * k + i]
-            alt[1][i] = self.P[VSTRIDE * r + i]
-            alt[2][i] = 0.5 * (alt[0][i] + alt[1][i])
-        for i in range(3):
-            ca[i] = quadric_eval(q, alt[i])
-            order[i] = i
-        for i in range(3):
-            for j in range(i + 1, 3):
-                if ca[order[j]] < ca[order[i]]:
-                    first = order[i]
-                    order[i] = order[j]
-                    order[j] = first
-        for j in range(3):
-            i = order[j]
-            x = alt[i]
-            c = ca[i] if ca[i] > 0.0 else 0.0
-            if self.opt.quadric_weight * c > limit:
+        n = self.end_points(r, k, p, alt, ca, q)
+        for j in range(n):
+            c = ca[j]
+            if self.opt.quadric_weight * c > limit and self.bound is None:
+                # (under an error bound the bound, not the quadric cost, is the limit: a
+                # bounded run only gets here once no planned collapse stays within it)
                 return False
             err = collapse_error(c, q[10], self.opt.error_scale)
             if err > self.opt.max_error:
                 return False
-            if self.geometry_ok(h, r, k, x, -1, -1, dvol_out):
-                p[0] = x[0]
-                p[1] = x[1]
-                p[2] = x[2]
+            if self.geometry_ok(h, r, k, &alt[3 * j], -1, -1, dvol_out):
+                p[0] = alt[3 * j]
+                p[1] = alt[3 * j + 1]
+                p[2] = alt[3 * j + 2]
                 cost_err[0] = self.opt.quadric_weight * c
                 cost_err[1] = err
                 return True
         return False
+
+    cdef int end_points(self, int r, int k, const double* p, double* alt, double* ca, double* q) noexcept nogil:
+        """``place_ok``'s other placements for collapsing ``r`` into ``k`` (planned at ``p``):
+        the edge's two ends and its midpoint, in rising quadric cost -- ``alt`` (3 x 3) the
+        points, ``ca`` their costs (clamped at 0), ``q`` the summed quadric.  Returns 3, or 0
+        where there is no other placement: only where plan() chose a free optimal placement
+        (neither end fixed, on the border or a seam, no fields, kernels or attribute
+        quadrics in the cost) and did not plan an end already."""
+        cdef double pts[3][3]
+        cdef double cost[3]
+        cdef int order[3]
+        cdef int i, j, t
+        if self.opt.placement != PLACE_OPTIMAL or self.opt.has_extras or self.aq.dim > 0:
+            return 0
+        if (self.vflags[k] | self.vflags[r]) & (VERTEX_FIXED | VERTEX_BOUNDARY):
+            return 0
+        if self.SP != NULL and (self.SP[k] != SEAM_NONE or self.SP[r] != SEAM_NONE):
+            return 0
+        if same_point(p, &self.P[VSTRIDE * k]) or same_point(p, &self.P[VSTRIDE * r]):
+            return 0
+        quadric_sum(&self.Q[VSTRIDE * k], &self.Q[VSTRIDE * r], q)
+        for i in range(3):
+            pts[0][i] = self.P[VSTRIDE * k + i]
+            pts[1][i] = self.P[VSTRIDE * r + i]
+            pts[2][i] = 0.5 * (pts[0][i] + pts[1][i])
+        for i in range(3):
+            cost[i] = quadric_eval(q, pts[i])
+            order[i] = i
+        for i in range(3):
+            for j in range(i + 1, 3):
+                if cost[order[j]] < cost[order[i]]:
+                    t = order[i]
+                    order[i] = order[j]
+                    order[j] = t
+        for j in range(3):
+            i = order[j]
+            ca[j] = cost[i] if cost[i] > 0.0 else 0.0
+            alt[3 * j] = pts[i][0]
+            alt[3 * j + 1] = pts[i][1]
+            alt[3 * j + 2] = pts[i][2]
+        return 3
 
     cdef bint geometry_ok(self, int h, int r, int k, const double* p, int skip_c, int skip_d,
                           double* dvol_out) noexcept nogil:
@@ -1405,6 +1444,7 @@ cdef class EdgeCollapser:
         cdef Bound b = self.bound
         cdef int e, h, r, hs, k, rs, ks, n = 0
         cdef double p[3]
+        cdef double ce[2]
         cdef double dv2[2]
         cdef double cost, err, dv
         cdef bint ok
@@ -1426,7 +1466,9 @@ cdef class EdgeCollapser:
                 if ok and (not b.check(h, r, k, p) or not b.check(hs, rs, ks, p)):
                     n += 1
                 continue
-            ok = self.hm.link_ok(h) and self.geometry_ok(h, r, k, p, -1, -1, &dv)
+            # the planned point, or after simplify's last step an end or the midpoint (the
+            # bound is off here, so no cost limit: place_ok's own fallback)
+            ok = self.hm.link_ok(h) and self.place_ok(h, r, k, p, ce, INFINITY, &dv)
             self.bound = b
             if ok and not b.check(h, r, k, p):
                 n += 1
@@ -1600,7 +1642,16 @@ cdef class EdgeCollapser:
         self.N0 = &self.face_n0[0]
         self.normal_box = np.zeros(6, dtype=np.int8)
         self.NB = &self.normal_box[0]
-        self.pos_out = np.ascontiguousarray(np.asarray(self.vdata)[:, QSIZE:])
+        # (a loop: numpy's copy of the (n, 3) columns of the (n, 14) rows took ~60
+        # instructions a row)
+        cdef Py_ssize_t n = self.vdata.shape[0], v
+        cdef int i
+        self.pos_out = np.empty((n, 3), dtype=np.float64)
+        cdef double[:, ::1] out = self.pos_out
+        with nogil:
+            for v in range(n):
+                for i in range(3):
+                    out[v, i] = self.vdata[v, QSIZE + i]
         self.vdata = np.zeros((1, VSTRIDE))
         self.Q = &self.vdata[0, 0]
         self.P = &self.vdata[0, QSIZE]

@@ -74,7 +74,7 @@ cdef class HalfEdgeMesh:
     cdef bint link_ok(self, int h) noexcept nogil
     cdef int _link_expected(self, int h) noexcept nogil
     cdef bint _link_tail(self, int h, int common, int expected, int valence_u) noexcept nogil
-    cdef int _count_common_local(self, int u, int v) noexcept nogil
+    cdef int _count_common_local(self, int u, int v, int* valence_u) noexcept nogil
     cdef int collapse(self, int h, int removed, int* dead_edges, int* merged_into) noexcept nogil
     cdef int collapse_uncounted(self, int h, int removed, int* dead_edges, int* merged_into) noexcept nogil
 

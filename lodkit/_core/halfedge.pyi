@@ -83,6 +83,10 @@ def faces_by_first_slot(
     vertex index, ties in input order; with ``reorder``, (the faces in that order, the
     permutation); the same for any number of ``threads``."""
 
+def used_vertices(faces: ArrayLike, n_vertices: int) -> tuple[NDArray[np.bool_], int]:
+    """(used, n_degenerate): which vertices the faces without a repeated index use, and how
+    many faces repeat one, in one pass; ValueError for an index outside."""
+
 def bounding_box(points: ArrayLike, index: ArrayLike | None = ...) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(lo, hi) corners of the bounding box of points (or points[index]), without a copy."""
 

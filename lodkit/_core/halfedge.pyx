@@ -135,15 +135,15 @@ cdef class HalfEdgeMesh:
         cdef int v = self.dest(h)
         cdef int su = self.source(u)
         cdef int sv = self.source(v)
-        cdef int common, x
+        cdef int common, x, valence_u0
         cdef int expected = self._link_expected(h)
         if expected < 0:
             return False
         if not self.has_copies:
             # no split copies: the scratch-free count, which threads may run at once
-            common = self._count_common_local(u, v)
+            common = self._count_common_local(u, v, &valence_u0)
             if common >= 0:
-                return self._link_tail(h, common, expected, -1)
+                return self._link_tail(h, common, expected, valence_u0)
         self.stamp_counter += 1
         if self.stamp_counter == 0x7fffffff:
             self.stamp[:] = 0
@@ -197,11 +197,12 @@ cdef class HalfEdgeMesh:
                 return False    # the two ends and their common neighbours form a tetrahedron
         return True
 
-    cdef int _count_common_local(self, int u, int v) noexcept nogil:
+    cdef int _count_common_local(self, int u, int v, int* valence_u) noexcept nogil:
         """The neighbours of u that are also neighbours of v (u, v themselves not counted,
         each once), without the shared stamp array, so threads can ask at once; -1 when u has
         more than MAX_VALENCE neighbours (then the stamps count).  Slots are vertices here
-        (no split copies)."""
+        (no split copies).  ``valence_u`` gets u's valence (its ring's length, as
+        ``valence``), which the tetrahedron test would otherwise walk again."""
         cdef int ring[MAX_VALENCE + 1]
         cdef int n = 0, common = 0, nx
         cdef int start = self.c.v_he[u]
@@ -219,6 +220,7 @@ cdef class HalfEdgeMesh:
             x = nx
             if x == start:
                 break
+        valence_u[0] = n
         start = self.c.v_he[v]
         x = start
         while True:
@@ -715,13 +717,15 @@ cdef int pair_at(const int* corner, const int* first, const int* out_he, int v, 
     ``nm_he`` and counted in ``n_nm``).  Writes ``local``: the edge's number among v's, in
     (w, h) order; returns how many edges v has."""
     cdef int k = 0, s, h, p, w, i, j, t, x0, x1, ne = 0
+    cdef unsigned int r
     for s in range(first[v], first[v + 1]):
         h = out_he[s]
-        w = corner[he_next(h)]
+        r = <unsigned int>h % 3               # (one unsigned remainder for next and prev)
+        w = corner[h + 1 if r != 2 else h - 2]
         if w > v:
             buf[k] = (<long long>w << 32) | h
             k += 1
-        p = he_prev(h)
+        p = h - 1 if r != 0 else h + 2
         w = corner[p]
         if w > v:
             buf[k] = (<long long>w << 32) | p
@@ -772,9 +776,36 @@ cdef int count_fans(const int* twin, const int* first, const int* out_he, int v,
                     int* first_start) noexcept nogil:
     """How many fans (edge-connected runs of faces) meet at ``v``, found in the order of
     its outgoing half-edges; ``first_start`` gets the first fan's first half-edge (-1:
-    no face).  Marks v's outgoing half-edges in ``seen`` (they are v's alone)."""
+    no face).  One walk round the first fan; when it holds all of v's outgoing
+    half-edges (a manifold vertex: nearly all of them) that is the answer.  Otherwise
+    the fans are walked in turn, v's outgoing half-edges marked in ``seen`` (they are
+    v's alone: cleared here first)."""
     cdef int s, h, start, t, nf = 0
+    cdef int deg = first[v + 1] - first[v]
     first_start[0] = -1
+    if deg == 0:
+        return 0
+    # walk back from v's first outgoing half-edge to a border (or round to it), counting
+    h = out_he[first[v]]
+    start = h
+    nf = 1
+    while twin[start] >= 0:
+        t = he_next(twin[start])
+        if t == h:
+            break
+        start = t
+        nf += 1
+    if twin[start] < 0:
+        t = twin[he_prev(h)]          # an open fan: on forward from h to its end
+        while t >= 0:
+            nf += 1
+            t = twin[he_prev(t)]
+    if nf == deg:
+        first_start[0] = start
+        return 1
+    nf = 0
+    for s in range(first[v], first[v + 1]):
+        seen[out_he[s]] = 0
     for s in range(first[v], first[v + 1]):
         h = out_he[s]
         if seen[h]:
@@ -828,7 +859,7 @@ def build(faces, int n_vertices, int threads=1, bint take=False):
     cdef int[::1] vstart = np.empty(n, dtype=np.intc)
     cdef int[::1] nfans = np.empty(n, dtype=np.intc)
     cdef long long[:, ::1] buf
-    cdef int h, a, b, v, t, s, bad_h = -1, maxdeg = 0, n_edges = 0, n_nm = 0, acc, size
+    cdef int h, a, b, c, f, v, t, s, bad_h = -1, maxdeg = 0, n_edges = 0, n_nm = 0, acc, size
     cdef int n_new, k, start, fan_vertex, n_extra = 0
     with nogil:
         # ---- outgoing half-edges by vertex (CSR: out_he[first[v]:first[v + 1]], h ascending)
@@ -871,11 +902,14 @@ def build(faces, int n_vertices, int threads=1, bint take=False):
             n_edges_at[v] = acc
             acc += size
         n_edges = acc
-        for h in prange(H, num_threads=threads, schedule="static"):
-            a = corner[h]
-            b = corner[he_next(h)]
-            edge[h] += n_edges_at[a if a < b else b]
-            flags[h] = 0
+        # (count_fans clears the flags it uses itself: nm_vertex has been read off them)
+        for f in prange(<int>m, num_threads=threads, schedule="static"):
+            a = corner[3 * f]
+            b = corner[3 * f + 1]
+            c = corner[3 * f + 2]
+            edge[3 * f] += n_edges_at[a if a < b else b]
+            edge[3 * f + 1] += n_edges_at[b if b < c else c]
+            edge[3 * f + 2] += n_edges_at[c if c < a else a]
         for v in prange(n, num_threads=threads, schedule="static", chunksize=4096):
             nfans[v] = count_fans(&twin[0], &first[0], &out_he[0], v, &flags[0], &vstart[v])
         for v in range(n):
@@ -885,7 +919,6 @@ def build(faces, int n_vertices, int threads=1, bint take=False):
     #      of v's outgoing half-edges) gets a new slot, numbered in the order of v
     cdef int[::1] source = np.arange(n + n_extra, dtype=np.intc)
     cdef int[::1] vhe
-    cdef unsigned char[::1] multi = (np.asarray(nfans) > 1).astype(np.uint8)
     if n_extra == 0:
         vhe = vstart
     else:
@@ -941,13 +974,21 @@ def build(faces, int n_vertices, int threads=1, bint take=False):
     hm.has_copies = n_new > n
     if hm.has_copies:
         hm.vertex_source = src
-    bad = np.asarray(nm_vertex).astype(bool) | np.asarray(multi).astype(bool)
-    hm.locked = bad[src].astype(np.uint8)
+    # locked: a vertex on a non-manifold edge or with several fans, and every copy (made
+    # for a vertex with several fans); alive: a vertex no face uses has no half-edge, it is
+    # not part of the surface
+    cdef unsigned char[::1] locked = np.empty(n_new, dtype=np.uint8)
+    cdef unsigned char[::1] vertex_alive = np.empty(n_new, dtype=np.uint8)
+    cdef int n_alive = 0
+    with nogil:
+        for v in range(n_new):
+            locked[v] = 1 if v >= n or nm_vertex[v] or nfans[v] > 1 else 0
+            vertex_alive[v] = vhe[v] >= 0
+            n_alive += vertex_alive[v]
+    hm.locked = locked
     hm.face_alive = np.ones(m, dtype=np.uint8)
-    # a vertex no face uses has no half-edge: it is not part of the surface
-    vertex_alive = (np.asarray(vhe) >= 0).astype(np.uint8)
     hm.vertex_alive = vertex_alive
-    hm.n_alive_vertices = int(vertex_alive.sum())
+    hm.n_alive_vertices = n_alive
     hm.edge_alive = np.ones(n_edges, dtype=np.uint8)
     hm.stamp = np.zeros(n_new, dtype=np.intc)
     # copies of one input vertex form a cycle through next_copy (-1: no copies)
@@ -993,12 +1034,18 @@ def triangulation_ok(triangles, int k, bint closed):
 def count_face_components(HalfEdgeMesh hm):
     """Number of components of the live faces, faces joined across twin half-edges."""
     cdef int m = hm.n_faces
-    cdef unsigned char[::1] seen = np.zeros(max(m, 1), dtype=np.uint8)
-    cdef int[::1] stack = np.empty(max(m, 1), dtype=np.intc)
+    cdef unsigned char[::1] seen_a = np.zeros(max(m, 1), dtype=np.uint8)
+    cdef int[::1] stack_a = np.empty(max(m, 1), dtype=np.intc)
+    # raw pointers in locals: a byte store may alias anything, so loads through ``hm`` or a
+    # memoryview would be made again after every mark
+    cdef unsigned char* seen = &seen_a[0]
+    cdef int* stack = &stack_a[0]
+    cdef const int* twin = hm.c.twin
+    cdef const unsigned char* alive = hm.c.face_alive
     cdef int f, g, top, i, t, n_comp = 0
     with nogil:
         for f in range(m):
-            if seen[f] or not hm.c.face_alive[f]:
+            if seen[f] or not alive[f]:
                 continue
             n_comp += 1
             seen[f] = 1
@@ -1008,11 +1055,13 @@ def count_face_components(HalfEdgeMesh hm):
                 top -= 1
                 g = stack[top]
                 for i in range(3):
-                    t = hm.c.twin[3 * g + i]
-                    if t >= 0 and not seen[t // 3]:
-                        seen[t // 3] = 1
-                        stack[top] = t // 3
-                        top += 1
+                    t = twin[3 * g + i]
+                    if t >= 0:
+                        t = <int>(<unsigned int>t // 3)
+                        if not seen[t]:
+                            seen[t] = 1
+                            stack[top] = t
+                            top += 1
     return n_comp
 
 
@@ -1204,6 +1253,37 @@ def faces_by_first_slot(faces, int n_vertices, bint reorder=False, remap=None, i
             for k in range(3):
                 G[f, k] = F[O[f], k] if map_ == NULL else map_[F[O[f], k]]
     return ordered, out
+
+
+def used_vertices(faces, int n_vertices):
+    """(used, n_degenerate): ``used`` (n_vertices,) bool, which vertices the faces of (m, 3)
+    ``faces`` without a repeated index use (``used[faces[ok]] = True`` without numpy's
+    temporaries and fancy-index machinery), ``n_degenerate`` how many faces repeat an
+    index; ValueError for an index outside."""
+    cdef const int[:, ::1] F = np.ascontiguousarray(faces, dtype=np.intc).reshape(-1, 3)
+    used = np.zeros(n_vertices, dtype=bool)
+    cdef unsigned char* U = <unsigned char*>cnp.PyArray_DATA(used)
+    cdef const int* G = &F[0, 0] if F.shape[0] else NULL
+    cdef Py_ssize_t f, bad = -1, n_degenerate = 0
+    cdef int a, b, c
+    cdef unsigned int n = <unsigned int>n_vertices
+    with nogil:
+        for f in range(F.shape[0]):
+            a = G[3 * f]
+            b = G[3 * f + 1]
+            c = G[3 * f + 2]
+            if <unsigned int>a >= n or <unsigned int>b >= n or <unsigned int>c >= n:
+                bad = f
+                break
+            if a == b or b == c or a == c:
+                n_degenerate += 1
+                continue
+            U[a] = 1
+            U[b] = 1
+            U[c] = 1
+    if bad >= 0:
+        raise ValueError(f"face {bad} has a vertex index outside 0..{n_vertices - 1}")
+    return used, n_degenerate
 
 
 def bounding_box(points, index=None):

@@ -600,15 +600,18 @@ cdef class PassDriver:
                 hist[bucket_of(cost[i])] += 1
 
     cdef inline void rank_one(self, int e) noexcept nogil:
-        cdef int h, r, hs, rc
+        """Plan dirty live edge ``e`` (rank_range has checked it is one) into its state and
+        cost.  (``plan_he`` straight from the edge's half-edge: ``plan`` is the same call
+        through one more frame.)"""
+        cdef int h = self.m.edge_he[e]
+        cdef int r, hs, rc
         cdef double c, err
         cdef double p[3]
-        if self.state[e] != ST_DIRTY or not self.m.edge_alive[e]:
-            return
         # without an error limit the ranking needs no error (nor the provenance the core
         # works out with it): check() plans the candidates of a pass again, in full
         err = 0.0
-        rc = self.c.plan(e, &h, &r, &hs, p, &c, &err if self.c.opt.max_error < INFINITY else NULL)
+        rc = self.c.plan_he(h, self.m.corner[h], he_dest(self.m, h), &h, &r, &hs, p, &c,
+                            &err if self.c.opt.max_error < INFINITY else NULL)
         if rc < 0:
             self.state[e] = ST_NONE
         elif hs >= 0 and self.m.edge[h] != e:
@@ -813,18 +816,24 @@ cdef class PassDriver:
         cdef const int* edge = self.m.edge
         cdef const int* corner = self.m.corner
         cdef const int* twin = self.m.twin
+        cdef unsigned char* refused = &self.c.refused[0]
+        cdef bint wide = self.c.opt.wide_recost
         cdef int start = self.m.v_he[k]
         cdef int y = start
-        cdef int ny
-        self.c.refused[k] = 0
+        cdef int ny, w
+        refused[k] = 0
         while True:
             state[edge[y]] = ST_DIRTY
-            self.dirty_neighbour(corner[he_next(y)], state)
+            w = corner[he_next(y)]
+            if wide or refused[w]:                   # else dirty_neighbour has nothing to do
+                self.dirty_neighbour(w, state)
             ny = twin[he_prev(y)]                    # he_ring_next
             if ny < 0:
                 y = he_prev(y)
                 state[edge[y]] = ST_DIRTY
-                self.dirty_neighbour(corner[y], state)
+                w = corner[y]
+                if wide or refused[w]:
+                    self.dirty_neighbour(w, state)
                 return
             if ny == start:
                 return
@@ -912,19 +921,27 @@ cdef class PassDriver:
         return self.fan_inside(u, lo) and self.fan_inside(v, lo)
 
     cdef bint fan_inside(self, int w, int lo) noexcept nogil:
-        cdef int start, y, ny, t
+        """Are w, its neighbours and the vertices across the far edges of its fan in the
+        block?  (A face's third corner is the next face's far end, so only the last face
+        of an open fan has its third corner tested apart.)"""
+        cdef const int* corner = self.m.corner
+        cdef const int* twin = self.m.twin
+        cdef int start, y, ny, t, nx
         if not self.in_block(w, lo):
             return False
         start = self.m.v_he[w]
         y = start
         while True:
-            if not self.in_block(he_dest(self.m, y), lo) or not self.in_block(self.m.corner[he_prev(y)], lo):
+            nx = he_next(y)
+            if not self.in_block(corner[nx], lo):
                 return False
-            t = self.m.twin[he_next(y)]
-            if t >= 0 and not self.in_block(self.m.corner[he_prev(t)], lo):
+            t = twin[nx]
+            if t >= 0 and not self.in_block(corner[he_prev(t)], lo):
                 return False
-            ny = he_ring_next(self.m, y)
-            if ny < 0 or ny == start:
+            ny = twin[he_prev(y)]                    # he_ring_next
+            if ny < 0:
+                return self.in_block(corner[he_prev(y)], lo)
+            if ny == start:
                 return True
             y = ny
 

@@ -15,9 +15,12 @@ def vertex_quadrics(
     boundary_weight: float = ...,
     out: NDArray[np.float64] | None = ...,
     threads: int = ...,
+    normals: NDArray[np.int16] | None = ...,
 ) -> NDArray[np.float64]:
     """(n, 11) area-weighted plane quadrics (a11 a12 a13 a22 a23 a33 b1 b2 b3 c w); the same
-    bits for any number of ``threads``."""
+    bits for any number of ``threads``.  ``normals`` ((3 m,) int16): also each face's unit
+    normal x 32767, rounded, as :func:`face_unit_normals` gives it (degenerate faces left
+    alone)."""
 
 def general_quadric_marginal(
     g: ArrayLike, D: int, p: ArrayLike | None = ...

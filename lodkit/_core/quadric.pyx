@@ -634,16 +634,29 @@ cdef void gather_quadric(const HEArrays* m, Rows P, int v, double* q) noexcept n
         free(faces)
 
 
+cdef inline void plane_normal16(const double* pl, short* N) noexcept nogil:
+    """``N[0:3]`` from a face's plane (:func:`face_plane`): its unit normal scaled by 32767
+    and rounded, the bits ``face_normal16`` gives (the same ``nrm / length``); left alone
+    for a face of no area (or a dead one)."""
+    cdef int i
+    if pl[4] > 0.0:
+        for i in range(3):
+            N[i] = <short>(pl[i] * 32767.0 + (0.5 if pl[i] >= 0 else -0.5))
+
+
 cdef void scatter_run(const HEArrays* m, Rows P, const int* owner, int t, int chunk, int n_faces, double* Q,
-                      Py_ssize_t stride) noexcept nogil:
+                      Py_ssize_t stride, short* N) noexcept nogil:
     """Scatter the planes of the ``t``-th run of ``chunk`` face slots, in face order, to
     their corners that run ``t`` owns (``owner``: every face of the vertex is in it); the
-    quadric rows are ``stride`` doubles apart in ``Q``."""
+    quadric rows are ``stride`` doubles apart in ``Q``.  ``N`` (or NULL): the run's int16
+    face normals (:func:`plane_normal16`)."""
     cdef int f, i, v
     cdef int end = (t + 1) * chunk if (t + 1) * chunk < n_faces else n_faces
     cdef double pl[5]
     for f in range(t * chunk, end):
         face_plane(m, P, f, pl)
+        if N != NULL:
+            plane_normal16(pl, &N[3 * f])
         if pl[4] <= 0.0:
             continue
         for i in range(3):
@@ -652,7 +665,8 @@ cdef void scatter_run(const HEArrays* m, Rows P, const int* owner, int t, int ch
                 add_face_plane(&Q[stride * v], pl)
 
 
-def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=None, int threads=1):
+def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=None, int threads=1,
+                    normals=None):
     """(n, 11) per-vertex quadrics: a11 a12 a13 a22 a23 a33 b1 b2 b3 c w (written into the
     first 11 columns of ``out`` when given, e.g. an (n, 14) EdgeCollapser row array).
 
@@ -668,6 +682,10 @@ def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=
     surface); the few others gather their faces' planes in face order (a 1-ring walk,
     sorted).  Each vertex's sum is the serial scatter's, bit for bit, for 4 bytes a vertex
     of scratch.
+
+    ``normals``: a (3 m,) int16 array that gets each face's unit normal scaled by 32767
+    and rounded, as ``face_normal16`` computes it (the collapser's input normals), from
+    the plane computed here anyway; a degenerate face's entries are left alone.
     """
     positions = readable_positions(positions)
     cdef const double[:, :] P = positions
@@ -680,9 +698,14 @@ def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=
     elif (not isinstance(out, np.ndarray) or out.dtype != np.float64 or out.ndim != 2
           or out.shape[0] != hm.n_vertices or out.shape[1] < QSIZE or not out.flags.c_contiguous):
         raise ValueError(f"out must be a C-contiguous float64 array of shape ({hm.n_vertices}, >= {QSIZE})")
-    elif threads == 1:
-        out[:, :QSIZE] = 0.0             # (the gather writes every row whole)
     cdef double[:, ::1] Q = out
+    cdef short[::1] N16
+    cdef short* N = NULL
+    if normals is not None:
+        N16 = normals
+        if N16.shape[0] != 3 * hm.n_faces:
+            raise ValueError(f"normals must have shape ({3 * hm.n_faces},)")
+        N = &N16[0] if hm.n_faces else NULL
     cdef int[::1] owner
     cdef Rows X = rows_of(P)
     cdef const HEArrays* m = &hm.c
@@ -690,8 +713,15 @@ def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=
     cdef double pl[5]
     if threads == 1:
         with nogil:
+            # (a loop, not ``out[:, :QSIZE] = 0.0``: numpy's strided fill took ~8 instructions
+            # a value; the threaded path zeroes each row as it goes)
+            for v in range(hm.n_vertices):
+                for i in range(QSIZE):
+                    Q[v, i] = 0.0
             for f in range(hm.n_faces):
                 face_plane(m, X, f, pl)
+                if N != NULL:
+                    plane_normal16(pl, &N[3 * f])
                 for i in range(3):
                     add_face_plane(&Q[m.corner[3 * f + i], 0], pl)
     elif hm.n_faces:
@@ -703,7 +733,7 @@ def vertex_quadrics(HalfEdgeMesh hm, positions, double boundary_weight=0.0, out=
                     Q[v, i] = 0.0
                 owner[v] = ring_owner(m, v, chunk)
             for t in prange(threads, num_threads=threads, schedule="static", chunksize=1):
-                scatter_run(m, X, &owner[0], t, chunk, hm.n_faces, &Q[0, 0], Q.shape[1])
+                scatter_run(m, X, &owner[0], t, chunk, hm.n_faces, &Q[0, 0], Q.shape[1], N)
             for v in prange(hm.n_vertices, num_threads=threads, schedule="dynamic", chunksize=4096):
                 if owner[v] == -1:
                     gather_quadric(m, X, v, &Q[v, 0])
