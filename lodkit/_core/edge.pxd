@@ -71,6 +71,9 @@ cdef class EdgeCollapser:
     cdef readonly int n_rejected_topology
     cdef readonly int n_rejected_geometry
     cdef int collapses_since_rescan
+    cdef int round_size              # greedy: candidates the last rescan ranked
+    cdef int round_popped            # greedy: candidates popped since the last rescan
+    cdef double round_limit          # greedy: the median key of the round (run_c)
     # the metric past the quadric: fields, native kernels
     cdef FieldSet fields
     cdef Kernel kernel              # first of the chain, None if no kernels

@@ -39,6 +39,7 @@ from .checks cimport (CheckLimits, check_limits, angle_exceeds, turned_from_inpu
 from .fields cimport FieldSet, STEP_VFIELD, STEP_EFIELD
 
 cdef enum:
+    FALLBACK_FRACTION = 2  # greedy: a fallback out of order costs no more than the median candidate (run_c)
     KNIFE_FAN = 64      # faces of a fan the knife test reads (more: the rest is not looked at)
     KNIFE_BOX_SLACK = 3  # normal_box units (256 / 32767): exactly opposite normals' components sum to within 2.3
 
@@ -1245,6 +1246,9 @@ cdef class EdgeCollapser:
                 break
         self.heap.heapify_fast()
         self.collapses_since_rescan = 0
+        self.round_size = self.heap.size
+        self.round_popped = 0
+        self.round_limit = INFINITY
         self.n_rejected_error = 0
         self.n_rejected_topology = 0
         self.n_rejected_geometry = 0
@@ -1366,13 +1370,32 @@ cdef class EdgeCollapser:
             if self.collapses_since_rescan == 0:
                 return False
             self.rescan()
+        self.round_popped += 1
+        if self.round_popped == (self.round_size + FALLBACK_FRACTION - 1) // FALLBACK_FRACTION:
+            self.round_limit = key
         return True
 
     cdef int run_c(self, int target_faces, int max_steps) noexcept nogil:
+        """The greedy driver: the cheapest candidate first, until ``target_faces``.  With the
+        end-of-edge fallback on (simplify's last step), a candidate whose planned position
+        fails takes an end or the midpoint of its edge if that costs no more than the heap's
+        next candidate (``place_ok``); otherwise it is refused, and the cheapest legal
+        fallback among those refused since the last collapse is remembered (``defer_e``).
+        When a whole round (a rescan, then every candidate) takes nothing, that one is taken
+        -- one collapse, then a new round -- if it costs no more than the round's median
+        candidate (``round_limit``: as the pass driver's fallback costs no more than its
+        pass's dearest candidate, the cheapest sixth).  Without it the run stopped there: a
+        refused candidate leaves the heap and a fallback could not cost more than the next
+        (issue 17: plate24 at 5 % stopped at 376 faces for 319; with no limit the bracket's
+        Hausdorff doubled; docs/algorithms.md)."""
         cdef int e, h, r, k, hs, rs, ks, steps = 0, n_iter = 0
-        cdef double cost, err
+        cdef int defer_e = -1
+        cdef double cost, err, limit
+        cdef double defer_cost = INFINITY
         cdef double ce[2]
+        cdef double ce2[2]
         cdef double p[3]
+        cdef double q[3]
         cdef double dvol[2]
         while self.hm.n_alive_faces > target_faces:
             n_iter += 1
@@ -1381,7 +1404,13 @@ cdef class EdgeCollapser:
             if steps >= max_steps:
                 return RUN_CHUNK
             if not self.pop_candidate(&e):
-                return RUN_EXHAUSTED
+                if defer_e < 0 or defer_cost > self.round_limit:
+                    return RUN_EXHAUSTED
+                # a round took nothing: the cheapest legal fallback of its refusals
+                # (planned again on the same mesh: the same plan, the same fallback)
+                e = defer_e
+                defer_e = -1
+                defer_cost = INFINITY
             if self.plan(e, &h, &r, &hs, p, &cost, &err) < 0:
                 if self.failed:
                     return RUN_ERROR
@@ -1404,6 +1433,8 @@ cdef class EdgeCollapser:
                 if self.failed:
                     return RUN_ERROR
                 steps += 1
+                defer_e = -1
+                defer_cost = INFINITY
                 continue
             if not self.hm.link_ok(h):
                 self.n_rejected_topology += 1
@@ -1412,7 +1443,20 @@ cdef class EdgeCollapser:
                 continue
             ce[0] = cost
             ce[1] = err
-            if not self.place_ok(h, r, k, p, ce, self.heap.hkey[0] if self.heap.size > 0 else INFINITY, &dvol[0]):
+            # what the driver takes next anyway: the heap's top, or once the heap is empty
+            # the cheapest fallback refused since the last collapse (none: any cost)
+            limit = self.heap.hkey[0] if self.heap.size > 0 else defer_cost
+            if not self.place_ok(h, r, k, p, ce, limit, &dvol[0]):
+                if self.end_fallback and limit < INFINITY:
+                    # refused for its fallback's cost alone?  Remember the cheapest such
+                    q[0] = p[0]
+                    q[1] = p[1]
+                    q[2] = p[2]
+                    ce2[0] = cost
+                    ce2[1] = err
+                    if self.place_ok(h, r, k, q, ce2, INFINITY, &dvol[1]) and ce2[0] < defer_cost:
+                        defer_e = e
+                        defer_cost = ce2[0]
                 self.n_rejected_geometry += 1
                 self.refused[r] = 1
                 self.refused[k] = 1
@@ -1421,6 +1465,8 @@ cdef class EdgeCollapser:
             if self.failed:
                 return RUN_ERROR
             steps += 1
+            defer_e = -1
+            defer_cost = INFINITY
         return RUN_TARGET
 
     # ------------------------------------------------------------- Python API
