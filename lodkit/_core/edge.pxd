@@ -60,8 +60,8 @@ cdef class EdgeCollapser:
     cdef bint end_fallback          # place_ok may fall back to an end or the midpoint (allow_end_fallback)
     cdef short[::1] face_n0         # (3 * n_faces,) unit normals of the input faces, x 32767
     cdef short* N0
-    cdef signed char[::1] normal_box  # (6 * n,) per vertex: its faces' input normals' box (knife)
-    cdef signed char* NB
+    cdef unsigned char[::1] normal_sign  # (n,) per vertex: its faces' input normals' sign bits (knife)
+    cdef unsigned char* NS
     cdef bint released              # heap and quadrics freed after the run
     cdef double closed_volume       # 6 x signed volume of a closed connected surface, else 0
     cdef Records rec
@@ -109,9 +109,9 @@ cdef class EdgeCollapser:
                      double* dvol, double* min_q) noexcept nogil
     cdef double fan_worst_quality(self, int center, double floor) noexcept nogil
     cdef bint knife(self, int r, int k, int fa, int fb) noexcept nogil
-    cdef bint opposite_boxes(self, int r, int k) noexcept nogil
-    cdef void merge_box(self, int r, int k) noexcept nogil
-    cdef void normal_boxes(self)
+    cdef bint opposite_signs(self, int r, int k) noexcept nogil
+    cdef void merge_signs(self, int r, int k) noexcept nogil
+    cdef void normal_signs(self)
     cdef int fan_faces(self, int center, int fa, int fb, int* out) noexcept nogil
     cdef bint geometry_ok(self, int h, int r, int k, const double* p, int skip_c, int skip_d,
                           double* dvol_out) noexcept nogil

@@ -41,7 +41,7 @@ from .fields cimport FieldSet, STEP_VFIELD, STEP_EFIELD
 cdef enum:
     FALLBACK_FRACTION = 2  # greedy: a fallback out of order costs no more than the median candidate (run_c)
     KNIFE_FAN = 64      # faces of a fan the knife test reads (more: the rest is not looked at)
-    KNIFE_BOX_SLACK = 3  # normal_box units (256 / 32767): exactly opposite normals' components sum to within 2.3
+    KNIFE_SIGN_SLACK = 512  # int16 units (1/64): exactly opposite normals' components sum to within 574
 
 from .common cimport RUN_INTERRUPTED, PARALLEL_MIN_VERTICES
 from .interrupt cimport signal_pending, raise_pending, INTERRUPT_EVERY
@@ -181,7 +181,7 @@ cdef class EdgeCollapser:
         self.Q = &self.vdata[0, 0] if n else NULL
         self.P = &self.vdata[0, QSIZE] if n else NULL
         self._input_faces(threads, closed_connected and n and hm.n_faces, input_normals)
-        self.normal_boxes()
+        self.normal_signs()
         cdef int v
         with nogil:
             for v in prange(n, num_threads=threads, schedule="static"):
@@ -256,64 +256,61 @@ cdef class EdgeCollapser:
                 lo = hi
         self.closed_volume += total
 
-    cdef void normal_boxes(self):
-        """``normal_box``: for each vertex, the box (lowest and highest x, y, z, in units
-        of 256 / 32767, rounded outwards) of the input normals of its faces; a collapse's
-        kept vertex takes the union of both ends' boxes (``merge_box``), so that a vertex's
-        box holds the input normals of every face around it, then and later.  The knife
-        test's pre-filter (``opposite_boxes``).  One pass over the faces, each scattered to
-        its corners (a walk around each vertex would miss the second fan of a vertex where
-        two fans meet, and the output would change: boot)."""
+    cdef void normal_signs(self):
+        """``normal_sign``: for each vertex, which signs the input normals of its faces take
+        along each axis, a bit each -- bit i: some face's component i is at least -SLACK,
+        bit 3 + i: at most +SLACK (KNIFE_SIGN_SLACK, 1/64 of a unit normal: a component
+        near 0 sets both); a collapse's kept vertex takes the union of both ends' bits
+        (``merge_signs``), so that a vertex's bits hold the normals of every face around
+        it, then and later.  The knife test's pre-filter (``opposite_signs``).  One pass
+        over the faces, each OR-ed into its corners' bytes (no branch; a walk around each
+        vertex would miss the second fan of a vertex where two fans meet, and the output
+        would change: boot)."""
         cdef int n = self.hm.n_vertices
         cdef int nf = self.hm.n_faces
-        cdef int f, i, j, v
-        cdef signed char lo, hi
-        self.normal_box = np.empty(6 * n if n else 6, dtype=np.int8)
-        self.NB = &self.normal_box[0]
-        cdef signed char* B = self.NB
+        cdef int f
+        cdef unsigned char s
+        self.normal_sign = np.zeros(n if n else 1, dtype=np.uint8)
+        self.NS = &self.normal_sign[0]
+        # locals: a store through an unsigned char* may alias anything, so values read
+        # through ``self`` would be loaded again after every store
+        cdef unsigned char* S = self.NS
         cdef const short* N = self.N0
         cdef const int* corner = self.m.corner
         cdef const unsigned char* alive = self.m.face_alive
+        cdef int x, y, z, a, b, c
         with nogil:
-            for v in range(n):
-                for i in range(3):
-                    B[6 * v + i] = 127
-                    B[6 * v + 3 + i] = -128
             for f in range(nf):
                 if not alive[f]:
                     continue
-                for i in range(3):
-                    lo = <signed char>(N[3 * f + i] >> 8)            # floor(N / 256)
-                    hi = <signed char>(-((-N[3 * f + i]) >> 8))      # ceil(N / 256)
-                    for j in range(3):
-                        v = corner[3 * f + j]
-                        if lo < B[6 * v + i]:
-                            B[6 * v + i] = lo
-                        if hi > B[6 * v + 3 + i]:
-                            B[6 * v + 3 + i] = hi
+                x = N[3 * f]
+                y = N[3 * f + 1]
+                z = N[3 * f + 2]
+                s = <unsigned char>((x >= -KNIFE_SIGN_SLACK) | ((y >= -KNIFE_SIGN_SLACK) << 1)
+                                    | ((z >= -KNIFE_SIGN_SLACK) << 2) | ((x <= KNIFE_SIGN_SLACK) << 3)
+                                    | ((y <= KNIFE_SIGN_SLACK) << 4) | ((z <= KNIFE_SIGN_SLACK) << 5))
+                a = corner[3 * f]
+                b = corner[3 * f + 1]
+                c = corner[3 * f + 2]
+                S[a] |= s
+                S[b] |= s
+                S[c] |= s
 
-    cdef void merge_box(self, int r, int k) noexcept nogil:
-        """After a collapse of ``r`` into ``k``: k's normal box takes in r's."""
-        cdef int i
-        for i in range(3):
-            if self.NB[6 * r + i] < self.NB[6 * k + i]:
-                self.NB[6 * k + i] = self.NB[6 * r + i]
-            if self.NB[6 * r + 3 + i] > self.NB[6 * k + 3 + i]:
-                self.NB[6 * k + 3 + i] = self.NB[6 * r + 3 + i]
+    cdef void merge_signs(self, int r, int k) noexcept nogil:
+        """After a collapse of ``r`` into ``k``: k's sign bits take in r's."""
+        self.NS[k] |= self.NS[r]
 
-    cdef bint opposite_boxes(self, int r, int k) noexcept nogil:
+    cdef bint opposite_signs(self, int r, int k) noexcept nogil:
         """Could a face around ``r`` and one around ``k`` stand for input faces facing
-        exactly opposite ways (``flat_sides``)?  Their normals' components would sum to
-        about 0 (within 0.018 of a unit normal, 2.3 box units), so along each axis the lowest of r's box
-        plus the lowest of k's is at most KNIFE_BOX_SLACK and the highest plus the highest
-        at least -KNIFE_BOX_SLACK.  False: the knife test has nothing to find (on a smooth
-        surface nearly always: a fan's normals lie in a narrow cone)."""
-        cdef int i
-        for i in range(3):
-            if (<int>self.NB[6 * r + i] + self.NB[6 * k + i] > KNIFE_BOX_SLACK
-                    or <int>self.NB[6 * r + 3 + i] + self.NB[6 * k + 3 + i] < -KNIFE_BOX_SLACK):
-                return False
-        return True
+        exactly opposite ways (``flat_sides``)?  Their normals' components sum to within
+        0.0175 (574 int16 units; 2 x KNIFE_SIGN_SLACK is more), so along every axis one
+        side has a sign bit that the other has the opposite of: r's + and k's -, or r's -
+        and k's +.  False: the knife test has nothing to find (on a smooth surface nearly
+        always: a fan's normals lie in a narrow cone, and no cone is near 0 along all
+        three axes)."""
+        cdef unsigned int u = self.NS[r]
+        cdef unsigned int v = self.NS[k]
+        return (((u & (v >> 3)) | ((u >> 3) & v)) & 7) == 7
 
     cdef int n_candidates(self):
         """The heap's capacity: one candidate per edge."""
@@ -972,7 +969,7 @@ cdef class EdgeCollapser:
         cdef int nr, nk
         cdef int i, j
         cdef bint cross = False
-        if not self.opposite_boxes(r, k):
+        if not self.opposite_signs(r, k):
             return False
         nr = self.fan_faces(r, fa, fb, fr)
         nk = self.fan_faces(k, fa, fb, fk)
@@ -1321,7 +1318,7 @@ cdef class EdgeCollapser:
             chain = self.bound.commit_begin(h, r, k)
         self.hm.collapse_uncounted(h, r, dead, merged_into)
         self.vflags[k] |= self.vflags[r] & VERTEX_BOUNDARY
-        self.merge_box(r, k)
+        self.merge_signs(r, k)
         if self.fields.n_vfields or self.fields.n_efields:
             self.fields.merge(r, k, dead, merged_into)
         quadric_sum(&self.Q[VSTRIDE * k], &self.Q[VSTRIDE * r], &self.Q[VSTRIDE * k])
@@ -1686,8 +1683,8 @@ cdef class EdgeCollapser:
         self.heap = IndexedHeap(0)
         self.face_n0 = np.zeros(3, dtype=np.int16)
         self.N0 = &self.face_n0[0]
-        self.normal_box = np.zeros(6, dtype=np.int8)
-        self.NB = &self.normal_box[0]
+        self.normal_sign = np.zeros(1, dtype=np.uint8)
+        self.NS = &self.normal_sign[0]
         # (a loop: numpy's copy of the (n, 3) columns of the (n, 14) rows took ~60
         # instructions a row)
         cdef Py_ssize_t n = self.vdata.shape[0], v
