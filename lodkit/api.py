@@ -152,7 +152,9 @@ def simplify(
                        before); 0 = off (default 0.1).  lodkit's default (not given here nor
                        by the metric) is relaxed to 0.01, then 0, when no collapse is left
                        above the target in a run without ``max_error``
-                       (``report["min_quality_relaxed_to"]``)
+                       (``report["min_quality_relaxed_to"]``); then a collapse may
+                       join the two flat sides of a thin sheet (a knife edge, refused
+                       until then: ``report["knives_allowed"]``, docs/algorithms.md)
 
     The five settings above that are left as None take the value the metric prefers (a
     metric's ``defaults``, e.g. ``curvature`` checks normals within 60 degrees and quality

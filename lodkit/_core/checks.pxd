@@ -22,6 +22,7 @@ cdef struct CheckLimits:     # what the checks allow: the same options in every 
     bint check_orig          # max_normal_angle < 180: the input-face test is on
     bint check_fold          # max_normal_angle < 180: the fold test is on (own flag: the census)
     double min_quality       # a face below this quality (and worse than before) is refused
+    bint check_knife         # no collapse may join the two sides of a thin sheet (edge collapse)
 
 
 cdef inline CheckLimits check_limits(double max_normal_angle, double min_quality) noexcept nogil:
@@ -33,6 +34,7 @@ cdef inline CheckLimits check_limits(double max_normal_angle, double min_quality
     lim.check_orig = max_normal_angle < 180.0
     lim.check_fold = lim.check_orig
     lim.min_quality = min_quality
+    lim.check_knife = lim.check_orig
     return lim
 
 
@@ -70,6 +72,16 @@ cdef inline bint sides_of_a_sheet(const short* N0, int f, int g) noexcept nogil:
     driver's fold tests let it be (``N0``: the input faces' unit normals times 32767)."""
     return (<double>N0[3 * f] * N0[3 * g] + <double>N0[3 * f + 1] * N0[3 * g + 1]
             + <double>N0[3 * f + 2] * N0[3 * g + 2]) < FOLD_COS * 32767.0 * 32767.0
+
+
+cdef inline bint flat_sides(const short* N0, int f, int g) noexcept nogil:
+    """Do faces ``f`` and ``g`` stand for input faces facing exactly opposite ways (their
+    normals' dot product below -0.9999: within ~0.8 degrees), the two flat sides of a sheet
+    such as a CAD plate's top and bottom?  The edge driver's knife test
+    (``EdgeCollapser.knife``); a smooth thin part (an ear, a horn) seldom has two input
+    faces that parallel, so it is left alone."""
+    return (<double>N0[3 * f] * N0[3 * g] + <double>N0[3 * f + 1] * N0[3 * g + 1]
+            + <double>N0[3 * f + 2] * N0[3 * g + 2]) < -0.9999 * 32767.0 * 32767.0
 
 
 cdef inline double tri_quality(double twice_area, double sum_sq_edges) noexcept nogil:

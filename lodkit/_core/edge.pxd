@@ -60,6 +60,8 @@ cdef class EdgeCollapser:
     cdef bint end_fallback          # place_ok may fall back to an end or the midpoint (allow_end_fallback)
     cdef short[::1] face_n0         # (3 * n_faces,) unit normals of the input faces, x 32767
     cdef short* N0
+    cdef unsigned char[::1] normal_sign  # (n,) per vertex: its faces' input normals' sign bits (knife)
+    cdef unsigned char* NS
     cdef bint released              # heap and quadrics freed after the run
     cdef double closed_volume       # 6 x signed volume of a closed connected surface, else 0
     cdef Records rec
@@ -69,6 +71,9 @@ cdef class EdgeCollapser:
     cdef readonly int n_rejected_topology
     cdef readonly int n_rejected_geometry
     cdef int collapses_since_rescan
+    cdef int round_size              # greedy: candidates the last rescan ranked
+    cdef int round_popped            # greedy: candidates popped since the last rescan
+    cdef double round_limit          # greedy: the median key of the round (run_c)
     # the metric past the quadric: fields, native kernels
     cdef FieldSet fields
     cdef Kernel kernel              # first of the chain, None if no kernels
@@ -103,6 +108,11 @@ cdef class EdgeCollapser:
     cdef bint fan_ok(self, int center, int fa, int fb, int skip_c, int skip_d, const double* p,
                      double* dvol, double* min_q) noexcept nogil
     cdef double fan_worst_quality(self, int center, double floor) noexcept nogil
+    cdef bint knife(self, int r, int k, int fa, int fb) noexcept nogil
+    cdef bint opposite_signs(self, int r, int k) noexcept nogil
+    cdef void merge_signs(self, int r, int k) noexcept nogil
+    cdef void normal_signs(self)
+    cdef int fan_faces(self, int center, int fa, int fb, int* out) noexcept nogil
     cdef bint geometry_ok(self, int h, int r, int k, const double* p, int skip_c, int skip_d,
                           double* dvol_out) noexcept nogil
     cdef bint place_ok(self, int h, int r, int k, double* p, double* cost_err, double limit,

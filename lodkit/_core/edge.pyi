@@ -94,6 +94,11 @@ class EdgeCollapser:
     bound: Bound | None
     def count_bound_refusals(self) -> int:
         """Live candidates that pass every check but the error bound (0 without one)."""
+    def allow_knives(self) -> None:
+        """Switch the knife test off (a collapse may join the two flat sides of a sheet); the next run() rescans."""
+    @property
+    def knife_test(self) -> bool:
+        """Is the knife test on?"""
     def allow_end_fallback(self) -> None:
         """Let refused candidates collapse at an end or the midpoint of their edge from the next run on."""
     def refusal_census(self) -> dict[str, int]:

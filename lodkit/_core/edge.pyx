@@ -35,8 +35,14 @@ from .common cimport (QSIZE, VSTRIDE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, RUN_
 from .quadric cimport (AttributeQuadrics, sq, collapse_error, quadric_eval, quadric_sum, take_if_lower, quadric_solve,
                        quadric_solve_truncated, within_reach, Rows, face_normal16)
 from .checks cimport (CheckLimits, check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality,
-                      face_volume, turns_inside_out, sides_of_a_sheet)
+                      face_volume, turns_inside_out, sides_of_a_sheet, flat_sides)
 from .fields cimport FieldSet, STEP_VFIELD, STEP_EFIELD
+
+cdef enum:
+    FALLBACK_FRACTION = 2  # greedy: a fallback out of order costs no more than the median candidate (run_c)
+    KNIFE_FAN = 64      # faces of a fan the knife test reads (more: the rest is not looked at)
+    KNIFE_SIGN_SLACK = 512  # int16 units (1/64): exactly opposite normals' components sum to within 574
+
 from .common cimport RUN_INTERRUPTED, PARALLEL_MIN_VERTICES
 from .interrupt cimport signal_pending, raise_pending, INTERRUPT_EVERY
 
@@ -175,6 +181,7 @@ cdef class EdgeCollapser:
         self.Q = &self.vdata[0, 0] if n else NULL
         self.P = &self.vdata[0, QSIZE] if n else NULL
         self._input_faces(threads, closed_connected and n and hm.n_faces, input_normals)
+        self.normal_signs()
         cdef int v
         with nogil:
             for v in prange(n, num_threads=threads, schedule="static"):
@@ -248,6 +255,62 @@ cdef class EdgeCollapser:
                             total += V[f - lo]
                 lo = hi
         self.closed_volume += total
+
+    cdef void normal_signs(self):
+        """``normal_sign``: for each vertex, which signs the input normals of its faces take
+        along each axis, a bit each -- bit i: some face's component i is at least -SLACK,
+        bit 3 + i: at most +SLACK (KNIFE_SIGN_SLACK, 1/64 of a unit normal: a component
+        near 0 sets both); a collapse's kept vertex takes the union of both ends' bits
+        (``merge_signs``), so that a vertex's bits hold the normals of every face around
+        it, then and later.  The knife test's pre-filter (``opposite_signs``).  One pass
+        over the faces, each OR-ed into its corners' bytes (no branch; a walk around each
+        vertex would miss the second fan of a vertex where two fans meet, and the output
+        would change: boot)."""
+        cdef int n = self.hm.n_vertices
+        cdef int nf = self.hm.n_faces
+        cdef int f
+        cdef unsigned char s
+        self.normal_sign = np.zeros(n if n else 1, dtype=np.uint8)
+        self.NS = &self.normal_sign[0]
+        # locals: a store through an unsigned char* may alias anything, so values read
+        # through ``self`` would be loaded again after every store
+        cdef unsigned char* S = self.NS
+        cdef const short* N = self.N0
+        cdef const int* corner = self.m.corner
+        cdef const unsigned char* alive = self.m.face_alive
+        cdef int x, y, z, a, b, c
+        with nogil:
+            for f in range(nf):
+                if not alive[f]:
+                    continue
+                x = N[3 * f]
+                y = N[3 * f + 1]
+                z = N[3 * f + 2]
+                s = <unsigned char>((x >= -KNIFE_SIGN_SLACK) | ((y >= -KNIFE_SIGN_SLACK) << 1)
+                                    | ((z >= -KNIFE_SIGN_SLACK) << 2) | ((x <= KNIFE_SIGN_SLACK) << 3)
+                                    | ((y <= KNIFE_SIGN_SLACK) << 4) | ((z <= KNIFE_SIGN_SLACK) << 5))
+                a = corner[3 * f]
+                b = corner[3 * f + 1]
+                c = corner[3 * f + 2]
+                S[a] |= s
+                S[b] |= s
+                S[c] |= s
+
+    cdef void merge_signs(self, int r, int k) noexcept nogil:
+        """After a collapse of ``r`` into ``k``: k's sign bits take in r's."""
+        self.NS[k] |= self.NS[r]
+
+    cdef bint opposite_signs(self, int r, int k) noexcept nogil:
+        """Could a face around ``r`` and one around ``k`` stand for input faces facing
+        exactly opposite ways (``flat_sides``)?  Their normals' components sum to within
+        0.0175 (574 int16 units; 2 x KNIFE_SIGN_SLACK is more), so along every axis one
+        side has a sign bit that the other has the opposite of: r's + and k's -, or r's -
+        and k's +.  False: the knife test has nothing to find (on a smooth surface nearly
+        always: a fan's normals lie in a narrow cone, and no cone is near 0 along all
+        three axes)."""
+        cdef unsigned int u = self.NS[r]
+        cdef unsigned int v = self.NS[k]
+        return (((u & (v >> 3)) | ((u >> 3) & v)) & 7) == 7
 
     cdef int n_candidates(self):
         """The heap's capacity: one candidate per edge."""
@@ -880,6 +943,8 @@ cdef class EdgeCollapser:
             # not be worse than min(min_quality, the worst face of both fans before)
             if min_q < self.fan_worst_quality(r, min_q) and min_q < self.fan_worst_quality(k, min_q):
                 return False
+        if self.lim.check_knife and self.knife(r, k, fa, fb):
+            return False
         if self.closed_volume != 0.0:
             # a closed surface must not be turned inside out (locally valid faces can still
             # enclose a negative volume once the mesh is down to a handful of faces)
@@ -892,6 +957,54 @@ cdef class EdgeCollapser:
             return False                     # would leave the error bound (last: the costliest check)
         dvol_out[0] = dvol
         return True
+
+    cdef bint knife(self, int r, int k, int fa, int fb) noexcept nogil:
+        """Would the collapse make a knife edge: join the two flat sides of a thin sheet
+        (``flat_sides``: input faces facing exactly opposite ways, a CAD plate's top and
+        bottom), one side in each end's fan, when neither fan held both sides before?  Its
+        quadric cost is small (a rim vertex of a plate stands for little area) but it tilts
+        every face of the new fan through the thickness (issue 17, docs/algorithms.md)."""
+        cdef int fr[KNIFE_FAN]
+        cdef int fk[KNIFE_FAN]
+        cdef int nr, nk
+        cdef int i, j
+        cdef bint cross = False
+        if not self.opposite_signs(r, k):
+            return False
+        nr = self.fan_faces(r, fa, fb, fr)
+        nk = self.fan_faces(k, fa, fb, fk)
+        for i in range(nr):
+            for j in range(nk):
+                if flat_sides(self.N0, fr[i], fk[j]):
+                    cross = True
+                    break
+            if cross:
+                break
+        if not cross:
+            return False
+        for i in range(nr):
+            for j in range(i + 1, nr):
+                if flat_sides(self.N0, fr[i], fr[j]):
+                    return False
+        for i in range(nk):
+            for j in range(i + 1, nk):
+                if flat_sides(self.N0, fk[i], fk[j]):
+                    return False
+        return True
+
+    cdef int fan_faces(self, int center, int fa, int fb, int* out) noexcept nogil:
+        """The faces around ``center`` but fa and fb, into ``out`` (at most KNIFE_FAN); their count."""
+        cdef int start = self.m.v_he[center]
+        cdef int y = start
+        cdef int f, n = 0
+        while True:
+            f = y // 3
+            if f != fa and f != fb and n < KNIFE_FAN:
+                out[n] = f
+                n += 1
+            y = he_ring_next(self.m, y)
+            if y < 0 or y == start:
+                return n
 
     cdef double fan_worst_quality(self, int center, double floor) noexcept nogil:
         """The lowest quality among the faces around ``center`` as they are (the ones a
@@ -1130,6 +1243,9 @@ cdef class EdgeCollapser:
                 break
         self.heap.heapify_fast()
         self.collapses_since_rescan = 0
+        self.round_size = self.heap.size
+        self.round_popped = 0
+        self.round_limit = INFINITY
         self.n_rejected_error = 0
         self.n_rejected_topology = 0
         self.n_rejected_geometry = 0
@@ -1202,6 +1318,7 @@ cdef class EdgeCollapser:
             chain = self.bound.commit_begin(h, r, k)
         self.hm.collapse_uncounted(h, r, dead, merged_into)
         self.vflags[k] |= self.vflags[r] & VERTEX_BOUNDARY
+        self.merge_signs(r, k)
         if self.fields.n_vfields or self.fields.n_efields:
             self.fields.merge(r, k, dead, merged_into)
         quadric_sum(&self.Q[VSTRIDE * k], &self.Q[VSTRIDE * r], &self.Q[VSTRIDE * k])
@@ -1250,13 +1367,32 @@ cdef class EdgeCollapser:
             if self.collapses_since_rescan == 0:
                 return False
             self.rescan()
+        self.round_popped += 1
+        if self.round_popped == (self.round_size + FALLBACK_FRACTION - 1) // FALLBACK_FRACTION:
+            self.round_limit = key
         return True
 
     cdef int run_c(self, int target_faces, int max_steps) noexcept nogil:
+        """The greedy driver: the cheapest candidate first, until ``target_faces``.  With the
+        end-of-edge fallback on (simplify's last step), a candidate whose planned position
+        fails takes an end or the midpoint of its edge if that costs no more than the heap's
+        next candidate (``place_ok``); otherwise it is refused, and the cheapest legal
+        fallback among those refused since the last collapse is remembered (``defer_e``).
+        When a whole round (a rescan, then every candidate) takes nothing, that one is taken
+        -- one collapse, then a new round -- if it costs no more than the round's median
+        candidate (``round_limit``: as the pass driver's fallback costs no more than its
+        pass's dearest candidate, the cheapest sixth).  Without it the run stopped there: a
+        refused candidate leaves the heap and a fallback could not cost more than the next
+        (issue 17: plate24 at 5 % stopped at 376 faces for 319; with no limit the bracket's
+        Hausdorff doubled; docs/algorithms.md)."""
         cdef int e, h, r, k, hs, rs, ks, steps = 0, n_iter = 0
-        cdef double cost, err
+        cdef int defer_e = -1
+        cdef double cost, err, limit
+        cdef double defer_cost = INFINITY
         cdef double ce[2]
+        cdef double ce2[2]
         cdef double p[3]
+        cdef double q[3]
         cdef double dvol[2]
         while self.hm.n_alive_faces > target_faces:
             n_iter += 1
@@ -1265,7 +1401,13 @@ cdef class EdgeCollapser:
             if steps >= max_steps:
                 return RUN_CHUNK
             if not self.pop_candidate(&e):
-                return RUN_EXHAUSTED
+                if defer_e < 0 or defer_cost > self.round_limit:
+                    return RUN_EXHAUSTED
+                # a round took nothing: the cheapest legal fallback of its refusals
+                # (planned again on the same mesh: the same plan, the same fallback)
+                e = defer_e
+                defer_e = -1
+                defer_cost = INFINITY
             if self.plan(e, &h, &r, &hs, p, &cost, &err) < 0:
                 if self.failed:
                     return RUN_ERROR
@@ -1288,6 +1430,8 @@ cdef class EdgeCollapser:
                 if self.failed:
                     return RUN_ERROR
                 steps += 1
+                defer_e = -1
+                defer_cost = INFINITY
                 continue
             if not self.hm.link_ok(h):
                 self.n_rejected_topology += 1
@@ -1296,7 +1440,20 @@ cdef class EdgeCollapser:
                 continue
             ce[0] = cost
             ce[1] = err
-            if not self.place_ok(h, r, k, p, ce, self.heap.hkey[0] if self.heap.size > 0 else INFINITY, &dvol[0]):
+            # what the driver takes next anyway: the heap's top, or once the heap is empty
+            # the cheapest fallback refused since the last collapse (none: any cost)
+            limit = self.heap.hkey[0] if self.heap.size > 0 else defer_cost
+            if not self.place_ok(h, r, k, p, ce, limit, &dvol[0]):
+                if self.end_fallback and limit < INFINITY:
+                    # refused for its fallback's cost alone?  Remember the cheapest such
+                    q[0] = p[0]
+                    q[1] = p[1]
+                    q[2] = p[2]
+                    ce2[0] = cost
+                    ce2[1] = err
+                    if self.place_ok(h, r, k, q, ce2, INFINITY, &dvol[1]) and ce2[0] < defer_cost:
+                        defer_e = e
+                        defer_cost = ce2[0]
                 self.n_rejected_geometry += 1
                 self.refused[r] = 1
                 self.refused[k] = 1
@@ -1305,6 +1462,8 @@ cdef class EdgeCollapser:
             if self.failed:
                 return RUN_ERROR
             steps += 1
+            defer_e = -1
+            defer_cost = INFINITY
         return RUN_TARGET
 
     # ------------------------------------------------------------- Python API
@@ -1374,7 +1533,7 @@ cdef class EdgeCollapser:
         cdef double cost, err, dv, vol
         cdef CheckLimits saved = self.lim
         out = {"fixed": 0, "topology": 0, "quality": 0, "input_face": 0, "fold": 0, "turn": 0, "volume": 0,
-               "several": 0, "free": 0}
+               "knife": 0, "several": 0, "free": 0}
         for e in range(self.hm.n_edges):
             if not self.m.edge_alive[e]:
                 continue
@@ -1402,7 +1561,7 @@ cdef class EdgeCollapser:
                 out["free"] += 1
                 continue
             reason = "several"
-            for name in ("quality", "input_face", "fold", "turn", "volume"):
+            for name in ("quality", "input_face", "fold", "turn", "volume", "knife"):
                 self.lim = saved
                 vol = self.closed_volume
                 if name == "quality":
@@ -1413,6 +1572,8 @@ cdef class EdgeCollapser:
                     self.lim.check_fold = False
                 elif name == "turn":
                     self.lim.cos_max_angle = -2.0
+                elif name == "knife":
+                    self.lim.check_knife = False
                 else:
                     self.closed_volume = 0.0
                 ok = self.geometry_ok(h, r, k, p, -1, -1, &dv)
@@ -1443,6 +1604,15 @@ cdef class EdgeCollapser:
         self.lim.min_quality = min_quality
         self.collapses_since_rescan += 1
 
+    def allow_knives(self):
+        """Switch the knife test off (a collapse may join the two sides of a thin sheet) and
+        give every live candidate another chance on the next ``run``: ``simplify``'s
+        relaxation step when the checks leave no collapse."""
+        if self.released:
+            raise RuntimeError("this EdgeCollapser was released")
+        self.lim.check_knife = False
+        self.collapses_since_rescan += 1
+
     def allow_end_fallback(self):
         """From the next ``run`` on, a candidate whose planned position fails the checks may
         collapse at an end or the midpoint of its edge (``place_ok``), and every live candidate gets another
@@ -1470,6 +1640,11 @@ cdef class EdgeCollapser:
         if self.released:
             raise RuntimeError("this EdgeCollapser was released")
         raise RuntimeError("check_face needs an EdgeCollapser made with operator=1 (triangle)")
+
+    @property
+    def knife_test(self):
+        """Is the knife test on (``allow_knives`` switches it off)?"""
+        return bool(self.lim.check_knife)
 
     @property
     def n_tri_collapses(self):
@@ -1508,6 +1683,8 @@ cdef class EdgeCollapser:
         self.heap = IndexedHeap(0)
         self.face_n0 = np.zeros(3, dtype=np.int16)
         self.N0 = &self.face_n0[0]
+        self.normal_sign = np.zeros(1, dtype=np.uint8)
+        self.NS = &self.normal_sign[0]
         # (a loop: numpy's copy of the (n, 3) columns of the (n, 14) rows took ~60
         # instructions a row)
         cdef Py_ssize_t n = self.vdata.shape[0], v

@@ -224,6 +224,7 @@ cdef class TriangleCollapser(EdgeCollapser):
         cdef int dead[3]
         cdef int merged[2]
         cdef double saved_p[3]
+        cdef unsigned char saved_signs
         cdef double saved_vol = self.closed_volume
         cdef int saved_faces = self.hm.n_alive_faces
         cdef int saved_verts = self.hm.n_alive_vertices
@@ -279,6 +280,8 @@ cdef class TriangleCollapser(EdgeCollapser):
         for i in range(nb):
             bv[i] = bp[i][0]
         self.hm.collapse(h1, r1, dead, merged)
+        saved_signs = self.NS[k]
+        self.merge_signs(r1, k)                    # k's fan holds r1's faces now (the knife test)
         for i in range(3):
             saved_p[i] = self.P[VSTRIDE * k + i]
             self.P[VSTRIDE * k + i] = p[i]
@@ -298,6 +301,7 @@ cdef class TriangleCollapser(EdgeCollapser):
             self.tri_refused_second += 1
         # undo the first collapse
         self.closed_volume = saved_vol
+        self.NS[k] = saved_signs
         for i in range(3):
             self.P[VSTRIDE * k + i] = saved_p[i]
         for i in range(ni - 1, -1, -1):

@@ -101,9 +101,15 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
     if work.seams is not None:
         work.n_seam_fixed = collapser.n_seam_fixed      # seam ends stay too (EdgeCollapser)
 
+    relaxable = max_error == math.inf and error_bound is None and not compiled.batch
+    if not relaxable and collapser.knife_test:
+        # the knife test is a first step that simplify relaxes when stuck (below); a run
+        # that cannot take that step (a max_error, an error bound, a batch metric) goes without it
+        collapser.allow_knives()
     bar = progress_bar(progress, hm, target)
     n_passes = 0
     relaxed = None
+    knives = False
     fallback = False
     if compiled.batch:
         status, rejected_error, n_passes = run_passes(collapser, compiled, work, target, bar)
@@ -118,6 +124,12 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
             # the checks left no collapse: relax the quality limit a step and go on
             collapser.relax_quality(step)
             relaxed = step
+            status = run_chunked(driver, hm, target, bar)
+        if status == RUN_EXHAUSTED and relaxable and collapser.knife_test:
+            # still stuck: let a collapse join the two sides of a thin sheet (a knife edge;
+            # EdgeCollapser.knife), which the quality relaxation alone did not free
+            collapser.allow_knives()
+            knives = True
             status = run_chunked(driver, hm, target, bar)
         if status == RUN_EXHAUSTED and operator == "edge" and max_error == math.inf:
             # still stuck: let the refused candidates collapse at an end or the midpoint of
@@ -153,6 +165,8 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
         stop, detail = STOP_NO_COLLAPSE, _no_collapse_detail(collapser)
     if relaxed is not None and detail:
         detail += f" (min_quality relaxed to {relaxed:g})"
+    if knives and detail:
+        detail += " (knife collapses allowed)"
     if fallback and detail:
         detail += " (end-of-edge placement allowed)"
     census = None
@@ -184,6 +198,7 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
             "triangle_collapses": int(collapser.n_tri_collapses),
             "refused_at_second_collapse": int(collapser.n_tri_refused_second),
             "min_quality_relaxed_to": relaxed,
+            "knives_allowed": knives,
             "end_fallback": fallback,
             "refusals": census,
             **counters,
@@ -222,7 +237,8 @@ def raise_if_failed(collapser, compiled: Compiled) -> None:
 #: the stop census's names (EdgeCollapser.refusal_census) as the stop detail words them
 CENSUS_WORDS = {"fixed": "locked or boundary rules", "topology": "link condition (topology)",
                 "quality": "quality", "input_face": "turn from the input face", "fold": "fold",
-                "turn": "normal turn", "volume": "enclosed volume", "several": "more than one check",
+                "turn": "normal turn", "volume": "enclosed volume",
+                "knife": "knife edge (two sides of a thin sheet)", "several": "more than one check",
                 "free": "no check"}
 
 
