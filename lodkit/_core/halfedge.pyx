@@ -850,7 +850,7 @@ def build(faces, int n_vertices, int threads=1, bint take=False):
     cdef int[::1] corner = arr.reshape(-1) if take else arr.reshape(-1).copy()
     cdef int[::1] twin = np.full(H, -1, dtype=np.intc)
     cdef int[::1] edge = np.empty(H, dtype=np.intc)
-    cdef int[::1] first = np.zeros(n + 2, dtype=np.intc)
+    cdef int[::1] first = np.empty(n + 1, dtype=np.intc)
     cdef int[::1] out_he = np.empty(H, dtype=np.intc)
     cdef int[::1] n_edges_at = np.empty(n + 1, dtype=np.intc)
     cdef unsigned char[::1] flags = np.zeros(H, dtype=np.uint8)   # non-manifold, then seen
@@ -861,26 +861,43 @@ def build(faces, int n_vertices, int threads=1, bint take=False):
     cdef long long[:, ::1] buf
     cdef int h, a, b, c, f, v, t, s, bad_h = -1, maxdeg = 0, n_edges = 0, n_nm = 0, acc, size
     cdef int n_new, k, start, fan_vertex, n_extra = 0
+    # ---- outgoing half-edges by vertex (CSR: out_he[first[v]:first[v + 1]], h ascending):
+    #      a counting sort, each thread counting, then placing, its own run of half-edges
+    #      (runs in h order, so each vertex's list is in h order for any thread count)
+    cdef int[:, ::1] fill = np.zeros((threads, n + 1), dtype=np.intc)
+    cdef int[::1] bad_t = np.full(threads, -1, dtype=np.intc)
+    cdef int per = (H + threads - 1) // threads
     with nogil:
-        # ---- outgoing half-edges by vertex (CSR: out_he[first[v]:first[v + 1]], h ascending)
-        for h in range(H):
-            a = corner[h]
-            if <unsigned int>a >= <unsigned int>n:
-                bad_h = h
+        for t in prange(threads, num_threads=threads, schedule="static", chunksize=1):
+            for h in range(t * per, min(t * per + per, H)):
+                a = corner[h]
+                if <unsigned int>a >= <unsigned int>n:
+                    bad_t[t] = h
+                    break
+                fill[t, a] += 1
+        for t in range(threads):
+            if bad_t[t] >= 0:
+                bad_h = bad_t[t]
                 break
-            first[a + 2] += 1
     if bad_h >= 0:
         raise ValueError(f"face {bad_h // 3} has a vertex index outside 0..{n - 1}")
     with nogil:
+        acc = 0
         for v in range(n):
-            size = first[v + 2]
-            if size > maxdeg:
-                maxdeg = size
-            first[v + 2] += first[v + 1]
-        for h in range(H):                       # first[a + 1] is a's fill pointer here
-            a = corner[h]
-            out_he[first[a + 1]] = h
-            first[a + 1] += 1
+            first[v] = acc
+            for t in range(threads):
+                size = fill[t, v]
+                fill[t, v] = acc                 # where run t's half-edges of v go
+                acc += size
+            if acc - first[v] > maxdeg:
+                maxdeg = acc - first[v]
+        first[n] = acc
+        for t in prange(threads, num_threads=threads, schedule="static", chunksize=1):
+            for h in range(t * per, min(t * per + per, H)):
+                a = corner[h]
+                out_he[fill[t, a]] = h
+                fill[t, a] += 1
+    fill = None                          # (threads x n ints: not kept past the sort)
     buf = np.empty((threads, 2 * maxdeg + 2), dtype=np.int64)
     with nogil:
         # ---- pair the half-edges at their smaller end, count the fans at each vertex

@@ -49,7 +49,7 @@ from .common cimport QSIZE, VSTRIDE, BOUNDARY_FREE, RUN_TARGET, RUN_CHUNK, RUN_E
 from .quadric cimport collapse_error, quadric_eval, within_reach
 from .checks cimport turns_inside_out
 from .edge cimport EdgeCollapser, SEAM_NONE
-from .common cimport RUN_INTERRUPTED
+from .common cimport RUN_INTERRUPTED, PARALLEL_MIN_VERTICES
 from .interrupt cimport signal_pending, raise_pending, INTERRUPT_EVERY
 
 cnp.import_array()
@@ -1127,14 +1127,21 @@ cdef class PassDriver:
         CF_PENDING_B) by the block of ``bsize`` slots, shifted by ``half``, of their first end:
         a counting sort, cost order kept within a block, into cblock, blk_order, blk_edge and
         blk_start; and clear the ``nb`` blocks' tallies."""
-        cdef int i, b, acc = 0, size
+        cdef int i, b, t, acc = 0, size
+        cdef int T = self.threads if n_sel >= PARALLEL_MIN_VERTICES else 1
+        cdef int per = (n_sel + T - 1) // T
+        # the blocks first, on threads: two reads at random (the candidates come in cost
+        # order) per candidate, the grouping's cost; then the counting sort in order
+        if T > 1:
+            for t in prange(T, num_threads=T, schedule="static", chunksize=1):
+                self.block_range(t * per, min(t * per + per, n_sel), half, deferred)
+        else:
+            self.block_range(0, n_sel, half, deferred)
         memset(&self.blk_start[0], 0, (nb + 1) * sizeof(int))
         for i in range(n_sel):
             if deferred and self.cflag[i] != CF_DEFER:
                 continue
-            b = (self.m.corner[self.m.edge_he[self.keyed_buf[i].edge]] + half) // self.bsize
-            self.cblock[i] = b
-            self.blk_start[b + 1] += 1
+            self.blk_start[self.cblock[i] + 1] += 1
         for b in range(nb):
             size = self.blk_start[b + 1]
             self.blk_start[b] = acc
@@ -1154,6 +1161,21 @@ cdef class PassDriver:
         self.blk_start[0] = 0
         memset(&self.acc_i[0, 0], 0, nb * 4 * sizeof(int))
         memset(&self.acc_x[0, 0], 0, nb * 2 * sizeof(double))
+
+    cdef void block_range(self, int lo, int hi, int half, bint deferred) noexcept nogil:
+        """by_block's blocks of candidates lo .. hi - 1 (``deferred``: of those CF_DEFER
+        only) into cblock (through locals: the stores would reload the arrays)."""
+        cdef const Keyed* cand = &self.keyed_buf[0]
+        cdef const unsigned char* cflag = &self.cflag[0]
+        cdef const int* corner = self.m.corner
+        cdef const int* edge_he = self.m.edge_he
+        cdef int* cblock = &self.cblock[0]
+        cdef int bsize = self.bsize
+        cdef int i
+        for i in range(lo, hi):
+            if deferred and cflag[i] != CF_DEFER:
+                continue
+            cblock[i] = (corner[edge_he[cand[i].edge]] + half) // bsize
 
     cdef int walk_pass(self, int n_sel, int target_faces, int* done) noexcept nogil:
         """One pass over the K cheapest candidates (keyed_buf[:n_sel]), in two stages.
