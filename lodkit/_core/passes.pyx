@@ -38,6 +38,7 @@ from cython.parallel cimport prange, threadid
 from libc.math cimport isnan, INFINITY
 from libc.stdlib cimport qsort, malloc, free
 from libc.string cimport memcpy, memset
+from cpython.mem cimport PyMem_RawCalloc, PyMem_RawFree, PyMem_RawRealloc
 from posix.time cimport clock_gettime, timespec, CLOCK_MONOTONIC
 import numpy as np
 cimport numpy as cnp
@@ -488,6 +489,9 @@ cdef class PassDriver:
     cdef int lo_i, hi_i              # the slice of the pass's candidates walk_block takes
     cdef readonly int n_passes
     cdef double phase_t[N_PHASES]      # wall seconds spent in each phase (diagnostics)
+    cdef Keyed** staging             # (threads,) select_parallel's staging, one per thread
+    cdef int* stage_cap              # (threads,) their capacities (grown as needed)
+    cdef int[::1] stage_n            # (threads,) entries staged in the current select
     cdef readonly long n_deferred    # candidates left to stage 2 (diagnostics)
     cdef readonly long n_late        # collapses done in stage 2 (diagnostics)
     cdef readonly int threads
@@ -525,6 +529,11 @@ cdef class PassDriver:
         self.threads = (threads if not self.single and threads > 1
                         and collapser.hm.n_alive_vertices >= min_parallel else 1)
         self.hist_t = np.zeros((self.threads, N_BUCKETS), dtype=np.intc)
+        self.staging = <Keyed**>PyMem_RawCalloc(self.threads, sizeof(Keyed*))
+        self.stage_cap = <int*>PyMem_RawCalloc(self.threads, sizeof(int))
+        if self.staging == NULL or self.stage_cap == NULL:
+            raise MemoryError()
+        self.stage_n = np.zeros(self.threads, dtype=np.intc)
         self.kmax = <int>((n_alive + fraction - 1.0) / fraction) + 1
         self.keyed_buf = np.zeros(self.kmax, dtype=[("cost", np.float32), ("edge", np.intc)])
         self.keep_plans = collapser.rec.on
@@ -545,6 +554,14 @@ cdef class PassDriver:
         self.plan_x = np.zeros((rows, 6), dtype=np.float64)
         self.acc_i = np.zeros((max_blocks + 1, 4), dtype=np.intc)
         self.acc_x = np.zeros((max_blocks + 1, 2), dtype=np.float64)
+
+    def __dealloc__(self):
+        cdef int t
+        if self.staging != NULL:
+            for t in range(self.threads):
+                PyMem_RawFree(self.staging[t])
+        PyMem_RawFree(self.staging)
+        PyMem_RawFree(self.stage_cap)
 
     # ------------------------------------------------------------- named steps
     cdef void rank(self) noexcept nogil:
@@ -722,17 +739,30 @@ cdef class PassDriver:
 
     cdef int select_parallel(self, int last, int n) noexcept nogil:
         """select() on several threads when every candidate up to bucket ``last`` fits
-        (n of them): each thread counts, then writes, the candidates of its range of edges
-        (ranges in edge order, so each bucket still fills in edge order), and the buckets
-        are sorted on threads.  The same order as one thread's."""
+        (n of them): each thread copies the candidates of its range of edges, in edge
+        order, to its staging buffer and counts them by bucket; then, their write positions
+        known (ranges in edge order, so each bucket still fills in edge order), places its
+        staged ones (a sixth of the edges or so, not every edge again); and the buckets are
+        sorted on threads.  The same order as one thread's.  (Where a staging buffer
+        cannot grow, the candidates are counted and then written from the edges.)"""
         cdef int T = self.threads
         cdef int per = (self.ne + T - 1) // T
         cdef int t, b, lo, hi, pos, c, start, end
+        cdef bint staged = True
         for t in prange(T, num_threads=T, schedule="static", chunksize=1):
             memset(&self.hist_t[t, 0], 0, (last + 1) * sizeof(int))
             lo = t * per
             hi = min(lo + per, self.ne)
-            self.bucket_range(lo, hi, last, &self.hist_t[t, 0], False)
+            self.stage_n[t] = self.stage_range(t, lo, hi, last)
+        for t in range(T):
+            if self.stage_n[t] < 0:
+                staged = False
+        if not staged:
+            for t in prange(T, num_threads=T, schedule="static", chunksize=1):
+                memset(&self.hist_t[t, 0], 0, (last + 1) * sizeof(int))
+                lo = t * per
+                hi = min(lo + per, self.ne)
+                self.bucket_range(lo, hi, last, &self.hist_t[t, 0], False)
         pos = 0
         for b in range(last + 1):             # hist: bucket starts; hist_t: each range's
             self.hist[b] = pos
@@ -741,14 +771,61 @@ cdef class PassDriver:
                 self.hist_t[t, b] = pos
                 pos += c
         for t in prange(T, num_threads=T, schedule="static", chunksize=1):
-            lo = t * per
-            hi = min(lo + per, self.ne)
-            self.bucket_range(lo, hi, last, &self.hist_t[t, 0], True)
+            if staged:
+                self.unstage(t, &self.hist_t[t, 0])
+            else:
+                lo = t * per
+                hi = min(lo + per, self.ne)
+                self.bucket_range(lo, hi, last, &self.hist_t[t, 0], True)
         for b in prange(last + 1, num_threads=T, schedule="dynamic", chunksize=256):
             start = self.hist[b]
             end = self.hist[b + 1] if b < last else n
             sort_bucket(&self.keyed_buf[start], end - start, b < FINITE_BUCKETS, NULL)
         return n
+
+    cdef int stage_range(self, int t, int lo, int hi, int last) noexcept nogil:
+        """select_parallel's first step for thread ``t``: the valid candidates of edges
+        lo .. hi - 1 in buckets up to ``last``, in edge order, into its staging buffer
+        (grown as needed), counted by bucket into its row of hist_t.  Returns how many, or
+        -1 when the buffer could not grow."""
+        cdef const unsigned char* state = &self.state[0]
+        cdef const unsigned char* alive = self.m.edge_alive
+        cdef const float* cost = &self.cost[0]
+        cdef int* hist = &self.hist_t[t, 0]
+        cdef Keyed* buf = self.staging[t]
+        cdef Keyed* grown
+        cdef int cap = self.stage_cap[t]
+        cdef int e, j = 0
+        cdef unsigned int bk
+        for e in range(lo, hi):
+            if state[e] == ST_VALID and alive[e]:
+                bk = bucket_of(cost[e])
+                if bk <= <unsigned int>last:
+                    if j == cap:
+                        cap = 2 * cap if cap > 0 else 65536
+                        grown = <Keyed*>PyMem_RawRealloc(buf, <size_t>cap * sizeof(Keyed))
+                        if grown == NULL:
+                            return -1
+                        buf = grown
+                        self.staging[t] = buf
+                        self.stage_cap[t] = cap
+                    buf[j].cost = cost[e]
+                    buf[j].edge = e
+                    j += 1
+                    hist[bk] += 1
+        return j
+
+    cdef void unstage(self, int t, int* pos) noexcept nogil:
+        """select_parallel's second step for thread ``t``: its staged candidates to their
+        buckets' next rows ``pos`` (advanced) of keyed_buf."""
+        cdef const Keyed* buf = self.staging[t]
+        cdef Keyed* out = &self.keyed_buf[0]
+        cdef int j
+        cdef unsigned int bk
+        for j in range(self.stage_n[t]):
+            bk = bucket_of(buf[j].cost)
+            out[pos[bk]] = buf[j]
+            pos[bk] += 1
 
     cdef void bucket_range(self, int lo, int hi, int last, int* pos, bint write) noexcept nogil:
         """The valid candidates of edges lo .. hi - 1 in buckets up to ``last``, in edge
