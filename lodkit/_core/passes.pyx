@@ -317,6 +317,7 @@ cdef enum:
 
 cdef enum:
     N_BUCKETS = 65536   # histogram of the upper 16 bits of the float32 cost
+    STAGE_RUN = 4096    # select_staged's staging: edges between checks of the room left
 
 cdef enum:
     COARSE = 8          # stage 1c's blocks: this many of stage 1's
@@ -489,7 +490,7 @@ cdef class PassDriver:
     cdef int lo_i, hi_i              # the slice of the pass's candidates walk_block takes
     cdef readonly int n_passes
     cdef double phase_t[N_PHASES]      # wall seconds spent in each phase (diagnostics)
-    cdef Keyed** staging             # (threads,) select_parallel's staging, one per thread
+    cdef Keyed** staging             # (threads,) select_staged's staging, one per thread
     cdef int* stage_cap              # (threads,) their capacities (grown as needed)
     cdef int[::1] stage_n            # (threads,) entries staged in the current select
     cdef readonly long n_deferred    # candidates left to stage 2 (diagnostics)
@@ -534,7 +535,10 @@ cdef class PassDriver:
         if self.staging == NULL or self.stage_cap == NULL:
             raise MemoryError()
         self.stage_n = np.zeros(self.threads, dtype=np.intc)
-        self.kmax = <int>((n_alive + fraction - 1.0) / fraction) + 1
+        # room for the bucket of the K-th candidate past K (1/64 of the edges, ~1 B a
+        # vertex): without it the first pass, where nearly every edge is valid, cuts that
+        # bucket on one thread (select)
+        self.kmax = <int>((n_alive + fraction - 1.0) / fraction) + n_alive // 64 + 1
         self.keyed_buf = np.zeros(self.kmax, dtype=[("cost", np.float32), ("edge", np.intc)])
         self.keep_plans = collapser.rec.on
         self.rec_faces = np.zeros((self.kmax if collapser.rec.on else 1, 2), dtype=np.intc)
@@ -659,10 +663,10 @@ cdef class PassDriver:
         by cost: the order is (cost, edge) whatever the buckets hold.  When the bucket of
         the k-th does not fit in keyed_buf (kmax rows), only its share of the k is kept,
         through a histogram of the lower 16 cost bits within that bucket (the same bits are
-        the same cost, and those come in edge order): the same k, in the same order."""
+        the same cost, and those come in edge order): the same k, in the same order.
+        (select_staged when it fits; the cut, rare with kmax's room, on one thread.)"""
         cdef int b, last, acc = 0, e, n, start, size, big = 0, before, need, last2 = 0, take = 0
         cdef unsigned int bk, lo
-        cdef bint cut = False
         cdef Keyed* tmp
         for last in range(N_BUCKETS):
             acc += self.hist[last]
@@ -670,39 +674,35 @@ cdef class PassDriver:
                 break
         n = acc
         before = n - self.hist[last]
-        if self.threads > 1 and n <= self.keyed_buf.shape[0]:
-            return self.select_parallel(last, n)
-        if n > self.keyed_buf.shape[0]:
-            if last >= FINITE_BUCKETS:
-                return self.select_wide(k, last, n)
-            # bucket `last` overflows: find the low 16 bits of the k-th within it
-            cut = True
-            need = k - before
-            memset(&self.hist_low[0], 0, N_BUCKETS * sizeof(int))
-            for e in range(self.ne):
-                if (self.state[e] == ST_VALID and self.m.edge_alive[e]
-                        and bucket_of(self.cost[e]) == <unsigned int>last):
-                    self.hist_low[cost_bits(self.cost[e]) & 0xFFFF] += 1
-            acc = 0
-            for last2 in range(N_BUCKETS):
-                if acc + self.hist_low[last2] >= need:
-                    break
-                acc += self.hist_low[last2]
-            take = need - acc                  # of the entries with exactly the k-th's cost
-            acc = before                       # hist_low: write positions within the bucket
-            for b in range(last2 + 1):
-                size = self.hist_low[b]
-                self.hist_low[b] = acc
-                acc += size
-            n = k
+        if n <= self.keyed_buf.shape[0]:
+            return self.select_staged(last, n)
+        if last >= FINITE_BUCKETS:
+            return self.select_wide(k, last, n)
+        # bucket `last` overflows: find the low 16 bits of the k-th within it
+        need = k - before
+        memset(&self.hist_low[0], 0, N_BUCKETS * sizeof(int))
+        for e in range(self.ne):
+            if (self.state[e] == ST_VALID and self.m.edge_alive[e]
+                    and bucket_of(self.cost[e]) == <unsigned int>last):
+                self.hist_low[cost_bits(self.cost[e]) & 0xFFFF] += 1
+        acc = 0
+        for last2 in range(N_BUCKETS):
+            if acc + self.hist_low[last2] >= need:
+                break
+            acc += self.hist_low[last2]
+        take = need - acc                  # of the entries with exactly the k-th's cost
+        acc = before                       # hist_low: write positions within the bucket
+        for b in range(last2 + 1):
+            size = self.hist_low[b]
+            self.hist_low[b] = acc
+            acc += size
+        n = k
         acc = 0
         for b in range(last + 1):             # hist becomes each bucket's write position
             size = self.hist[b]
             self.hist[b] = acc
             acc += size
-        if not cut:
-            self.bucket_range(0, self.ne, last, &self.hist[0], True)
-        for e in range(self.ne if cut else 0):
+        for e in range(self.ne):
             if self.state[e] != ST_VALID or not self.m.edge_alive[e]:
                 continue
             bk = bucket_of(self.cost[e])
@@ -731,14 +731,14 @@ cdef class PassDriver:
             start = self.hist[b]
         tmp = <Keyed*>malloc(big * sizeof(Keyed)) if big > 16 else NULL
         start = 0
-        for b in range(last if cut else last + 1):       # (a cut bucket is in order already)
+        for b in range(last):                 # (the cut bucket is in order already)
             sort_bucket(&self.keyed_buf[start], self.hist[b] - start, b < FINITE_BUCKETS, tmp)
             start = self.hist[b]
         free(tmp)
         return n
 
-    cdef int select_parallel(self, int last, int n) noexcept nogil:
-        """select() on several threads when every candidate up to bucket ``last`` fits
+    cdef int select_staged(self, int last, int n) noexcept nogil:
+        """select() on ``threads`` threads when every candidate up to bucket ``last`` fits
         (n of them): each thread copies the candidates of its range of edges, in edge
         order, to its staging buffer and counts them by bucket; then, their write positions
         known (ranges in edge order, so each bucket still fills in edge order), places its
@@ -784,7 +784,7 @@ cdef class PassDriver:
         return n
 
     cdef int stage_range(self, int t, int lo, int hi, int last) noexcept nogil:
-        """select_parallel's first step for thread ``t``: the valid candidates of edges
+        """select_staged's first step for thread ``t``: the valid candidates of edges
         lo .. hi - 1 in buckets up to ``last``, in edge order, into its staging buffer
         (grown as needed), counted by bucket into its row of hist_t.  Returns how many, or
         -1 when the buffer could not grow."""
@@ -795,28 +795,34 @@ cdef class PassDriver:
         cdef Keyed* buf = self.staging[t]
         cdef Keyed* grown
         cdef int cap = self.stage_cap[t]
-        cdef int e, j = 0
-        cdef unsigned int bk
-        for e in range(lo, hi):
-            if state[e] == ST_VALID and alive[e]:
+        cdef int e, j = 0, sub, sub_end
+        cdef unsigned int bk, take
+        # without branches on the edge's state (dead and valid edges mix at random late in
+        # a run): every edge is written to the next row and counted, and kept (the row
+        # advanced, the count left) only if it is a valid candidate up to ``last``
+        sub = lo
+        while sub < hi:
+            sub_end = min(sub + <int>STAGE_RUN, hi)
+            if cap - j < sub_end - sub:
+                cap = max(2 * cap, j + STAGE_RUN)
+                grown = <Keyed*>PyMem_RawRealloc(buf, <size_t>cap * sizeof(Keyed))
+                if grown == NULL:
+                    return -1
+                buf = grown
+                self.staging[t] = buf
+                self.stage_cap[t] = cap
+            for e in range(sub, sub_end):
                 bk = bucket_of(cost[e])
-                if bk <= <unsigned int>last:
-                    if j == cap:
-                        cap = 2 * cap if cap > 0 else 65536
-                        grown = <Keyed*>PyMem_RawRealloc(buf, <size_t>cap * sizeof(Keyed))
-                        if grown == NULL:
-                            return -1
-                        buf = grown
-                        self.staging[t] = buf
-                        self.stage_cap[t] = cap
-                    buf[j].cost = cost[e]
-                    buf[j].edge = e
-                    j += 1
-                    hist[bk] += 1
+                take = (state[e] == ST_VALID) & (alive[e] != 0) & (bk <= <unsigned int>last)
+                buf[j].cost = cost[e]
+                buf[j].edge = e
+                j += take
+                hist[bk] += take
+            sub = sub_end
         return j
 
     cdef void unstage(self, int t, int* pos) noexcept nogil:
-        """select_parallel's second step for thread ``t``: its staged candidates to their
+        """select_staged's second step for thread ``t``: its staged candidates to their
         buckets' next rows ``pos`` (advanced) of keyed_buf."""
         cdef const Keyed* buf = self.staging[t]
         cdef Keyed* out = &self.keyed_buf[0]
