@@ -705,3 +705,15 @@ def test_build_is_the_same_on_any_number_of_threads(seed):
         for name in ("corners", "twins", "edges", "edge_halfedges", "vertex_halfedges", "vertex_sources",
                      "locked_vertices"):
             assert np.array_equal(getattr(one, name), getattr(other, name)), name
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3])
+def test_build_names_the_first_face_with_an_index_out_of_range(threads):
+    # each thread checks its own run of half-edges: the error still names the first bad
+    # face, whichever run holds it (a 170 x 170 grid is above the threads' threshold)
+    faces, n = compact(grid_faces(170, 170))
+    faces = faces.astype(np.int32)
+    faces[40000, 2] = n
+    faces[50000, 0] = -1
+    with pytest.raises(ValueError, match=f"face 40000 has a vertex index outside 0..{n - 1}"):
+        build(faces, n, threads)

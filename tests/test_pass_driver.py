@@ -195,8 +195,10 @@ def test_core_morton_permutation_is_the_numpy_one(case):
            # above the threads' threshold (16,384 points): the codes on threads
            "threads": np.round(rng.normal(size=(20000, 3)), 2)}[case]
     assert np.array_equal(morton_permutation(pts), morton_order(pts))
-    # the caller's bounding box (prepare() has it) and threads change nothing
-    assert np.array_equal(morton_permutation(pts, None, bounding_box(pts), 2), morton_order(pts))
+    # the caller's bounding box (prepare() has it) and threads (the codes, and each digit's
+    # count and scatter by runs of points) change nothing
+    for threads in (2, 3):
+        assert np.array_equal(morton_permutation(pts, None, bounding_box(pts), threads), morton_order(pts))
     faces = rng.integers(0, max(len(pts), 1), size=(4 * len(pts), 3)).astype(np.int32)
     assert np.array_equal(faces_by_first_slot(faces, len(pts)), np.argsort(faces.min(axis=1), kind="stable"))
     # renumbered on the fly (prepare(): the Morton slots), on threads: the same as numpy

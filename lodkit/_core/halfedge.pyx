@@ -9,6 +9,7 @@ back on output restores the input's non-manifold configuration exactly.
 """
 from cython.parallel cimport prange, threadid
 from libc.stdlib cimport qsort
+from libc.string cimport memset
 import numpy as np
 cimport numpy as cnp
 
@@ -850,7 +851,7 @@ def build(faces, int n_vertices, int threads=1, bint take=False):
     cdef int[::1] corner = arr.reshape(-1) if take else arr.reshape(-1).copy()
     cdef int[::1] twin = np.full(H, -1, dtype=np.intc)
     cdef int[::1] edge = np.empty(H, dtype=np.intc)
-    cdef int[::1] first = np.zeros(n + 2, dtype=np.intc)
+    cdef int[::1] first = np.empty(n + 1, dtype=np.intc)
     cdef int[::1] out_he = np.empty(H, dtype=np.intc)
     cdef int[::1] n_edges_at = np.empty(n + 1, dtype=np.intc)
     cdef unsigned char[::1] flags = np.zeros(H, dtype=np.uint8)   # non-manifold, then seen
@@ -861,26 +862,43 @@ def build(faces, int n_vertices, int threads=1, bint take=False):
     cdef long long[:, ::1] buf
     cdef int h, a, b, c, f, v, t, s, bad_h = -1, maxdeg = 0, n_edges = 0, n_nm = 0, acc, size
     cdef int n_new, k, start, fan_vertex, n_extra = 0
+    # ---- outgoing half-edges by vertex (CSR: out_he[first[v]:first[v + 1]], h ascending):
+    #      a counting sort, each thread counting, then placing, its own run of half-edges
+    #      (runs in h order, so each vertex's list is in h order for any thread count)
+    cdef int[:, ::1] fill = np.zeros((threads, n + 1), dtype=np.intc)
+    cdef int[::1] bad_t = np.full(threads, -1, dtype=np.intc)
+    cdef int per = (H + threads - 1) // threads
     with nogil:
-        # ---- outgoing half-edges by vertex (CSR: out_he[first[v]:first[v + 1]], h ascending)
-        for h in range(H):
-            a = corner[h]
-            if <unsigned int>a >= <unsigned int>n:
-                bad_h = h
+        for t in prange(threads, num_threads=threads, schedule="static", chunksize=1):
+            for h in range(t * per, min(t * per + per, H)):
+                a = corner[h]
+                if <unsigned int>a >= <unsigned int>n:
+                    bad_t[t] = h
+                    break
+                fill[t, a] += 1
+        for t in range(threads):
+            if bad_t[t] >= 0:
+                bad_h = bad_t[t]
                 break
-            first[a + 2] += 1
     if bad_h >= 0:
         raise ValueError(f"face {bad_h // 3} has a vertex index outside 0..{n - 1}")
     with nogil:
+        acc = 0
         for v in range(n):
-            size = first[v + 2]
-            if size > maxdeg:
-                maxdeg = size
-            first[v + 2] += first[v + 1]
-        for h in range(H):                       # first[a + 1] is a's fill pointer here
-            a = corner[h]
-            out_he[first[a + 1]] = h
-            first[a + 1] += 1
+            first[v] = acc
+            for t in range(threads):
+                size = fill[t, v]
+                fill[t, v] = acc                 # where run t's half-edges of v go
+                acc += size
+            if acc - first[v] > maxdeg:
+                maxdeg = acc - first[v]
+        first[n] = acc
+        for t in prange(threads, num_threads=threads, schedule="static", chunksize=1):
+            for h in range(t * per, min(t * per + per, H)):
+                a = corner[h]
+                out_he[fill[t, a]] = h
+                fill[t, a] += 1
+    fill = None                          # (threads x n ints: not kept past the sort)
     buf = np.empty((threads, 2 * maxdeg + 2), dtype=np.int64)
     with nogil:
         # ---- pair the half-edges at their smaller end, count the fans at each vertex
@@ -1103,6 +1121,38 @@ cdef inline unsigned long long morton_code(const double* p, const double* lo, co
     return spread_bits(q[0]) | (spread_bits(q[1]) << 1) | (spread_bits(q[2]) << 2)
 
 
+cdef void radix_count(const unsigned long long* src, Py_ssize_t lo, Py_ssize_t hi,
+                      Py_ssize_t* cnt) noexcept nogil:
+    """morton_permutation's histograms of every digit of src[lo:hi] (cnt: RADIX_DIGITS rows)."""
+    cdef Py_ssize_t i
+    cdef int k
+    for i in range(lo, hi):
+        for k in range(RADIX_DIGITS):
+            cnt[k * RADIX + ((src[i] >> (RADIX_BITS * k)) & (RADIX - 1))] += 1
+
+
+cdef void radix_count_digit(const unsigned long long* src, Py_ssize_t lo, Py_ssize_t hi, int shift,
+                            Py_ssize_t* cnt) noexcept nogil:
+    """morton_permutation's histogram of the digit at ``shift`` of src[lo:hi] (cnt zeroed here)."""
+    cdef Py_ssize_t i
+    memset(cnt, 0, RADIX * sizeof(Py_ssize_t))
+    for i in range(lo, hi):
+        cnt[(src[i] >> shift) & (RADIX - 1)] += 1
+
+
+cdef void radix_place(const unsigned long long* src, unsigned long long* dst, const int* isrc,
+                      int* idst, Py_ssize_t lo, Py_ssize_t hi, int shift, Py_ssize_t* pos) noexcept nogil:
+    """morton_permutation's stable scatter of src[lo:hi] (and its permutation) by the digit
+    at ``shift``, to the next rows ``pos`` (advanced) of each digit value."""
+    cdef Py_ssize_t i
+    cdef unsigned long long d
+    for i in range(lo, hi):
+        d = (src[i] >> shift) & (RADIX - 1)
+        dst[pos[d]] = src[i]
+        idst[pos[d]] = isrc[i]
+        pos[d] += 1
+
+
 def morton_permutation(points, index=None, box=None, int threads=1):
     """(n,) int32 permutation sorting (n, 3) ``points`` (or ``points[index]``, without the
     copy) along their Morton curve: the same as ``lodkit.geometry.morton_order`` (21 bits
@@ -1111,8 +1161,10 @@ def morton_permutation(points, index=None, box=None, int threads=1):
     permutation: a stable sort by the whole code).
 
     ``box``: the points' (lo, hi) from :func:`bounding_box` when the caller has it (not
-    measured again); ``threads``: OpenMP threads of the codes (from PARALLEL_MIN_VERTICES
-    points; each point's own), the sort is serial."""
+    measured again); ``threads``: OpenMP threads (from PARALLEL_MIN_VERTICES points) of
+    the codes (each point's own) and of the sort (for each digit, each thread counts, then
+    places, its own run of the points: runs in order, so the sort stays stable and the
+    permutation is the same for any number)."""
     cdef const double[:, ::1] P = np.ascontiguousarray(points, dtype=np.float64)
     if P.shape[1] != 3:
         raise ValueError("points must have shape (n, 3)")
@@ -1127,25 +1179,25 @@ def morton_permutation(points, index=None, box=None, int threads=1):
     codes = np.empty(n, dtype=np.uint64)
     tmp_codes = np.empty(n, dtype=np.uint64)
     tmp_perm = np.empty(n, dtype=np.intc)
-    counts = np.zeros((RADIX_DIGITS, RADIX), dtype=np.intp)
     cdef unsigned long long[::1] C = codes
     cdef unsigned long long[::1] C2 = tmp_codes
     cdef int[::1] I = perm
     cdef int[::1] I2 = tmp_perm
-    cdef Py_ssize_t[:, ::1] cnt = counts
+    cdef Py_ssize_t[:, :, ::1] cnt
     cdef double lo[3]
     cdef double ext[3]
     cdef double hi
     cdef double top = <double>((1 << 21) - 1)
-    cdef unsigned long long d
-    cdef Py_ssize_t i, acc, size
-    cdef int k, shift
+    cdef Py_ssize_t i, acc, size, per
+    cdef int k, shift, t
     cdef unsigned long long* src
     cdef unsigned long long* dst
     cdef int* isrc
     cdef int* idst
     if threads < 1 or n < PARALLEL_MIN_VERTICES:
         threads = 1
+    cnt = np.zeros((threads, RADIX_DIGITS, RADIX), dtype=np.intp)
+    per = (n + threads - 1) // threads
     if box is None:
         box = bounding_box(P, X)
     for k in range(3):
@@ -1156,23 +1208,28 @@ def morton_permutation(points, index=None, box=None, int threads=1):
         for i in prange(n, num_threads=threads, schedule="static"):
             C[i] = morton_code(&P[X[i], 0], lo, ext, top)
         src, dst, isrc, idst = &C[0], &C2[0], &I[0], &I2[0]
-        for i in range(n):                        # every digit's histogram in one read
-            for k in range(RADIX_DIGITS):
-                cnt[k, (src[i] >> (RADIX_BITS * k)) & (RADIX - 1)] += 1
+        for t in prange(threads, num_threads=threads, schedule="static", chunksize=1):
+            radix_count(src, t * per, min(t * per + per, n), &cnt[t, 0, 0])   # every digit's, in one read
         for k in range(RADIX_DIGITS):
             shift = RADIX_BITS * k
-            if cnt[k, (src[0] >> shift) & (RADIX - 1)] == n:
+            size = 0
+            for t in range(threads):
+                size = size + cnt[t, k, (src[0] >> shift) & (RADIX - 1)]
+            if size == n:
                 continue                          # one digit value: already in order
-            acc = 0
+            if threads > 1:
+                # each run's own histogram of this digit, in the order the last pass left
+                # (the first read's are of the input order; their sums hold for any order)
+                for t in prange(threads, num_threads=threads, schedule="static", chunksize=1):
+                    radix_count_digit(src, t * per, min(t * per + per, n), shift, &cnt[t, k, 0])
+            acc = 0                               # each run's start in each digit value
             for i in range(RADIX):
-                size = cnt[k, i]
-                cnt[k, i] = acc
-                acc += size
-            for i in range(n):
-                d = (src[i] >> shift) & (RADIX - 1)
-                dst[cnt[k, d]] = src[i]
-                idst[cnt[k, d]] = isrc[i]
-                cnt[k, d] += 1
+                for t in range(threads):
+                    size = cnt[t, k, i]
+                    cnt[t, k, i] = acc
+                    acc += size
+            for t in prange(threads, num_threads=threads, schedule="static", chunksize=1):
+                radix_place(src, dst, isrc, idst, t * per, min(t * per + per, n), shift, &cnt[t, k, 0])
             src, dst = dst, src
             isrc, idst = idst, isrc
         if isrc != &I[0]:

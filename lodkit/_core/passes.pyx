@@ -38,6 +38,7 @@ from cython.parallel cimport prange, threadid
 from libc.math cimport isnan, INFINITY
 from libc.stdlib cimport qsort, malloc, free
 from libc.string cimport memcpy, memset
+from cpython.mem cimport PyMem_RawCalloc, PyMem_RawFree, PyMem_RawRealloc
 from posix.time cimport clock_gettime, timespec, CLOCK_MONOTONIC
 import numpy as np
 cimport numpy as cnp
@@ -49,7 +50,7 @@ from .common cimport QSIZE, VSTRIDE, BOUNDARY_FREE, RUN_TARGET, RUN_CHUNK, RUN_E
 from .quadric cimport collapse_error, quadric_eval, within_reach
 from .checks cimport turns_inside_out
 from .edge cimport EdgeCollapser, SEAM_NONE
-from .common cimport RUN_INTERRUPTED
+from .common cimport RUN_INTERRUPTED, PARALLEL_MIN_VERTICES
 from .interrupt cimport signal_pending, raise_pending, INTERRUPT_EVERY
 
 cnp.import_array()
@@ -316,6 +317,7 @@ cdef enum:
 
 cdef enum:
     N_BUCKETS = 65536   # histogram of the upper 16 bits of the float32 cost
+    STAGE_RUN = 4096    # select_staged's staging: edges between checks of the room left
 
 cdef enum:
     COARSE = 8          # stage 1c's blocks: this many of stage 1's
@@ -488,6 +490,9 @@ cdef class PassDriver:
     cdef int lo_i, hi_i              # the slice of the pass's candidates walk_block takes
     cdef readonly int n_passes
     cdef double phase_t[N_PHASES]      # wall seconds spent in each phase (diagnostics)
+    cdef Keyed** staging             # (threads,) select_staged's staging, one per thread
+    cdef int* stage_cap              # (threads,) their capacities (grown as needed)
+    cdef int[::1] stage_n            # (threads,) entries staged in the current select
     cdef readonly long n_deferred    # candidates left to stage 2 (diagnostics)
     cdef readonly long n_late        # collapses done in stage 2 (diagnostics)
     cdef readonly int threads
@@ -525,7 +530,15 @@ cdef class PassDriver:
         self.threads = (threads if not self.single and threads > 1
                         and collapser.hm.n_alive_vertices >= min_parallel else 1)
         self.hist_t = np.zeros((self.threads, N_BUCKETS), dtype=np.intc)
-        self.kmax = <int>((n_alive + fraction - 1.0) / fraction) + 1
+        self.staging = <Keyed**>PyMem_RawCalloc(self.threads, sizeof(Keyed*))
+        self.stage_cap = <int*>PyMem_RawCalloc(self.threads, sizeof(int))
+        if self.staging == NULL or self.stage_cap == NULL:
+            raise MemoryError()
+        self.stage_n = np.zeros(self.threads, dtype=np.intc)
+        # room for the bucket of the K-th candidate past K (1/64 of the edges, ~1 B a
+        # vertex): without it the first pass, where nearly every edge is valid, cuts that
+        # bucket on one thread (select)
+        self.kmax = <int>((n_alive + fraction - 1.0) / fraction) + n_alive // 64 + 1
         self.keyed_buf = np.zeros(self.kmax, dtype=[("cost", np.float32), ("edge", np.intc)])
         self.keep_plans = collapser.rec.on
         self.rec_faces = np.zeros((self.kmax if collapser.rec.on else 1, 2), dtype=np.intc)
@@ -545,6 +558,14 @@ cdef class PassDriver:
         self.plan_x = np.zeros((rows, 6), dtype=np.float64)
         self.acc_i = np.zeros((max_blocks + 1, 4), dtype=np.intc)
         self.acc_x = np.zeros((max_blocks + 1, 2), dtype=np.float64)
+
+    def __dealloc__(self):
+        cdef int t
+        if self.staging != NULL:
+            for t in range(self.threads):
+                PyMem_RawFree(self.staging[t])
+        PyMem_RawFree(self.staging)
+        PyMem_RawFree(self.stage_cap)
 
     # ------------------------------------------------------------- named steps
     cdef void rank(self) noexcept nogil:
@@ -642,10 +663,10 @@ cdef class PassDriver:
         by cost: the order is (cost, edge) whatever the buckets hold.  When the bucket of
         the k-th does not fit in keyed_buf (kmax rows), only its share of the k is kept,
         through a histogram of the lower 16 cost bits within that bucket (the same bits are
-        the same cost, and those come in edge order): the same k, in the same order."""
+        the same cost, and those come in edge order): the same k, in the same order.
+        (select_staged when it fits; the cut, rare with kmax's room, on one thread.)"""
         cdef int b, last, acc = 0, e, n, start, size, big = 0, before, need, last2 = 0, take = 0
         cdef unsigned int bk, lo
-        cdef bint cut = False
         cdef Keyed* tmp
         for last in range(N_BUCKETS):
             acc += self.hist[last]
@@ -653,39 +674,35 @@ cdef class PassDriver:
                 break
         n = acc
         before = n - self.hist[last]
-        if self.threads > 1 and n <= self.keyed_buf.shape[0]:
-            return self.select_parallel(last, n)
-        if n > self.keyed_buf.shape[0]:
-            if last >= FINITE_BUCKETS:
-                return self.select_wide(k, last, n)
-            # bucket `last` overflows: find the low 16 bits of the k-th within it
-            cut = True
-            need = k - before
-            memset(&self.hist_low[0], 0, N_BUCKETS * sizeof(int))
-            for e in range(self.ne):
-                if (self.state[e] == ST_VALID and self.m.edge_alive[e]
-                        and bucket_of(self.cost[e]) == <unsigned int>last):
-                    self.hist_low[cost_bits(self.cost[e]) & 0xFFFF] += 1
-            acc = 0
-            for last2 in range(N_BUCKETS):
-                if acc + self.hist_low[last2] >= need:
-                    break
-                acc += self.hist_low[last2]
-            take = need - acc                  # of the entries with exactly the k-th's cost
-            acc = before                       # hist_low: write positions within the bucket
-            for b in range(last2 + 1):
-                size = self.hist_low[b]
-                self.hist_low[b] = acc
-                acc += size
-            n = k
+        if n <= self.keyed_buf.shape[0]:
+            return self.select_staged(last, n)
+        if last >= FINITE_BUCKETS:
+            return self.select_wide(k, last, n)
+        # bucket `last` overflows: find the low 16 bits of the k-th within it
+        need = k - before
+        memset(&self.hist_low[0], 0, N_BUCKETS * sizeof(int))
+        for e in range(self.ne):
+            if (self.state[e] == ST_VALID and self.m.edge_alive[e]
+                    and bucket_of(self.cost[e]) == <unsigned int>last):
+                self.hist_low[cost_bits(self.cost[e]) & 0xFFFF] += 1
+        acc = 0
+        for last2 in range(N_BUCKETS):
+            if acc + self.hist_low[last2] >= need:
+                break
+            acc += self.hist_low[last2]
+        take = need - acc                  # of the entries with exactly the k-th's cost
+        acc = before                       # hist_low: write positions within the bucket
+        for b in range(last2 + 1):
+            size = self.hist_low[b]
+            self.hist_low[b] = acc
+            acc += size
+        n = k
         acc = 0
         for b in range(last + 1):             # hist becomes each bucket's write position
             size = self.hist[b]
             self.hist[b] = acc
             acc += size
-        if not cut:
-            self.bucket_range(0, self.ne, last, &self.hist[0], True)
-        for e in range(self.ne if cut else 0):
+        for e in range(self.ne):
             if self.state[e] != ST_VALID or not self.m.edge_alive[e]:
                 continue
             bk = bucket_of(self.cost[e])
@@ -714,25 +731,38 @@ cdef class PassDriver:
             start = self.hist[b]
         tmp = <Keyed*>malloc(big * sizeof(Keyed)) if big > 16 else NULL
         start = 0
-        for b in range(last if cut else last + 1):       # (a cut bucket is in order already)
+        for b in range(last):                 # (the cut bucket is in order already)
             sort_bucket(&self.keyed_buf[start], self.hist[b] - start, b < FINITE_BUCKETS, tmp)
             start = self.hist[b]
         free(tmp)
         return n
 
-    cdef int select_parallel(self, int last, int n) noexcept nogil:
-        """select() on several threads when every candidate up to bucket ``last`` fits
-        (n of them): each thread counts, then writes, the candidates of its range of edges
-        (ranges in edge order, so each bucket still fills in edge order), and the buckets
-        are sorted on threads.  The same order as one thread's."""
+    cdef int select_staged(self, int last, int n) noexcept nogil:
+        """select() on ``threads`` threads when every candidate up to bucket ``last`` fits
+        (n of them): each thread copies the candidates of its range of edges, in edge
+        order, to its staging buffer and counts them by bucket; then, their write positions
+        known (ranges in edge order, so each bucket still fills in edge order), places its
+        staged ones (a sixth of the edges or so, not every edge again); and the buckets are
+        sorted on threads.  The same order as one thread's.  (Where a staging buffer
+        cannot grow, the candidates are counted and then written from the edges.)"""
         cdef int T = self.threads
         cdef int per = (self.ne + T - 1) // T
         cdef int t, b, lo, hi, pos, c, start, end
+        cdef bint staged = True
         for t in prange(T, num_threads=T, schedule="static", chunksize=1):
             memset(&self.hist_t[t, 0], 0, (last + 1) * sizeof(int))
             lo = t * per
             hi = min(lo + per, self.ne)
-            self.bucket_range(lo, hi, last, &self.hist_t[t, 0], False)
+            self.stage_n[t] = self.stage_range(t, lo, hi, last)
+        for t in range(T):
+            if self.stage_n[t] < 0:
+                staged = False
+        if not staged:
+            for t in prange(T, num_threads=T, schedule="static", chunksize=1):
+                memset(&self.hist_t[t, 0], 0, (last + 1) * sizeof(int))
+                lo = t * per
+                hi = min(lo + per, self.ne)
+                self.bucket_range(lo, hi, last, &self.hist_t[t, 0], False)
         pos = 0
         for b in range(last + 1):             # hist: bucket starts; hist_t: each range's
             self.hist[b] = pos
@@ -741,14 +771,67 @@ cdef class PassDriver:
                 self.hist_t[t, b] = pos
                 pos += c
         for t in prange(T, num_threads=T, schedule="static", chunksize=1):
-            lo = t * per
-            hi = min(lo + per, self.ne)
-            self.bucket_range(lo, hi, last, &self.hist_t[t, 0], True)
+            if staged:
+                self.unstage(t, &self.hist_t[t, 0])
+            else:
+                lo = t * per
+                hi = min(lo + per, self.ne)
+                self.bucket_range(lo, hi, last, &self.hist_t[t, 0], True)
         for b in prange(last + 1, num_threads=T, schedule="dynamic", chunksize=256):
             start = self.hist[b]
             end = self.hist[b + 1] if b < last else n
             sort_bucket(&self.keyed_buf[start], end - start, b < FINITE_BUCKETS, NULL)
         return n
+
+    cdef int stage_range(self, int t, int lo, int hi, int last) noexcept nogil:
+        """select_staged's first step for thread ``t``: the valid candidates of edges
+        lo .. hi - 1 in buckets up to ``last``, in edge order, into its staging buffer
+        (grown as needed), counted by bucket into its row of hist_t.  Returns how many, or
+        -1 when the buffer could not grow."""
+        cdef const unsigned char* state = &self.state[0]
+        cdef const unsigned char* alive = self.m.edge_alive
+        cdef const float* cost = &self.cost[0]
+        cdef int* hist = &self.hist_t[t, 0]
+        cdef Keyed* buf = self.staging[t]
+        cdef Keyed* grown
+        cdef int cap = self.stage_cap[t]
+        cdef int e, j = 0, sub, sub_end
+        cdef unsigned int bk, take
+        # without branches on the edge's state (dead and valid edges mix at random late in
+        # a run): every edge is written to the next row and counted, and kept (the row
+        # advanced, the count left) only if it is a valid candidate up to ``last``
+        sub = lo
+        while sub < hi:
+            sub_end = min(sub + <int>STAGE_RUN, hi)
+            if cap - j < sub_end - sub:
+                cap = max(2 * cap, j + STAGE_RUN)
+                grown = <Keyed*>PyMem_RawRealloc(buf, <size_t>cap * sizeof(Keyed))
+                if grown == NULL:
+                    return -1
+                buf = grown
+                self.staging[t] = buf
+                self.stage_cap[t] = cap
+            for e in range(sub, sub_end):
+                bk = bucket_of(cost[e])
+                take = (state[e] == ST_VALID) & (alive[e] != 0) & (bk <= <unsigned int>last)
+                buf[j].cost = cost[e]
+                buf[j].edge = e
+                j += take
+                hist[bk] += take
+            sub = sub_end
+        return j
+
+    cdef void unstage(self, int t, int* pos) noexcept nogil:
+        """select_staged's second step for thread ``t``: its staged candidates to their
+        buckets' next rows ``pos`` (advanced) of keyed_buf."""
+        cdef const Keyed* buf = self.staging[t]
+        cdef Keyed* out = &self.keyed_buf[0]
+        cdef int j
+        cdef unsigned int bk
+        for j in range(self.stage_n[t]):
+            bk = bucket_of(buf[j].cost)
+            out[pos[bk]] = buf[j]
+            pos[bk] += 1
 
     cdef void bucket_range(self, int lo, int hi, int last, int* pos, bint write) noexcept nogil:
         """The valid candidates of edges lo .. hi - 1 in buckets up to ``last``, in edge
@@ -1127,14 +1210,21 @@ cdef class PassDriver:
         CF_PENDING_B) by the block of ``bsize`` slots, shifted by ``half``, of their first end:
         a counting sort, cost order kept within a block, into cblock, blk_order, blk_edge and
         blk_start; and clear the ``nb`` blocks' tallies."""
-        cdef int i, b, acc = 0, size
+        cdef int i, b, t, acc = 0, size
+        cdef int T = self.threads if n_sel >= PARALLEL_MIN_VERTICES else 1
+        cdef int per = (n_sel + T - 1) // T
+        # the blocks first, on threads: two reads at random (the candidates come in cost
+        # order) per candidate, the grouping's cost; then the counting sort in order
+        if T > 1:
+            for t in prange(T, num_threads=T, schedule="static", chunksize=1):
+                self.block_range(t * per, min(t * per + per, n_sel), half, deferred)
+        else:
+            self.block_range(0, n_sel, half, deferred)
         memset(&self.blk_start[0], 0, (nb + 1) * sizeof(int))
         for i in range(n_sel):
             if deferred and self.cflag[i] != CF_DEFER:
                 continue
-            b = (self.m.corner[self.m.edge_he[self.keyed_buf[i].edge]] + half) // self.bsize
-            self.cblock[i] = b
-            self.blk_start[b + 1] += 1
+            self.blk_start[self.cblock[i] + 1] += 1
         for b in range(nb):
             size = self.blk_start[b + 1]
             self.blk_start[b] = acc
@@ -1154,6 +1244,21 @@ cdef class PassDriver:
         self.blk_start[0] = 0
         memset(&self.acc_i[0, 0], 0, nb * 4 * sizeof(int))
         memset(&self.acc_x[0, 0], 0, nb * 2 * sizeof(double))
+
+    cdef void block_range(self, int lo, int hi, int half, bint deferred) noexcept nogil:
+        """by_block's blocks of candidates lo .. hi - 1 (``deferred``: of those CF_DEFER
+        only) into cblock (through locals: the stores would reload the arrays)."""
+        cdef const Keyed* cand = &self.keyed_buf[0]
+        cdef const unsigned char* cflag = &self.cflag[0]
+        cdef const int* corner = self.m.corner
+        cdef const int* edge_he = self.m.edge_he
+        cdef int* cblock = &self.cblock[0]
+        cdef int bsize = self.bsize
+        cdef int i
+        for i in range(lo, hi):
+            if deferred and cflag[i] != CF_DEFER:
+                continue
+            cblock[i] = (corner[edge_he[cand[i].edge]] + half) // bsize
 
     cdef int walk_pass(self, int n_sel, int target_faces, int* done) noexcept nogil:
         """One pass over the K cheapest candidates (keyed_buf[:n_sel]), in two stages.
