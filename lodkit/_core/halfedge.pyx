@@ -1254,50 +1254,72 @@ cdef inline int smallest(const int* F, const int* remap, int n_remap) noexcept n
     return a
 
 
+cdef Py_ssize_t face_keys(const int* F, const int* map_, int n_map, int n_vertices, Py_ssize_t lo,
+                          Py_ssize_t hi, int* key, int* cnt) noexcept nogil:
+    """faces_by_first_slot's first step for faces lo .. hi - 1: each one's smallest
+    (renumbered) vertex into ``key``, counted per vertex into ``cnt``.  Returns the first
+    face with an index out of range, or -1."""
+    cdef Py_ssize_t f
+    cdef int a
+    for f in range(lo, hi):
+        a = smallest(&F[3 * f], map_, n_map)
+        key[f] = a
+        if a < 0 or a >= n_vertices:
+            return f
+        cnt[a] += 1
+    return -1
+
+
 def faces_by_first_slot(faces, int n_vertices, bint reorder=False, remap=None, int threads=1):
     """(m,) int32 permutation ordering (m, 3) ``faces`` by their smallest vertex index,
     ties in input order (``np.argsort(faces.min(axis=1), kind="stable")`` by a counting
     sort); with ``reorder``, (the faces in that order, the permutation).
 
     ``remap``: the faces' vertices are ``remap[faces]`` (read, not gathered into a copy;
-    the reordered faces are renumbered).  ``threads``: OpenMP threads of the per-face steps
-    (from PARALLEL_MIN_VERTICES vertices), the counting sort is serial."""
+    the reordered faces are renumbered).  ``threads``: OpenMP threads (from
+    PARALLEL_MIN_VERTICES vertices) of the per-face steps and of the counting sort (each
+    thread counts, then places, its own run of faces: runs in order, so the sort stays
+    stable and the permutation is the same for any number)."""
     cdef const int[:, ::1] F = np.ascontiguousarray(faces, dtype=np.intc)
     cdef const int[::1] R = np.ascontiguousarray(np.zeros(1) if remap is None else remap, dtype=np.intc)
     cdef Py_ssize_t m = F.shape[0]
     if threads < 1 or n_vertices < PARALLEL_MIN_VERTICES:
         threads = 1
     out = np.empty(m, dtype=np.intc)
-    start = np.zeros(n_vertices + 1, dtype=np.intp)
     cdef int[::1] key = np.empty(m, dtype=np.intc)
     cdef int[::1] O = out
-    cdef Py_ssize_t[::1] S = start
+    if m == 0:
+        return (np.empty((0, 3), dtype=np.intc), out) if reorder else out
+    cdef int[:, ::1] cnt = np.zeros((threads, max(n_vertices, 1)), dtype=np.intc)   # (m < 2**31)
+    cdef Py_ssize_t[::1] bad_t = np.full(threads, -1, dtype=np.intp)
     cdef Py_ssize_t f, acc = 0, size, bad = -1
+    cdef Py_ssize_t per = (m + threads - 1) // threads
     cdef const int* map_ = NULL
     if remap is not None:
         if R.shape[0] == 0:
             raise ValueError("remap is empty")
         map_ = &R[0]
     cdef int n_map = R.shape[0]
-    cdef int a, v
+    cdef int a, v, t
     with nogil:
-        for f in prange(m, num_threads=threads, schedule="static"):
-            key[f] = smallest(&F[f, 0], map_, n_map)
-        for f in range(m):
-            a = key[f]
-            if a < 0 or a >= n_vertices:
-                bad = f
+        for t in prange(threads, num_threads=threads, schedule="static", chunksize=1):
+            bad_t[t] = face_keys(&F[0, 0], map_, n_map, n_vertices, t * per, min(t * per + per, m),
+                                 &key[0], &cnt[t, 0])
+        for t in range(threads):
+            if bad_t[t] >= 0:
+                bad = bad_t[t]
                 break
-            S[a + 1] += 1
         if bad < 0:
-            for v in range(n_vertices):
-                size = S[v + 1]
-                S[v] = acc
-                acc += size
-        for f in range(m if bad < 0 else 0):
-            a = key[f]
-            O[S[a]] = <int>f
-            S[a] += 1
+            for v in range(n_vertices):           # each run's start in each vertex's faces
+                for t in range(threads):
+                    size = cnt[t, v]
+                    cnt[t, v] = <int>acc
+                    acc += size
+            for t in prange(threads, num_threads=threads, schedule="static", chunksize=1):
+                for f in range(t * per, min(t * per + per, m)):
+                    a = key[f]
+                    O[cnt[t, a]] = <int>f
+                    cnt[t, a] += 1
     if bad >= 0:
         raise ValueError(f"face {bad} has an index outside 0..{n_vertices - 1}")
     if not reorder:
