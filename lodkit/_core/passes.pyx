@@ -317,7 +317,8 @@ cdef enum:
 
 cdef enum:
     N_BUCKETS = 65536   # histogram of the upper 16 bits of the float32 cost
-    STAGE_RUN = 4096    # select_staged's staging: edges between checks of the room left
+    STAGE_RUN = 4096    # select_staged's own staging buffers: edges between checks of the room left
+    BORROWED = 3        # select_staged's threads that stage in cblock, blk_order, blk_edge
 
 cdef enum:
     COARSE = 8          # stage 1c's blocks: this many of stage 1's
@@ -490,8 +491,8 @@ cdef class PassDriver:
     cdef int lo_i, hi_i              # the slice of the pass's candidates walk_block takes
     cdef readonly int n_passes
     cdef double phase_t[N_PHASES]      # wall seconds spent in each phase (diagnostics)
-    cdef Keyed** staging             # (threads,) select_staged's staging, one per thread
-    cdef int* stage_cap              # (threads,) their capacities (grown as needed)
+    cdef int** staging               # (threads,) select_staged's staged edges, one buffer a thread
+    cdef int* stage_cap              # (threads,) their capacities (from BORROWED on: own, grown)
     cdef int[::1] stage_n            # (threads,) entries staged in the current select
     cdef readonly long n_deferred    # candidates left to stage 2 (diagnostics)
     cdef readonly long n_late        # collapses done in stage 2 (diagnostics)
@@ -530,7 +531,7 @@ cdef class PassDriver:
         self.threads = (threads if not self.single and threads > 1
                         and collapser.hm.n_alive_vertices >= min_parallel else 1)
         self.hist_t = np.zeros((self.threads, N_BUCKETS), dtype=np.intc)
-        self.staging = <Keyed**>PyMem_RawCalloc(self.threads, sizeof(Keyed*))
+        self.staging = <int**>PyMem_RawCalloc(self.threads, sizeof(int*))
         self.stage_cap = <int*>PyMem_RawCalloc(self.threads, sizeof(int))
         if self.staging == NULL or self.stage_cap == NULL:
             raise MemoryError()
@@ -543,9 +544,18 @@ cdef class PassDriver:
         self.keep_plans = collapser.rec.on
         self.rec_faces = np.zeros((self.kmax if collapser.rec.on else 1, 2), dtype=np.intc)
         self.cflag = np.zeros(self.kmax, dtype=np.uint8)
-        self.cblock = np.zeros(self.kmax, dtype=np.intc)
-        self.blk_order = np.zeros(self.kmax, dtype=np.intc)
-        self.blk_edge = np.zeros(self.kmax, dtype=np.intc)
+        # (one row more: select_staged's first threads stage in these three, which the
+        # grouping fills only later in the pass, and write a row past their last edge)
+        self.cblock = np.zeros(self.kmax + 1, dtype=np.intc)
+        self.blk_order = np.zeros(self.kmax + 1, dtype=np.intc)
+        self.blk_edge = np.zeros(self.kmax + 1, dtype=np.intc)
+        self.staging[0] = &self.cblock[0]
+        if self.threads > 1:
+            self.staging[1] = &self.blk_order[0]
+        if self.threads > 2:
+            self.staging[2] = &self.blk_edge[0]
+        for i in range(min(self.threads, BORROWED)):
+            self.stage_cap[i] = self.kmax + 1
         self.block = block
         self.bsize = block
         self.n_blocks = 1
@@ -562,7 +572,7 @@ cdef class PassDriver:
     def __dealloc__(self):
         cdef int t
         if self.staging != NULL:
-            for t in range(self.threads):
+            for t in range(BORROWED, self.threads):
                 PyMem_RawFree(self.staging[t])
         PyMem_RawFree(self.staging)
         PyMem_RawFree(self.stage_cap)
@@ -739,12 +749,15 @@ cdef class PassDriver:
 
     cdef int select_staged(self, int last, int n) noexcept nogil:
         """select() on ``threads`` threads when every candidate up to bucket ``last`` fits
-        (n of them): each thread copies the candidates of its range of edges, in edge
-        order, to its staging buffer and counts them by bucket; then, their write positions
-        known (ranges in edge order, so each bucket still fills in edge order), places its
-        staged ones (a sixth of the edges or so, not every edge again); and the buckets are
-        sorted on threads.  The same order as one thread's.  (Where a staging buffer
-        cannot grow, the candidates are counted and then written from the edges.)"""
+        (n of them): each thread copies the edges of the candidates of its range of edges,
+        in edge order, to its staging buffer and counts them by bucket; then, their write
+        positions known (ranges in edge order, so each bucket still fills in edge order),
+        places its staged ones (a sixth of the edges or so, not every edge again); and the
+        buckets are sorted on threads.  The same order as one thread's.  The first three
+        threads stage in cblock, blk_order and blk_edge (kmax + 1 rows each, free until the
+        grouping), so this takes no memory of its own on up to three threads.  (Where a
+        buffer of its own cannot grow, the candidates are counted and then written from the
+        edges.)"""
         cdef int T = self.threads
         cdef int per = (self.ne + T - 1) // T
         cdef int t, b, lo, hi, pos, c, start, end
@@ -785,15 +798,15 @@ cdef class PassDriver:
 
     cdef int stage_range(self, int t, int lo, int hi, int last) noexcept nogil:
         """select_staged's first step for thread ``t``: the valid candidates of edges
-        lo .. hi - 1 in buckets up to ``last``, in edge order, into its staging buffer
-        (grown as needed), counted by bucket into its row of hist_t.  Returns how many, or
-        -1 when the buffer could not grow."""
+        lo .. hi - 1 in buckets up to ``last``, their edges in edge order, into its staging
+        buffer (one of its own grown as needed), counted by bucket into its row of hist_t.
+        Returns how many, or -1 when the buffer could not grow."""
         cdef const unsigned char* state = &self.state[0]
         cdef const unsigned char* alive = self.m.edge_alive
         cdef const float* cost = &self.cost[0]
         cdef int* hist = &self.hist_t[t, 0]
-        cdef Keyed* buf = self.staging[t]
-        cdef Keyed* grown
+        cdef int* buf = self.staging[t]
+        cdef int* grown
         cdef int cap = self.stage_cap[t]
         cdef int e, j = 0, sub, sub_end
         cdef unsigned int bk, take
@@ -803,9 +816,9 @@ cdef class PassDriver:
         sub = lo
         while sub < hi:
             sub_end = min(sub + <int>STAGE_RUN, hi)
-            if cap - j < sub_end - sub:
-                cap = max(2 * cap, j + STAGE_RUN)
-                grown = <Keyed*>PyMem_RawRealloc(buf, <size_t>cap * sizeof(Keyed))
+            if t >= BORROWED and cap - j < sub_end - sub:
+                cap = max(cap + cap // 2, j + STAGE_RUN)
+                grown = <int*>PyMem_RawRealloc(buf, <size_t>cap * sizeof(int))
                 if grown == NULL:
                     return -1
                 buf = grown
@@ -814,8 +827,7 @@ cdef class PassDriver:
             for e in range(sub, sub_end):
                 bk = bucket_of(cost[e])
                 take = (state[e] == ST_VALID) & (alive[e] != 0) & (bk <= <unsigned int>last)
-                buf[j].cost = cost[e]
-                buf[j].edge = e
+                buf[j] = e
                 j += take
                 hist[bk] += take
             sub = sub_end
@@ -824,13 +836,16 @@ cdef class PassDriver:
     cdef void unstage(self, int t, int* pos) noexcept nogil:
         """select_staged's second step for thread ``t``: its staged candidates to their
         buckets' next rows ``pos`` (advanced) of keyed_buf."""
-        cdef const Keyed* buf = self.staging[t]
+        cdef const int* buf = self.staging[t]
+        cdef const float* cost = &self.cost[0]
         cdef Keyed* out = &self.keyed_buf[0]
-        cdef int j
+        cdef int j, e
         cdef unsigned int bk
         for j in range(self.stage_n[t]):
-            bk = bucket_of(buf[j].cost)
-            out[pos[bk]] = buf[j]
+            e = buf[j]
+            bk = bucket_of(cost[e])
+            out[pos[bk]].cost = cost[e]
+            out[pos[bk]].edge = e
             pos[bk] += 1
 
     cdef void bucket_range(self, int lo, int hi, int last, int* pos, bint write) noexcept nogil:
