@@ -707,6 +707,29 @@ cdef inline void sort_keys(long long* a, int k) noexcept nogil:
     insertion_sort(a, k)
 
 
+cdef int run_starts(int* cnt, int n_keys, int n_runs, Py_ssize_t stride) noexcept nogil:
+    """A counting sort by runs (each run of the items, in order, counted by key into its
+    row ``cnt[run * stride:][:n_keys]``): each count becomes where that run's items of that
+    key start, keys in order and runs in order within a key, so the sort is stable for any
+    number of runs.  Returns the total."""
+    cdef int key, run, size, acc = 0
+    for key in range(n_keys):
+        for run in range(n_runs):
+            size = cnt[run * stride + key]
+            cnt[run * stride + key] = acc
+            acc += size
+    return acc
+
+
+cdef void place_by_key(const int* key, Py_ssize_t lo, Py_ssize_t hi, int* pos, int* out) noexcept nogil:
+    """A run's scatter of a counting sort: item i of lo .. hi - 1 to ``out[pos[key[i]]]``
+    (``pos`` advanced; from run_starts)."""
+    cdef Py_ssize_t i
+    for i in range(lo, hi):
+        out[pos[key[i]]] = <int>i
+        pos[key[i]] += 1
+
+
 cdef int pair_at(const int* corner, const int* first, const int* out_he, int v, long long* buf,
                  int* twin, int* local, unsigned char* nm_he, int* n_nm) noexcept nogil:
     """Pair the half-edges whose smaller end is ``v``: each is an outgoing half-edge of v to
@@ -860,7 +883,7 @@ def build(faces, int n_vertices, int threads=1, bint take=False):
     cdef int[::1] vstart = np.empty(n, dtype=np.intc)
     cdef int[::1] nfans = np.empty(n, dtype=np.intc)
     cdef long long[:, ::1] buf
-    cdef int h, a, b, c, f, v, t, s, bad_h = -1, maxdeg = 0, n_edges = 0, n_nm = 0, acc, size
+    cdef int h, a, b, c, f, v, t, s, bad_h = -1, maxdeg = 0, n_edges = 0, n_nm = 0
     cdef int n_new, k, start, fan_vertex, n_extra = 0
     # ---- outgoing half-edges by vertex (CSR: out_he[first[v]:first[v + 1]], h ascending):
     #      a counting sort, each thread counting, then placing, its own run of half-edges
@@ -883,21 +906,14 @@ def build(faces, int n_vertices, int threads=1, bint take=False):
     if bad_h >= 0:
         raise ValueError(f"face {bad_h // 3} has a vertex index outside 0..{n - 1}")
     with nogil:
-        acc = 0
+        first[n] = run_starts(&fill[0, 0], n, threads, n + 1)   # where run t's half-edges of v go
         for v in range(n):
-            first[v] = acc
-            for t in range(threads):
-                size = fill[t, v]
-                fill[t, v] = acc                 # where run t's half-edges of v go
-                acc += size
-            if acc - first[v] > maxdeg:
-                maxdeg = acc - first[v]
-        first[n] = acc
+            first[v] = fill[0, v]
+        for v in range(n):
+            if first[v + 1] - first[v] > maxdeg:
+                maxdeg = first[v + 1] - first[v]
         for t in prange(threads, num_threads=threads, schedule="static", chunksize=1):
-            for h in range(t * per, min(t * per + per, H)):
-                a = corner[h]
-                out_he[fill[t, a]] = h
-                fill[t, a] += 1
+            place_by_key(&corner[0], t * per, min(t * per + per, H), &fill[t, 0], &out_he[0])
     fill = None                          # (threads x n ints: not kept past the sort)
     buf = np.empty((threads, 2 * maxdeg + 2), dtype=np.int64)
     with nogil:
@@ -914,12 +930,7 @@ def build(faces, int n_vertices, int threads=1, bint take=False):
                     nm_vertex[corner[h]] = 1
                     nm_vertex[corner[he_next(h)]] = 1
         # edges numbered in (smaller end, larger end) order: v's come after those of 0..v-1
-        acc = 0
-        for v in range(n):
-            size = n_edges_at[v]
-            n_edges_at[v] = acc
-            acc += size
-        n_edges = acc
+        n_edges = run_starts(&n_edges_at[0], n, 1, 0)
         # (count_fans clears the flags it uses itself: nm_vertex has been read off them)
         for f in prange(<int>m, num_threads=threads, schedule="static"):
             a = corner[3 * f]
@@ -1122,7 +1133,7 @@ cdef inline unsigned long long morton_code(const double* p, const double* lo, co
 
 
 cdef void radix_count(const unsigned long long* src, Py_ssize_t lo, Py_ssize_t hi,
-                      Py_ssize_t* cnt) noexcept nogil:
+                      int* cnt) noexcept nogil:
     """morton_permutation's histograms of every digit of src[lo:hi] (cnt: RADIX_DIGITS rows)."""
     cdef Py_ssize_t i
     cdef int k
@@ -1132,16 +1143,16 @@ cdef void radix_count(const unsigned long long* src, Py_ssize_t lo, Py_ssize_t h
 
 
 cdef void radix_count_digit(const unsigned long long* src, Py_ssize_t lo, Py_ssize_t hi, int shift,
-                            Py_ssize_t* cnt) noexcept nogil:
+                            int* cnt) noexcept nogil:
     """morton_permutation's histogram of the digit at ``shift`` of src[lo:hi] (cnt zeroed here)."""
     cdef Py_ssize_t i
-    memset(cnt, 0, RADIX * sizeof(Py_ssize_t))
+    memset(cnt, 0, RADIX * sizeof(int))
     for i in range(lo, hi):
         cnt[(src[i] >> shift) & (RADIX - 1)] += 1
 
 
 cdef void radix_place(const unsigned long long* src, unsigned long long* dst, const int* isrc,
-                      int* idst, Py_ssize_t lo, Py_ssize_t hi, int shift, Py_ssize_t* pos) noexcept nogil:
+                      int* idst, Py_ssize_t lo, Py_ssize_t hi, int shift, int* pos) noexcept nogil:
     """morton_permutation's stable scatter of src[lo:hi] (and its permutation) by the digit
     at ``shift``, to the next rows ``pos`` (advanced) of each digit value."""
     cdef Py_ssize_t i
@@ -1183,12 +1194,12 @@ def morton_permutation(points, index=None, box=None, int threads=1):
     cdef unsigned long long[::1] C2 = tmp_codes
     cdef int[::1] I = perm
     cdef int[::1] I2 = tmp_perm
-    cdef Py_ssize_t[:, :, ::1] cnt
+    cdef int[:, :, ::1] cnt                 # (counts below 2**31: the permutation is int32)
     cdef double lo[3]
     cdef double ext[3]
     cdef double hi
     cdef double top = <double>((1 << 21) - 1)
-    cdef Py_ssize_t i, acc, size, per
+    cdef Py_ssize_t i, size, per
     cdef int k, shift, t
     cdef unsigned long long* src
     cdef unsigned long long* dst
@@ -1196,7 +1207,7 @@ def morton_permutation(points, index=None, box=None, int threads=1):
     cdef int* idst
     if threads < 1 or n < PARALLEL_MIN_VERTICES:
         threads = 1
-    cnt = np.zeros((threads, RADIX_DIGITS, RADIX), dtype=np.intp)
+    cnt = np.zeros((threads, RADIX_DIGITS, RADIX), dtype=np.intc)
     per = (n + threads - 1) // threads
     if box is None:
         box = bounding_box(P, X)
@@ -1222,12 +1233,7 @@ def morton_permutation(points, index=None, box=None, int threads=1):
                 # (the first read's are of the input order; their sums hold for any order)
                 for t in prange(threads, num_threads=threads, schedule="static", chunksize=1):
                     radix_count_digit(src, t * per, min(t * per + per, n), shift, &cnt[t, k, 0])
-            acc = 0                               # each run's start in each digit value
-            for i in range(RADIX):
-                for t in range(threads):
-                    size = cnt[t, k, i]
-                    cnt[t, k, i] = acc
-                    acc += size
+            run_starts(&cnt[0, k, 0], RADIX, threads, RADIX_DIGITS * RADIX)
             for t in prange(threads, num_threads=threads, schedule="static", chunksize=1):
                 radix_place(src, dst, isrc, idst, t * per, min(t * per + per, n), shift, &cnt[t, k, 0])
             src, dst = dst, src
@@ -1292,7 +1298,7 @@ def faces_by_first_slot(faces, int n_vertices, bint reorder=False, remap=None, i
         return (np.empty((0, 3), dtype=np.intc), out) if reorder else out
     cdef int[:, ::1] cnt = np.zeros((threads, max(n_vertices, 1)), dtype=np.intc)   # (m < 2**31)
     cdef Py_ssize_t[::1] bad_t = np.full(threads, -1, dtype=np.intp)
-    cdef Py_ssize_t f, acc = 0, size, bad = -1
+    cdef Py_ssize_t f, bad = -1
     cdef Py_ssize_t per = (m + threads - 1) // threads
     cdef const int* map_ = NULL
     if remap is not None:
@@ -1300,7 +1306,7 @@ def faces_by_first_slot(faces, int n_vertices, bint reorder=False, remap=None, i
             raise ValueError("remap is empty")
         map_ = &R[0]
     cdef int n_map = R.shape[0]
-    cdef int a, v, t
+    cdef int t
     with nogil:
         for t in prange(threads, num_threads=threads, schedule="static", chunksize=1):
             bad_t[t] = face_keys(&F[0, 0], map_, n_map, n_vertices, t * per, min(t * per + per, m),
@@ -1310,16 +1316,9 @@ def faces_by_first_slot(faces, int n_vertices, bint reorder=False, remap=None, i
                 bad = bad_t[t]
                 break
         if bad < 0:
-            for v in range(n_vertices):           # each run's start in each vertex's faces
-                for t in range(threads):
-                    size = cnt[t, v]
-                    cnt[t, v] = <int>acc
-                    acc += size
+            run_starts(&cnt[0, 0], n_vertices, threads, cnt.shape[1])
             for t in prange(threads, num_threads=threads, schedule="static", chunksize=1):
-                for f in range(t * per, min(t * per + per, m)):
-                    a = key[f]
-                    O[cnt[t, a]] = <int>f
-                    cnt[t, a] += 1
+                place_by_key(&key[0], t * per, min(t * per + per, m), &cnt[t, 0], &O[0])
     if bad >= 0:
         raise ValueError(f"face {bad} has an index outside 0..{n_vertices - 1}")
     if not reorder:
