@@ -492,7 +492,7 @@ cdef class PassDriver:
     cdef readonly int n_passes
     cdef double phase_t[N_PHASES]      # wall seconds spent in each phase (diagnostics)
     cdef int** staging               # (threads,) select_staged's staged edges, one buffer a thread
-    cdef int* stage_cap              # (threads,) their capacities (from BORROWED on: own, grown)
+    cdef int* stage_cap              # (threads,) capacities of the own ones (from BORROWED on)
     cdef int[::1] stage_n            # (threads,) entries staged in the current select
     cdef readonly long n_deferred    # candidates left to stage 2 (diagnostics)
     cdef readonly long n_late        # collapses done in stage 2 (diagnostics)
@@ -554,8 +554,6 @@ cdef class PassDriver:
             self.staging[1] = &self.blk_order[0]
         if self.threads > 2:
             self.staging[2] = &self.blk_edge[0]
-        for i in range(min(self.threads, BORROWED)):
-            self.stage_cap[i] = self.kmax + 1
         self.block = block
         self.bsize = block
         self.n_blocks = 1
