@@ -91,3 +91,10 @@ cdef class HalfEdgeMesh:
 # that die; returns their number.
 cdef int replace_star(HalfEdgeMesh hm, int v, const int* link, const int* face, int k, bint closed,
                       const int* tri, int n_tris, int* slot_of, int* dead_edges) noexcept nogil
+
+
+# A counting sort by runs (the set-up's sorts, the pass driver's grouping by block): each
+# run of the items, in order, counted by key into its row cnt[run * stride:][:n_keys]
+# becomes where that run's items of each key start (keys in order, runs in order within a
+# key: stable for any number of runs).  Returns the total.
+cdef int run_starts(int* cnt, int n_keys, int n_runs, Py_ssize_t stride) noexcept nogil

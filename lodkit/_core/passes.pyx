@@ -43,7 +43,7 @@ from posix.time cimport clock_gettime, timespec, CLOCK_MONOTONIC
 import numpy as np
 cimport numpy as cnp
 
-from .halfedge cimport HEArrays, he_next, he_prev, he_dest, he_ring_next
+from .halfedge cimport HEArrays, he_next, he_prev, he_dest, he_ring_next, run_starts
 from lodkit.kernel cimport Candidate, fill_candidate, KERNEL_OK, VERTEX_FIXED, VERTEX_BOUNDARY
 from .chain cimport chain_cost
 from .common cimport QSIZE, VSTRIDE, BOUNDARY_FREE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, RUN_ERROR
@@ -1222,56 +1222,75 @@ cdef class PassDriver:
         """Group the pass's candidates (``deferred``: only those CF_DEFER, which become
         CF_PENDING_B) by the block of ``bsize`` slots, shifted by ``half``, of their first end:
         a counting sort, cost order kept within a block, into cblock, blk_order, blk_edge and
-        blk_start; and clear the ``nb`` blocks' tallies."""
-        cdef int i, b, t, acc = 0, size
-        cdef int T = self.threads if n_sel >= PARALLEL_MIN_VERTICES else 1
+        blk_start; and clear the ``nb`` blocks' tallies.  On threads, by runs of the
+        candidates (each run counted into its row of hist_t, free between select and the
+        next rank, then placed from run_starts: runs in order, so the same arrays)."""
+        cdef int b, t, acc = 0, size
+        cdef int T = self.threads if n_sel >= PARALLEL_MIN_VERTICES and nb < N_BUCKETS else 1
         cdef int per = (n_sel + T - 1) // T
-        # the blocks first, on threads: two reads at random (the candidates come in cost
-        # order) per candidate, the grouping's cost; then the counting sort in order
         if T > 1:
+            # the blocks (two reads at random a candidate: they come in cost order) and the
+            # counts, then the places, each thread over its run
             for t in prange(T, num_threads=T, schedule="static", chunksize=1):
-                self.block_range(t * per, min(t * per + per, n_sel), half, deferred)
+                memset(&self.hist_t[t, 0], 0, nb * sizeof(int))
+                self.block_range(t * per, min(t * per + per, n_sel), half, deferred, &self.hist_t[t, 0])
+            self.blk_start[nb] = run_starts(&self.hist_t[0, 0], nb, T, N_BUCKETS)
+            for b in range(nb):
+                self.blk_start[b] = self.hist_t[0, b]
+            for t in prange(T, num_threads=T, schedule="static", chunksize=1):
+                self.place_range(t * per, min(t * per + per, n_sel), deferred, &self.hist_t[t, 0])
         else:
-            self.block_range(0, n_sel, half, deferred)
-        memset(&self.blk_start[0], 0, (nb + 1) * sizeof(int))
-        for i in range(n_sel):
-            if deferred and self.cflag[i] != CF_DEFER:
-                continue
-            self.blk_start[self.cblock[i] + 1] += 1
-        for b in range(nb):
-            size = self.blk_start[b + 1]
-            self.blk_start[b] = acc
-            acc += size
-        self.blk_start[nb] = acc
-        for i in range(n_sel):
-            if deferred:
-                if self.cflag[i] != CF_DEFER:
-                    continue
-                self.cflag[i] = CF_PENDING_B
-            b = self.cblock[i]
-            self.blk_order[self.blk_start[b]] = i
-            self.blk_edge[self.blk_start[b]] = self.keyed_buf[i].edge
-            self.blk_start[b] += 1
-        for b in range(nb - 1, 0, -1):
-            self.blk_start[b] = self.blk_start[b - 1]
-        self.blk_start[0] = 0
+            memset(&self.blk_start[0], 0, (nb + 1) * sizeof(int))
+            self.block_range(0, n_sel, half, deferred, &self.blk_start[1])
+            for b in range(nb):
+                size = self.blk_start[b + 1]
+                self.blk_start[b] = acc
+                acc += size
+            self.blk_start[nb] = acc
+            self.place_range(0, n_sel, deferred, &self.blk_start[0])
+            for b in range(nb - 1, 0, -1):
+                self.blk_start[b] = self.blk_start[b - 1]
+            self.blk_start[0] = 0
         memset(&self.acc_i[0, 0], 0, nb * 4 * sizeof(int))
         memset(&self.acc_x[0, 0], 0, nb * 2 * sizeof(double))
 
-    cdef void block_range(self, int lo, int hi, int half, bint deferred) noexcept nogil:
+    cdef void place_range(self, int lo, int hi, bint deferred, int* pos) noexcept nogil:
+        """by_block's placing of candidates lo .. hi - 1 (``deferred``: of those CF_DEFER
+        only, which become CF_PENDING_B) at their blocks' next rows ``pos`` (advanced) of
+        blk_order and blk_edge (through locals: the stores would reload the arrays)."""
+        cdef const Keyed* cand = &self.keyed_buf[0]
+        cdef const int* cblock = &self.cblock[0]
+        cdef unsigned char* cflag = &self.cflag[0]
+        cdef int* order = &self.blk_order[0]
+        cdef int* edge = &self.blk_edge[0]
+        cdef int i, b
+        for i in range(lo, hi):
+            if deferred:
+                if cflag[i] != CF_DEFER:
+                    continue
+                cflag[i] = CF_PENDING_B
+            b = cblock[i]
+            order[pos[b]] = i
+            edge[pos[b]] = cand[i].edge
+            pos[b] += 1
+
+    cdef void block_range(self, int lo, int hi, int half, bint deferred, int* cnt) noexcept nogil:
         """by_block's blocks of candidates lo .. hi - 1 (``deferred``: of those CF_DEFER
-        only) into cblock (through locals: the stores would reload the arrays)."""
+        only) into cblock, counted into ``cnt`` by block (through locals: the stores would
+        reload the arrays)."""
         cdef const Keyed* cand = &self.keyed_buf[0]
         cdef const unsigned char* cflag = &self.cflag[0]
         cdef const int* corner = self.m.corner
         cdef const int* edge_he = self.m.edge_he
         cdef int* cblock = &self.cblock[0]
         cdef int bsize = self.bsize
-        cdef int i
+        cdef int i, b
         for i in range(lo, hi):
             if deferred and cflag[i] != CF_DEFER:
                 continue
-            cblock[i] = (corner[edge_he[cand[i].edge]] + half) // bsize
+            b = (corner[edge_he[cand[i].edge]] + half) // bsize
+            cblock[i] = b
+            cnt[b] += 1
 
     cdef int walk_pass(self, int n_sel, int target_faces, int* done) noexcept nogil:
         """One pass over the K cheapest candidates (keyed_buf[:n_sel]), in two stages.
