@@ -163,7 +163,9 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
                  0: Turk's steps only): each new interior point moves half-way to the
                  area-weighted centroid of its faces within its tangent plane, back onto
                  the input surface; a move that would turn or spoil a face is undone;
-                 then the flips again (docs/retile.md)
+                 then the flips again, then the worst-triangle step: the new points of
+                 faces below quality 0.4 move, on the surface, to where their worst face is
+                 best (report["worst_moves"]), and a last sliver flip pass (docs/retile.md)
     refine     : error-driven passes (lodkit's addition, 0: off): after each pass the
                  distance between the re-tiling and the input is measured both ways, the
                  density is multiplied by the local error over its mean (at most 4x
