@@ -163,7 +163,9 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
                  0: Turk's steps only): each new interior point moves half-way to the
                  area-weighted centroid of its faces within its tangent plane, back onto
                  the input surface; a move that would turn or spoil a face is undone;
-                 then the flips again (docs/retile.md)
+                 then the flips again, then the worst-triangle step: the new points of
+                 faces below quality 0.4 move, on the surface, to where their worst face is
+                 best (report["worst_moves"]), and a last sliver flip pass (docs/retile.md)
     refine     : error-driven passes (lodkit's addition, 0: off): after each pass the
                  distance between the re-tiling and the input is measured both ways, the
                  density is multiplied by the local error over its mean (at most 4x
@@ -394,7 +396,8 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
             # further apart, only where the worse triangle is a sliver
             flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE))),
                                          20, crease_vertex, _SLIVER_QUALITY))
-        relaxed = 0
+        relaxed = worst_moves = 0
+        cos_crease = math.cos(math.radians(features)) if features is not None else 2.0
         if relax and F.shape[0] and nX:
             relaxed = _relax(P2, F, n0, nX, surf, P0, F0, all_face, all_w, relax)
             if flip_angle > 0:
@@ -402,6 +405,11 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
                 flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(flip_angle)), 50, crease_vertex))
                 flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE))),
                                              20, crease_vertex, _SLIVER_QUALITY))
+            worst_moves = _improve_worst(P2, F, n0, nX, surf, P0, F0, all_face, all_w, _WORST_ROUNDS)
+            if flip_angle > 0:
+                # slivers again, now also between two crease points where the edge is no crease
+                flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE))),
+                                             20, crease_vertex, _WORST_QUALITY, cos_crease))
         times["finish"] = times.get("finish", 0.0) + time.perf_counter() - t
         if refine:
             # error-driven density: measure this pass, reweight the next by its local error
@@ -410,13 +418,13 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
             errors.append(err * prep.scale)
             if best is None or err < best[0]:
                 best = (err, pass_, P2.copy(), F, n_new, nX, all_face, all_w, B, kept, on, n_dropped,
-                        removals, held, n_collapsed, flips, relaxed, n_old_kept)
+                        removals, held, n_collapsed, flips, relaxed, worst_moves, n_old_kept)
             weight = new_weight
             times["refine"] = times.get("refine", 0.0) + time.perf_counter() - t
     if refine:
         # each pass draws new points: the one with the smallest largest error is kept
         (_, kept_pass, P2, F, n_new, nX, all_face, all_w, B, kept, on, n_dropped, removals, held,
-         n_collapsed, flips, relaxed, n_old_kept) = best
+         n_collapsed, flips, relaxed, worst_moves, n_old_kept) = best
     t = time.perf_counter()
     fitted = _fit_normal(P2, F, n0, nX, surf, normals0, fit) if fit and nX else 0
     used = np.zeros(n0 + n_new, dtype=bool)
@@ -467,6 +475,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
             "quality_mean": float(q.mean()),
             "quality_min": float(q.min()),
             "relaxed_moves": relaxed,
+            "worst_moves": worst_moves,
             "refine_errors": errors,
             "refine_pass": kept_pass if refine else 0,
             "fitted": fitted,
@@ -557,6 +566,92 @@ def _relax(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, rounds: int) 
         all_w[rows] = w[keep]
         kept_moves += int(np.count_nonzero(keep))
     return kept_moves
+
+
+#: the worst-triangle step: the movable vertices of faces below this quality are moved to
+#: the point of the input surface, among candidates around them, that maximises the smallest
+#: quality of their faces (0.4: a margin over the 0.3 target)
+_WORST_QUALITY = 0.4
+#: candidates: this many directions in the tangent plane, at these fractions of the
+#: vertex's mean edge length (and the centroid of its link)
+_WORST_DIRECTIONS = 12
+_WORST_STEPS = (0.04, 0.1, 0.2, 0.35)
+_WORST_ROUNDS = 10
+
+
+def _improve_worst(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, rounds: int) -> int:
+    """The worst-triangle step (lodkit's addition, the last step of remeshers, Botsch and
+    Kobbelt 2004): ``rounds`` rounds that each take the new interior points (slots n0 ..
+    n0 + nX - 1 of ``P2``, in place) on faces of quality below _WORST_QUALITY, worst star
+    first and no two on one face, and move each to the candidate that maximises the smallest
+    quality of its faces: points around it in its tangent plane and its link's centroid,
+    projected onto the input surface.  A candidate that turns one of its faces by more than
+    _RELAX_TURN degrees is refused; a point moves only when its worst face gets better.
+    Connectivity is unchanged; old, boundary and crease vertices stay.  ``all_face`` /
+    ``all_w`` (rows 0 .. nX - 1) follow the moved points.  Returns the moves made."""
+    F = np.asarray(F, dtype=np.int64)
+    n = P2.shape[0]
+    movable, _ = _new_interior_points(F, n, n0, nX)
+    corners = F.reshape(-1)
+    order = np.argsort(corners, kind="stable")
+    start = np.searchsorted(corners[order], np.arange(n + 1))
+    vface = order // 3                                  # faces of v: vface[start[v]:start[v + 1]]
+    cos_turn = math.cos(math.radians(_RELAX_TURN))
+    ang = 2.0 * math.pi * np.arange(_WORST_DIRECTIONS) / _WORST_DIRECTIONS
+    unit = np.stack([np.cos(ang), np.sin(ang)], axis=1)
+    ring = np.concatenate([unit * s for s in _WORST_STEPS])            # (K - 1, 2)
+    moves = 0
+    for _ in range(rounds):
+        q = triangle_quality(P2, F)
+        verts = np.unique(F[q < _WORST_QUALITY].reshape(-1))
+        verts = verts[movable[verts]]
+        if verts.size == 0:
+            break
+        worst = np.array([q[vface[start[v]:start[v + 1]]].min() for v in verts])
+        taken = np.zeros(n, dtype=bool)
+        chosen = []
+        for v in verts[np.argsort(worst, kind="stable")]:
+            star = F[vface[start[v]:start[v + 1]]].reshape(-1)
+            if not taken[star].any():
+                taken[star] = True
+                chosen.append(int(v))
+        normals, area = face_normals(P2, F)
+        cands = []
+        for v in chosen:
+            fs = vface[start[v]:start[v + 1]]
+            nv = (normals[fs] * area[fs, None]).sum(axis=0)
+            nv /= max(float(np.linalg.norm(nv)), 1e-300)
+            a = np.cross(nv, [1.0, 0.0, 0.0] if abs(nv[0]) < 0.9 else [0.0, 1.0, 0.0])
+            a /= np.linalg.norm(a)
+            b = np.cross(nv, a)
+            link = np.unique(F[fs].reshape(-1))
+            link = link[link != v]
+            h = float(np.linalg.norm(P2[link] - P2[v], axis=1).mean())
+            c = P2[link].mean(axis=0)
+            c -= float(np.dot(c - P2[v], nv)) * nv
+            cands.append(np.concatenate([P2[v] + h * (ring[:, :1] * a + ring[:, 1:] * b), c[None]]))
+        k = cands[0].shape[0]
+        face, w, _ = surf.closest(np.concatenate(cands))
+        Y = np.einsum("nk,nkj->nj", w, P0[F0[face]])
+        for r, v in enumerate(chosen):
+            fs = vface[start[v]:start[v + 1]]
+            T = np.broadcast_to(P2[F[fs]], (k, fs.size, 3, 3)).copy()
+            at = F[fs] == v
+            T[:, at] = Y[r * k:(r + 1) * k, None]
+            cr = np.cross(T[:, :, 1] - T[:, :, 0], T[:, :, 2] - T[:, :, 0])
+            sq = ((T[:, :, 1] - T[:, :, 0]) ** 2 + (T[:, :, 2] - T[:, :, 1]) ** 2
+                  + (T[:, :, 0] - T[:, :, 2]) ** 2).sum(axis=2)
+            twice = np.linalg.norm(cr, axis=2)
+            qs = np.divide(2.0 * math.sqrt(3.0) * twice, sq, out=np.zeros_like(sq), where=sq > 0)
+            turn_ok = (np.einsum("kfj,fj->kf", cr, normals[fs]) >= cos_turn * twice).all(axis=1)
+            score = np.where(turn_ok & (twice > 0).all(axis=1), qs.min(axis=1), -1.0)
+            best = int(np.argmax(score))
+            if score[best] > q[fs].min() + 1e-6:
+                P2[v] = Y[r * k + best]
+                all_face[v - n0] = face[r * k + best]
+                all_w[v - n0] = w[r * k + best]
+                moves += 1
+    return moves
 
 
 #: fit: a vertex moves by at most this fraction of its mean edge length in all

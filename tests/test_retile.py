@@ -264,6 +264,53 @@ def test_flip_edges_fixes_a_bad_diagonal_and_keeps_bent_ones():
     assert kern.flip_edges(v2, f2, face_twins(f2), 0.9, 10) == 0
 
 
+def test_flip_edges_between_locked_vertices_only_off_the_crease():
+    """locked_dot: an edge between two locked (crease) vertices is flipped when its faces
+    are within that angle (the edge is no crease), never when they bend further."""
+    v = np.array([[0.0, 0, 0], [2, 0, 0], [1, 0.4, 0], [1, -0.4, 0]])
+    locked = np.array([1, 1, 0, 0], dtype=np.uint8)
+    f = np.array([[0, 1, 2], [1, 0, 3]], dtype=np.intc)
+    assert kern.flip_edges(v, f, face_twins(f), 0.5, 10, locked) == 0                # old rule
+    assert kern.flip_edges(v, f, face_twins(f), 0.5, 10, locked, 2.0, np.cos(np.radians(40))) == 1
+    assert sorted(map(sorted, f.tolist())) == [[0, 2, 3], [1, 2, 3]]
+    # folded by 90 degrees along the locked edge: a crease, kept even when min_dot allows it
+    v2 = v.copy()
+    v2[3] = [1, 0, 0.4]
+    f2 = np.array([[0, 1, 2], [1, 0, 3]], dtype=np.intc)
+    assert kern.flip_edges(v2, f2, face_twins(f2), -1.0, 10, locked, 2.0, np.cos(np.radians(40))) == 0
+    assert kern.flip_edges(v2, f2, face_twins(f2), -1.0, 10) == 1                     # unlocked: flipped
+
+
+def test_worst_triangle_step_moves_a_point_on_the_surface_and_keeps_the_faces():
+    """The worst-triangle step (relax > 0): a point pushed against one side of its hexagon
+    makes slivers; the step moves it, within the input surface, to where its worst triangle
+    is good again.  Faces, and the points on the rim, stay."""
+    from lodkit.retile import SurfaceProjector, _improve_worst
+
+    src = plane(9)
+    P0 = src.vertices.astype(np.float64)
+    F0 = np.ascontiguousarray(src.faces, dtype=np.int64)
+    n0 = P0.shape[0]
+    ang = np.arange(6) * np.pi / 3
+    rim = np.c_[0.5 + 0.3 * np.cos(ang), 0.5 + 0.3 * np.sin(ang), np.zeros(6)]
+    centre = np.array([[0.5 + 0.27, 0.5 + 0.01, 0.0]])         # almost on the rim's edge
+    X = np.concatenate([centre, rim])
+    P2 = np.ascontiguousarray(np.concatenate([P0, X]))
+    F = np.array([[n0, n0 + 1 + i, n0 + 1 + (i + 1) % 6] for i in range(6)], dtype=np.int64)
+    surf = SurfaceProjector(P0, F0)
+    face, w, _ = surf.closest(X)
+    q0 = triangle_quality(P2, F)
+    assert q0.min() < 0.15
+    moved = _improve_worst(P2, F, n0, X.shape[0], surf, P0, F0, face, w, 10)
+    q1 = triangle_quality(P2, F)
+    assert moved > 0
+    assert q1.min() > 0.6
+    assert np.abs(P2[:, 2]).max() < 1e-12                                  # on the plane
+    assert np.allclose(P2[n0 + 1:], rim)                                    # the rim stays
+    assert np.allclose(np.einsum("k,kj->j", w[0], P0[F0[face[0]]]), P2[n0])  # its face follows it
+    assert (F == np.array([[n0, n0 + 1 + i, n0 + 1 + (i + 1) % 6] for i in range(6)])).all()
+
+
 def test_face_twins_marks_boundary():
     f = np.array([[0, 1, 2], [2, 1, 3]], dtype=np.intc)
     t = face_twins(f)

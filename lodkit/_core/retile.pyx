@@ -192,13 +192,15 @@ cdef inline void set_twin(int* twin, int h, int t) noexcept nogil:
 
 
 def flip_edges(double[:, ::1] V, int[:, ::1] F, int[::1] twin, double min_dot, int max_sweeps,
-               const unsigned char[::1] locked=None, double below=2.0):
+               const unsigned char[::1] locked=None, double below=2.0, double locked_dot=2.0):
     """Flip interior edges while a flip raises min(quality) of its two triangles by more
     than 1e-9, and the two faces before and after are within ``min_dot`` (cosine) of each
     other.  ``F`` (m, 3) and ``twin`` (3 m,) (half-edge h = 3 f + i runs F[f, i] -> F[f, i+1];
     -1 on the boundary) are updated in place.  An edge between two ``locked`` vertices is
-    not flipped (nor one that would join two).  Only edges whose worse triangle has a
-    quality below ``below`` are flipped (2: all).  Returns the number of flips."""
+    not flipped (nor one that would join two) when its two faces' unit normals, before (or
+    after) the flip, have a dot product below ``locked_dot`` (2: never; a crease's cosine:
+    only the edges along the crease stay).  Only edges whose worse triangle has a quality
+    below ``below`` are flipped (2: all).  Returns the number of flips."""
     cdef Py_ssize_t m = F.shape[0]
     if twin.shape[0] != 3 * m:
         raise ValueError("twin must have 3 m entries")
@@ -207,6 +209,7 @@ def flip_edges(double[:, ::1] V, int[:, ::1] F, int[::1] twin, double min_dot, i
     cdef const double* P = &V[0, 0] if V.shape[0] else NULL
     cdef bint use_lock = locked is not None
     cdef int flips = 0, _sweep, h, t, f, g, i, j, a, b, c, d, ha1, ha2, hb1, hb2, changed
+    cdef bint lock_ab, lock_cd
     cdef double n1[3]
     cdef double n2[3]
     cdef double m1[3]
@@ -232,7 +235,9 @@ def flip_edges(double[:, ::1] V, int[:, ::1] F, int[::1] twin, double min_dot, i
                 d = Fp[3 * g + (j + 2) % 3]
                 if c == d:
                     continue
-                if use_lock and ((locked[a] and locked[b]) or (locked[c] and locked[d])):
+                lock_ab = use_lock and locked[a] and locked[b]
+                lock_cd = use_lock and locked[c] and locked[d]
+                if (lock_ab or lock_cd) and locked_dot > 1.0:
                     continue
                 # old faces (a, b, c), (b, a, d); new faces (c, a, d), (d, b, c)
                 sub3(P + 3 * b, P + 3 * a, e0)
@@ -244,6 +249,8 @@ def flip_edges(double[:, ::1] V, int[:, ::1] F, int[::1] twin, double min_dot, i
                 if norm3(n1) <= 0.0 or norm3(n2) <= 0.0:
                     continue
                 if dot3(n1, n2) < min_dot * norm3(n1) * norm3(n2):
+                    continue
+                if lock_ab and dot3(n1, n2) < locked_dot * norm3(n1) * norm3(n2):
                     continue
                 navg[0] = n1[0] / norm3(n1) + n2[0] / norm3(n2)
                 navg[1] = n1[1] / norm3(n1) + n2[1] / norm3(n2)
@@ -267,6 +274,8 @@ def flip_edges(double[:, ::1] V, int[:, ::1] F, int[::1] twin, double min_dot, i
                 sub3(P + 3 * c, P + 3 * d, e1)
                 cross3(e0, e1, m2)
                 if dot3(m1, m2) < min_dot * norm3(m1) * norm3(m2):
+                    continue
+                if lock_cd and dot3(m1, m2) < locked_dot * norm3(m1) * norm3(m2):
                     continue
                 if has_edge(Fp, T, 3 * f + (i + 2) % 3, d):
                     continue
