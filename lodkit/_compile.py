@@ -197,7 +197,8 @@ def checked(metric, arr, shape, what, columns=None):
     if not ok:
         want = f"({shape[0]}, {columns})" if columns else f"({shape[0]},) or ({shape[0]}, k)"
         raise MetricError(f"metric {metric.name!r} returned {what} of shape {out.shape}; expected {want}")
-    if np.isnan(out).any():
+    # (a minimum propagates NaN: one pass, no boolean temporary of the array's size)
+    if out.size and np.isnan(np.min(out)):
         raise MetricError(f"metric {metric.name!r} returned {what} with NaN values")
     return out
 
