@@ -1675,8 +1675,9 @@ cdef class EdgeCollapser:
         return self.fields.edge_values
 
     def release(self):
-        """Free the heap, the quadrics and the input normals once the run is over (the
-        positions, attributes and records stay readable); ``run`` may not be called again."""
+        """Free the heap and the input normals once the run is over (the positions,
+        attributes and records stay readable; the quadric columns go with the positions);
+        ``run`` may not be called again."""
         if self.released:
             return
         self.released = True
@@ -1685,16 +1686,10 @@ cdef class EdgeCollapser:
         self.N0 = &self.face_n0[0]
         self.normal_sign = np.zeros(1, dtype=np.uint8)
         self.NS = &self.normal_sign[0]
-        # (a loop: numpy's copy of the (n, 3) columns of the (n, 14) rows took ~60
-        # instructions a row)
-        cdef Py_ssize_t n = self.vdata.shape[0], v
-        cdef int i
-        self.pos_out = np.empty((n, 3), dtype=np.float64)
-        cdef double[:, ::1] out = self.pos_out
-        with nogil:
-            for v in range(n):
-                for i in range(3):
-                    out[v, i] = self.vdata[v, QSIZE + i]
+        # the positions stay where they are: a view of the rows' last columns (a copy was
+        # a fresh 24 B a slot, page faults and all, of which the output reads a tenth),
+        # which keeps the rows' memory until the positions go too
+        self.pos_out = np.asarray(self.vdata)[:, QSIZE:]
         self.vdata = np.zeros((1, VSTRIDE))
         self.Q = &self.vdata[0, 0]
         self.P = &self.vdata[0, QSIZE]
@@ -1738,7 +1733,7 @@ cdef class EdgeCollapser:
 
     @property
     def positions(self):
-        """(n, 3) current positions (a view while running, a copy after ``release``)."""
+        """(n, 3) current positions (a view of the vertex rows, also after ``release``)."""
         if self.released:
             return self.pos_out
         return np.asarray(self.vdata)[:, QSIZE:]
