@@ -23,8 +23,8 @@ from ._core.decimate import vertex_quadrics
 from ._core.halfedge import (
     bounding_box,
     build,
-    count_face_components,
     faces_by_first_slot,
+    is_closed_connected,
     live_output,
     morton_permutation,
     normalised_positions,
@@ -401,7 +401,7 @@ def error_limit(max_error, work: Work, absolute: bool) -> float:
 
 def closed_connected(hm) -> bool:
     """True when the half-edge mesh has no boundary and one face-connected component."""
-    return not (hm.twins < 0).any() and count_face_components(hm) == 1
+    return is_closed_connected(hm)
 
 
 def progress_bar(progress, hm, target: int):

@@ -150,8 +150,10 @@ cdef class EdgeCollapser:
         if fixed_arr.shape[0] != n:
             raise ValueError(f"fixed must have {n} entries")
         # VERTEX_FIXED: may not move nor go; VERTEX_BOUNDARY: on the boundary (kept up to
-        # date: after a collapse the kept vertex is on the boundary iff either end was)
-        self.vflags = ((fixed_arr != 0) * VERTEX_FIXED).astype(np.uint8)
+        # date: after a collapse the kept vertex is on the boundary iff either end was);
+        # both written in one loop below (numpy's product took an int64 temporary a slot)
+        fixed_u8 = np.ascontiguousarray(fixed_arr if fixed_arr.dtype == np.bool_ else fixed_arr != 0).view(np.uint8)
+        self.vflags = np.empty(n, dtype=np.uint8)
         self.moved = np.zeros(n, dtype=np.uint8)
         self.refused = np.zeros(n, dtype=np.uint8)
         self.released = False
@@ -183,10 +185,13 @@ cdef class EdgeCollapser:
         self._input_faces(threads, closed_connected and n and hm.n_faces, input_normals)
         self.normal_signs()
         cdef int v
+        cdef const unsigned char* fx = <const unsigned char*>cnp.PyArray_DATA(fixed_u8)
+        cdef unsigned char* vf = &self.vflags[0] if n else NULL
+        cdef const HEArrays* he = self.m
         with nogil:
             for v in prange(n, num_threads=threads, schedule="static"):
-                if self.m.v_he[v] >= 0 and he_is_boundary(self.m, v):
-                    self.vflags[v] |= VERTEX_BOUNDARY
+                vf[v] = (VERTEX_FIXED if fx[v] else 0) | (
+                    VERTEX_BOUNDARY if he.v_he[v] >= 0 and he_is_boundary(he, v) else 0)
         self.A = &self.attr[0, 0] if n and self.n_attr else NULL
         self._setup_seams(seam_partners)
         if boundary == BOUNDARY_LOCK:
