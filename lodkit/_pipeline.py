@@ -23,8 +23,9 @@ from ._core.decimate import vertex_quadrics
 from ._core.halfedge import (
     bounding_box,
     build,
+    count_face_components,
     faces_by_first_slot,
-    is_closed_connected,
+    has_border,
     live_output,
     morton_permutation,
     normalised_positions,
@@ -312,10 +313,10 @@ def seam_partners(src: Mesh, prep: Prepared, fixed: np.ndarray) -> np.ndarray | 
     they are locked anyway."""
     hm = prep.hm
     n = hm.n_vertices
+    if not has_border(hm):
+        return None                                 # a seam is a pair of boundary chains
     corners = hm.corners.reshape(-1)
     border = hm.twins < 0
-    if not border.any():
-        return None                                 # a seam is a pair of boundary chains
     he = np.flatnonzero(border & np.repeat(hm.alive_faces, 3))
     if he.size == 0:
         return None
@@ -401,7 +402,7 @@ def error_limit(max_error, work: Work, absolute: bool) -> float:
 
 def closed_connected(hm) -> bool:
     """True when the half-edge mesh has no boundary and one face-connected component."""
-    return is_closed_connected(hm)
+    return not has_border(hm) and count_face_components(hm) == 1
 
 
 def progress_bar(progress, hm, target: int):

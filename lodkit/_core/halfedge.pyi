@@ -66,8 +66,8 @@ def triangulation_ok(triangles: ArrayLike, k: int, closed: bool) -> bool:
 def count_face_components(hm: HalfEdgeMesh) -> int:
     """Number of components of the live faces (joined across twin half-edges)."""
 
-def is_closed_connected(hm: HalfEdgeMesh) -> bool:
-    """No half-edge without a twin, and one component of live faces."""
+def has_border(hm: HalfEdgeMesh) -> bool:
+    """Some half-edge has no twin (stops at the first)."""
 
 def live_output(
     hm: HalfEdgeMesh,

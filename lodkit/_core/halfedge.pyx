@@ -1060,64 +1060,51 @@ def triangulation_ok(triangles, int k, bint closed):
     return all((x % k) * k + x // k in rest for x in rest)
 
 
-cdef inline int uf_root(int* parent, int x) noexcept nogil:
-    """The root of ``x``'s set, halving the path on the way."""
-    while parent[x] != x:
-        parent[x] = parent[parent[x]]
-        x = parent[x]
-    return x
-
-
-cdef int face_components(HalfEdgeMesh hm, bint stop_at_border) except -2:
-    """The components of the live faces, joined across twin half-edges; -1 when
-    ``stop_at_border`` and some half-edge has no twin.  A union-find in face order: each
-    face joins the earlier faces across its twins (a set's root is its first face), so
-    the faces are read in slot order and, when the slots follow a curve, their
-    neighbours' roots are mostly near (a depth-first walk went wherever the stack led:
-    at 4M faces it missed the cache on most faces)."""
-    cdef int m = hm.n_faces
-    cdef int[::1] parent_a = np.empty(max(m, 1), dtype=np.intc)
-    cdef int* parent = &parent_a[0]
+def has_border(HalfEdgeMesh hm):
+    """True when some half-edge (of a live face or not) has no twin; stops at the first."""
     cdef const int* twin = hm.c.twin
-    cdef const unsigned char* alive = hm.c.face_alive
-    cdef int f, g, i, t, a, b, n_comp = 0
+    cdef Py_ssize_t h, n = 3 * <Py_ssize_t>hm.n_faces
+    cdef bint found = False
     with nogil:
-        for f in range(m):
-            parent[f] = f
-            if stop_at_border and (twin[3 * f] < 0 or twin[3 * f + 1] < 0 or twin[3 * f + 2] < 0):
-                return -1
-            if not alive[f]:
-                continue
-            n_comp += 1
-            a = f                                # f's root, kept as it changes
-            for i in range(3):
-                t = twin[3 * f + i]
-                if t < 0:
-                    continue
-                g = <int>(<unsigned int>t // 3)
-                if g >= f or not alive[g]:
-                    continue
-                b = uf_root(parent, g)
-                if a != b:
-                    # the later root joins the earlier one
-                    if a < b:
-                        parent[b] = a
-                    else:
-                        parent[a] = b
-                        a = b
-                    n_comp -= 1
-    return n_comp
+        for h in range(n):
+            if twin[h] < 0:
+                found = True
+                break
+    return found
 
 
 def count_face_components(HalfEdgeMesh hm):
     """Number of components of the live faces, faces joined across twin half-edges."""
-    return face_components(hm, False)
-
-
-def is_closed_connected(HalfEdgeMesh hm):
-    """True when no half-edge lacks a twin and the live faces are one component (one
-    pass over the faces)."""
-    return face_components(hm, True) == 1
+    cdef int m = hm.n_faces
+    cdef unsigned char[::1] seen_a = np.zeros(max(m, 1), dtype=np.uint8)
+    cdef int[::1] stack_a = np.empty(max(m, 1), dtype=np.intc)
+    # raw pointers in locals: a byte store may alias anything, so loads through ``hm`` or a
+    # memoryview would be made again after every mark
+    cdef unsigned char* seen = &seen_a[0]
+    cdef int* stack = &stack_a[0]
+    cdef const int* twin = hm.c.twin
+    cdef const unsigned char* alive = hm.c.face_alive
+    cdef int f, g, top, i, t, n_comp = 0
+    with nogil:
+        for f in range(m):
+            if seen[f] or not alive[f]:
+                continue
+            n_comp += 1
+            seen[f] = 1
+            stack[0] = f
+            top = 1
+            while top > 0:
+                top -= 1
+                g = stack[top]
+                for i in range(3):
+                    t = twin[3 * g + i]
+                    if t >= 0:
+                        t = <int>(<unsigned int>t // 3)
+                        if not seen[t]:
+                            seen[t] = 1
+                            stack[top] = t
+                            top += 1
+    return n_comp
 
 
 # ------------------------------------------------------------------ output
