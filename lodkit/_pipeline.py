@@ -25,6 +25,8 @@ from ._core.halfedge import (
     build,
     count_face_components,
     faces_by_first_slot,
+    has_border,
+    live_output,
     morton_permutation,
     normalised_positions,
     used_vertices,
@@ -311,10 +313,10 @@ def seam_partners(src: Mesh, prep: Prepared, fixed: np.ndarray) -> np.ndarray | 
     they are locked anyway."""
     hm = prep.hm
     n = hm.n_vertices
+    if not has_border(hm):
+        return None                                 # a seam is a pair of boundary chains
     corners = hm.corners.reshape(-1)
     border = hm.twins < 0
-    if not border.any():
-        return None                                 # a seam is a pair of boundary chains
     he = np.flatnonzero(border & np.repeat(hm.alive_faces, 3))
     if he.size == 0:
         return None
@@ -400,7 +402,7 @@ def error_limit(max_error, work: Work, absolute: bool) -> float:
 
 def closed_connected(hm) -> bool:
     """True when the half-edge mesh has no boundary and one face-connected component."""
-    return not (hm.twins < 0).any() and count_face_components(hm) == 1
+    return not has_border(hm) and count_face_components(hm) == 1
 
 
 def progress_bar(progress, hm, target: int):
@@ -449,33 +451,16 @@ def extract(work: Work, run: Run):
     Mesh, the copies made for non-manifold vertices welded back together; vertices that
     did not move keep their input position bit for bit."""
     src, prep = work.src, work.prep
-    hm = prep.hm
-    alive = np.flatnonzero(hm.alive_faces)
-    face_map = prep.input_face[alive].astype(np.int64)
-    faces_slots = hm.corners[alive]             # read in slot order, then permuted (in cache)
-    if prep.memory_order:
-        # faces in input order, whatever order the slots were laid out in (each input face
-        # has one slot: any sort is the stable one, and the default is ~5x faster)
-        by_input = np.argsort(face_map)
-        face_map, faces_slots = face_map[by_input], faces_slots[by_input]
-    alive_v = hm.alive_vertices
-    slots = np.flatnonzero(alive_v)
-    # weld: one output vertex per input vertex (split copies are locked, so they coincide)
-    inputs = prep.input_vertex[slots]
-    vertex_map, first, inverse = np.unique(inputs, return_index=True, return_inverse=True)
-    slot_to_out = np.full(hm.n_vertices, -1, dtype=np.int32)
-    slot_to_out[slots] = inverse.reshape(-1)
-    out_faces = slot_to_out[faces_slots].astype(np.int32)
-    rep = slots[first]
-    verts = src.vertices[vertex_map]             # (a gather: a new array)
-    if run.moved is not None:
-        moved = run.moved[rep]
-        verts[moved] = run.positions[rep[moved]] * prep.scale + prep.center
+    # weld: one output vertex per input vertex (split copies are locked, so they coincide);
+    # faces in input order, whatever order the slots were laid out in
+    verts, out_faces, vertex_map, face_map, rep = live_output(
+        prep.hm, prep.input_vertex, prep.input_face, src.vertices, src.n_faces, prep.memory_order,
+        run.moved, run.positions, prep.center, prep.scale)
     out_attrs = attribute_arrays(run.attributes[rep], work.names) if work.names else {}
     out = Mesh(verts, out_faces, **out_attrs)
     if work.welded_faces is not None:
         face_map = work.welded_faces[face_map]       # faces of the welded mesh -> input faces
-    return out, vertex_map.astype(np.int64), face_map
+    return out, vertex_map, face_map
 
 
 def attribute_arrays(block: np.ndarray, names) -> dict:

@@ -229,6 +229,60 @@ def test_normalised_positions_are_numpy_s_bit_for_bit():
         normalised_positions(points, np.array([30000], np.int32), center, scale, np.empty((1, 3)))
 
 
+def numpy_output(work, run):
+    """The output as extract() made it with numpy (sorts, gathers) before live_output."""
+    prep, hm = work.prep, work.prep.hm
+    alive = np.flatnonzero(hm.alive_faces)
+    face_map = prep.input_face[alive].astype(np.int64)
+    faces_slots = hm.corners[alive]
+    if prep.memory_order:
+        by_input = np.argsort(face_map)
+        face_map, faces_slots = face_map[by_input], faces_slots[by_input]
+    slots = np.flatnonzero(hm.alive_vertices)
+    vertex_map, first, inverse = np.unique(prep.input_vertex[slots], return_index=True, return_inverse=True)
+    slot_to_out = np.full(hm.n_vertices, -1, dtype=np.int32)
+    slot_to_out[slots] = inverse.reshape(-1)
+    rep = slots[first]
+    verts = work.src.vertices[vertex_map]
+    moved = run.moved[rep]
+    verts[moved] = run.positions[rep[moved]] * prep.scale + prep.center
+    return verts, slot_to_out[faces_slots].astype(np.int32), vertex_map.astype(np.int64), face_map, rep
+
+
+@pytest.mark.parametrize("driver", ["pass", "greedy"])
+def test_live_output_is_the_numpy_extraction(monkeypatch, driver):
+    # two tori sharing a vertex (split into two locked copies and welded back on output),
+    # a face repeating an index and an unused vertex: the bitmap ranks give numpy's arrays
+    from lodkit import _pipeline
+    from lodkit._core.halfedge import live_output
+    a, b = torus(30, 16, seed=1), torus(24, 12, seed=2)
+    bf = np.where(b.faces == 0, 0, b.faces + a.n_vertices - 1)     # b's vertex 0 is a's vertex 0
+    V = np.concatenate([a.vertices, (b.vertices + (a.vertices[0] - b.vertices[0]))[1:], [[9.0, 9.0, 9.0]]])
+    F = np.concatenate([a.faces, bf, [[3, 3, 5]]]).astype(np.int32)
+    seen = {}
+    real = _pipeline.extract
+
+    def capture(work, run):
+        seen["args"] = (work, run)
+        return real(work, run)
+
+    monkeypatch.setattr(_pipeline, "extract", capture)
+    r = lodkit.simplify(lodkit.Mesh(V, F), target_ratio=0.3, driver=driver, threads=2)
+    work, run = seen["args"]
+    assert work.prep.hm.n_split_vertices == 1 and work.prep.n_degenerate_faces == 1
+    assert work.prep.memory_order == (driver == "pass")
+    got = live_output(work.prep.hm, work.prep.input_vertex, work.prep.input_face, work.src.vertices,
+                      work.src.n_faces, work.prep.memory_order, run.moved, run.positions,
+                      work.prep.center, work.prep.scale)
+    want = numpy_output(work, run)
+    for x, y in zip(got, want):
+        assert x.dtype == y.dtype and x.tobytes() == y.tobytes()
+    assert r.mesh.vertices.tobytes() == want[0].tobytes() and np.array_equal(r.face_map, want[3])
+    with pytest.raises(ValueError, match="input_face"):
+        live_output(work.prep.hm, work.prep.input_vertex, work.prep.input_face, work.src.vertices,
+                    1, True, None, None, work.prep.center, work.prep.scale)
+
+
 def test_output_order_does_not_depend_on_the_input_order():
     """Memory order is internal: the output lists vertices and faces in input order, and
     maps back exactly, whatever order the input came in."""

@@ -150,8 +150,10 @@ cdef class EdgeCollapser:
         if fixed_arr.shape[0] != n:
             raise ValueError(f"fixed must have {n} entries")
         # VERTEX_FIXED: may not move nor go; VERTEX_BOUNDARY: on the boundary (kept up to
-        # date: after a collapse the kept vertex is on the boundary iff either end was)
-        self.vflags = ((fixed_arr != 0) * VERTEX_FIXED).astype(np.uint8)
+        # date: after a collapse the kept vertex is on the boundary iff either end was);
+        # both written in one loop below (numpy's product took an int64 temporary a slot)
+        fixed_u8 = np.ascontiguousarray(fixed_arr if fixed_arr.dtype == np.bool_ else fixed_arr != 0).view(np.uint8)
+        self.vflags = np.empty(n, dtype=np.uint8)
         self.moved = np.zeros(n, dtype=np.uint8)
         self.refused = np.zeros(n, dtype=np.uint8)
         self.released = False
@@ -183,10 +185,13 @@ cdef class EdgeCollapser:
         self._input_faces(threads, closed_connected and n and hm.n_faces, input_normals)
         self.normal_signs()
         cdef int v
+        cdef const unsigned char* fx = <const unsigned char*>cnp.PyArray_DATA(fixed_u8)
+        cdef unsigned char* vf = &self.vflags[0] if n else NULL
+        cdef const HEArrays* he = self.m
         with nogil:
             for v in prange(n, num_threads=threads, schedule="static"):
-                if self.m.v_he[v] >= 0 and he_is_boundary(self.m, v):
-                    self.vflags[v] |= VERTEX_BOUNDARY
+                vf[v] = (VERTEX_FIXED if fx[v] else 0) | (
+                    VERTEX_BOUNDARY if he.v_he[v] >= 0 and he_is_boundary(he, v) else 0)
         self.A = &self.attr[0, 0] if n and self.n_attr else NULL
         self._setup_seams(seam_partners)
         if boundary == BOUNDARY_LOCK:
@@ -1675,8 +1680,9 @@ cdef class EdgeCollapser:
         return self.fields.edge_values
 
     def release(self):
-        """Free the heap, the quadrics and the input normals once the run is over (the
-        positions, attributes and records stay readable); ``run`` may not be called again."""
+        """Free the heap and the input normals once the run is over (the positions,
+        attributes and records stay readable; the quadric columns go with the positions);
+        ``run`` may not be called again."""
         if self.released:
             return
         self.released = True
@@ -1685,16 +1691,10 @@ cdef class EdgeCollapser:
         self.N0 = &self.face_n0[0]
         self.normal_sign = np.zeros(1, dtype=np.uint8)
         self.NS = &self.normal_sign[0]
-        # (a loop: numpy's copy of the (n, 3) columns of the (n, 14) rows took ~60
-        # instructions a row)
-        cdef Py_ssize_t n = self.vdata.shape[0], v
-        cdef int i
-        self.pos_out = np.empty((n, 3), dtype=np.float64)
-        cdef double[:, ::1] out = self.pos_out
-        with nogil:
-            for v in range(n):
-                for i in range(3):
-                    out[v, i] = self.vdata[v, QSIZE + i]
+        # the positions stay where they are: a view of the rows' last columns (a copy was
+        # a fresh 24 B a slot, page faults and all, of which the output reads a tenth),
+        # which keeps the rows' memory until the positions go too
+        self.pos_out = np.asarray(self.vdata)[:, QSIZE:]
         self.vdata = np.zeros((1, VSTRIDE))
         self.Q = &self.vdata[0, 0]
         self.P = &self.vdata[0, QSIZE]
@@ -1738,7 +1738,7 @@ cdef class EdgeCollapser:
 
     @property
     def positions(self):
-        """(n, 3) current positions (a view while running, a copy after ``release``)."""
+        """(n, 3) current positions (a view of the vertex rows, also after ``release``)."""
         if self.released:
             return self.pos_out
         return np.asarray(self.vdata)[:, QSIZE:]

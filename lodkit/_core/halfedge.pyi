@@ -66,6 +66,24 @@ def triangulation_ok(triangles: ArrayLike, k: int, closed: bool) -> bool:
 def count_face_components(hm: HalfEdgeMesh) -> int:
     """Number of components of the live faces (joined across twin half-edges)."""
 
+def has_border(hm: HalfEdgeMesh) -> bool:
+    """Some half-edge has no twin (stops at the first)."""
+
+def live_output(
+    hm: HalfEdgeMesh,
+    input_vertex: ArrayLike,
+    input_face: ArrayLike,
+    vertices: ArrayLike,
+    n_input_faces: int,
+    by_input_face: bool,
+    moved: ArrayLike | None,
+    positions: ArrayLike | None,
+    center: ArrayLike,
+    scale: float,
+) -> tuple[NDArray[np.float64], NDArray[np.int32], NDArray[np.int64], NDArray[np.int64], NDArray[np.intp]]:
+    """(vertices, faces, vertex_map, face_map, first): the live part in the input's
+    numbering, welded by input vertex, faces in slot or input-face order (extract's core)."""
+
 def morton_permutation(
     points: ArrayLike,
     index: ArrayLike | None = ...,
