@@ -17,7 +17,7 @@ class RetileKernel(RemovalKernel):
 
 def flip_edges(V: NDArray[np.float64], F: NDArray[np.intc], twin: NDArray[np.intc], min_dot: float,
                max_sweeps: int, locked: NDArray[np.uint8] | None = None, below: float = 2.0,
-               locked_dot: float = 2.0) -> int:
+               locked_dot: float = 2.0, group: NDArray[np.intc] | None = None) -> int:
     """Quality-raising flips between nearly coplanar faces; F and twin updated in place."""
 
 def project_local(X: NDArray[np.float64], S: NDArray[np.int64], V: NDArray[np.float64],

@@ -154,15 +154,22 @@ cdef class RetileKernel(RemovalKernel):
         return KERNEL_OK
 
 
-cdef inline int has_edge(const int* F, const int* twin, int h_out, int d) noexcept nogil:
-    """Is d a neighbour of the vertex half-edge ``h_out`` leaves?  Walks the fan both ways
-    (to the boundary or around)."""
+cdef inline bint same(int x, int d, const int* group, int gd) noexcept nogil:
+    """x is d, or (``group`` given, ``gd`` >= 0) x is another copy of d's input vertex."""
+    return x == d or (gd >= 0 and group[x] == gd)
+
+
+cdef inline int has_edge(const int* F, const int* twin, int h_out, int d, const int* group=NULL,
+                         int gd=-1) noexcept nogil:
+    """Is d -- or, with ``group`` and ``gd`` >= 0, any vertex x with group[x] == gd (a copy of
+    d's input vertex) -- a neighbour of the vertex half-edge ``h_out`` leaves?  Walks the fan
+    both ways (to the boundary or around)."""
     cdef int h = h_out, f, nh
     while True:
         f = h // 3
-        if F[3 * f + (h % 3 + 1) % 3] == d:
+        if same(F[3 * f + (h % 3 + 1) % 3], d, group, gd):
             return 1
-        if F[3 * f + (h % 3 + 2) % 3] == d:
+        if same(F[3 * f + (h % 3 + 2) % 3], d, group, gd):
             return 1
         nh = twin[3 * f + (h % 3 + 2) % 3]           # the previous half-edge's twin leaves v
         if nh < 0:
@@ -179,9 +186,9 @@ cdef inline int has_edge(const int* F, const int* twin, int h_out, int d) noexce
         if h == h_out:
             return 0
         f = h // 3
-        if F[3 * f + (h % 3 + 1) % 3] == d:
+        if same(F[3 * f + (h % 3 + 1) % 3], d, group, gd):
             return 1
-        if F[3 * f + (h % 3 + 2) % 3] == d:
+        if same(F[3 * f + (h % 3 + 2) % 3], d, group, gd):
             return 1
 
 
@@ -192,7 +199,8 @@ cdef inline void set_twin(int* twin, int h, int t) noexcept nogil:
 
 
 def flip_edges(double[:, ::1] V, int[:, ::1] F, int[::1] twin, double min_dot, int max_sweeps,
-               const unsigned char[::1] locked=None, double below=2.0, double locked_dot=2.0):
+               const unsigned char[::1] locked=None, double below=2.0, double locked_dot=2.0,
+               const int[::1] group=None):
     """Flip interior edges while a flip raises min(quality) of its two triangles by more
     than 1e-9, and the two faces before and after are within ``min_dot`` (cosine) of each
     other.  ``F`` (m, 3) and ``twin`` (3 m,) (half-edge h = 3 f + i runs F[f, i] -> F[f, i+1];
@@ -200,7 +208,11 @@ def flip_edges(double[:, ::1] V, int[:, ::1] F, int[::1] twin, double min_dot, i
     not flipped (nor one that would join two) when its two faces' unit normals, before (or
     after) the flip, have a dot product below ``locked_dot`` (2: never; a crease's cosine:
     only the edges along the crease stay).  Only edges whose worse triangle has a quality
-    below ``below`` are flipped (2: all).  Returns the number of flips."""
+    below ``below`` are flipped (2: all).  ``group`` (one entry per vertex of ``V``): the
+    split copies of a non-manifold input vertex share a group >= 0, other vertices have -1;
+    a flip whose new edge c-d would join two copies of one input vertex, or make c (d)
+    adjacent to a second copy of d's (c's) input vertex, is refused (welded, the edge would
+    have more than two faces).  Returns the number of flips."""
     cdef Py_ssize_t m = F.shape[0]
     if twin.shape[0] != 3 * m:
         raise ValueError("twin must have 3 m entries")
@@ -208,6 +220,13 @@ def flip_edges(double[:, ::1] V, int[:, ::1] F, int[::1] twin, double min_dot, i
     cdef int* T = &twin[0] if m else NULL
     cdef const double* P = &V[0, 0] if V.shape[0] else NULL
     cdef bint use_lock = locked is not None
+    cdef const int* G = NULL
+    cdef int gc, gd
+    if group is not None:
+        if group.shape[0] != V.shape[0]:
+            raise ValueError("group must have one entry per vertex")
+        if V.shape[0]:
+            G = &group[0]
     cdef int flips = 0, _sweep, h, t, f, g, i, j, a, b, c, d, ha1, ha2, hb1, hb2, changed
     cdef bint lock_ab, lock_cd
     cdef double n1[3]
@@ -277,8 +296,14 @@ def flip_edges(double[:, ::1] V, int[:, ::1] F, int[::1] twin, double min_dot, i
                     continue
                 if lock_cd and dot3(m1, m2) < locked_dot * norm3(m1) * norm3(m2):
                     continue
-                if has_edge(Fp, T, 3 * f + (i + 2) % 3, d):
-                    continue
+                gc = G[c] if G != NULL else -1
+                gd = G[d] if G != NULL else -1
+                if gc >= 0 and gc == gd:
+                    continue                      # an edge between two copies of one vertex
+                if has_edge(Fp, T, 3 * f + (i + 2) % 3, d, G, gd):
+                    continue                      # c already next to d (or to a copy of it)
+                if gc >= 0 and has_edge(Fp, T, 3 * g + (j + 2) % 3, c, G, gc):
+                    continue                      # d already next to another copy of c
                 # outer half-edges: b->c (hb1), c->a (ha1) in f; a->d (ha2), d->b (hb2) in g
                 hb1 = T[3 * f + (i + 1) % 3]
                 ha1 = T[3 * f + (i + 2) % 3]
