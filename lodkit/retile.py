@@ -365,12 +365,13 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
         fixed[kept] = 1                                                    # boundary corners stay
         fixed[:n0][np.asarray(hm.locked_vertices, dtype=bool)[:n0]] = 1     # non-manifold copies stay
         # (no crease network long enough: no creases for the kernel and the flips either)
-        kernel = kern.RetileKernel(math.cos(math.radians(features)) if lines or creases else -2.0)
         group2 = weld = None
         if group0 is not None:
-            # the removal's manifold rules then see the copies welded (vremove's ``weld``)
+            # the removal's manifold rules then see the copies welded (vremove's ``weld``), and
+            # the kernel avoids the chords those rules would refuse
             group2 = np.ascontiguousarray(np.concatenate([group0, np.full(n_new, -1)]), dtype=np.intc)
             weld = _weld_arrays(group2)
+        kernel = kern.RetileKernel(math.cos(math.radians(features)) if lines or creases else -2.0, group2)
         crease_vertex = None
         if lines or creases:
             crease_vertex = np.zeros(n0 + n_new, dtype=np.uint8)

@@ -15,6 +15,7 @@ import numpy as np
 from libc.stdint cimport int64_t
 
 from lodkit.kernel cimport KERNEL_OK, KERNEL_VETO
+from .halfedge cimport HEArrays, he_dest, he_prev, he_ring_next
 from lodkit.removal cimport RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION
 from .vec3 cimport sub3, cross3, dot3, norm3
 
@@ -45,16 +46,70 @@ cdef class RetileKernel(RemovalKernel):
     1 - that quality (the vertices that leave the best holes go first), error 0."""
 
     api_version = REMOVAL_API_VERSION
-    star_local = True
     cdef double best[MAX_VALENCE * MAX_VALENCE]
     cdef int choice[MAX_VALENCE * MAX_VALENCE]
     cdef double fn[3 * MAX_VALENCE]
     # feature edges: an edge (v, link[i]) of a closed star whose two faces' unit normals have
     # a dot product below this is a crease; -2: none (the default)
     cdef double cos_feature
+    # ``group``: the split copies of a non-manifold input vertex share a group >= 0 (others
+    # -1); a chord that would put a vertex next to two copies of one input vertex is refused
+    cdef int[::1] group_arr
+    cdef const int* group
+    cdef unsigned long long bad[MAX_VALENCE]
 
-    def __init__(self, double cos_feature=-2.0):
+    def __init__(self, double cos_feature=-2.0, group=None):
         self.cos_feature = cos_feature
+        self.group = NULL
+        if group is not None:
+            self.group_arr = np.ascontiguousarray(group, dtype=np.intc)
+            if self.group_arr.shape[0]:
+                self.group = &self.group_arr[0]
+
+    @property
+    def star_local(self):
+        """The triangulation depends on the star alone -- not with ``group``, where a chord
+        is refused by the link vertices' other neighbours (the driver then evaluates a
+        popped vertex again)."""
+        return self.group == NULL
+
+    cdef bint next_to_copy(self, const HEArrays* he, int x, int g, int y, int v) noexcept nogil:
+        """Is x next to a vertex of group g other than y and v?"""
+        cdef int start = he.v_he[x], h, w, nh
+        if start < 0:
+            return False
+        h = start
+        while True:
+            w = he_dest(he, h)
+            if w != y and w != v and self.group[w] == g:
+                return True
+            nh = he_ring_next(he, h)
+            if nh < 0:
+                w = he.corner[he_prev(h)]
+                return w != y and w != v and self.group[w] == g
+            if nh == start:
+                return False
+            h = nh
+
+    cdef void mark_bad_chords(self, const Star* s) noexcept nogil:
+        """self.bad[i] bit j: the chord link[i]-link[j] would join two copies of one input
+        vertex, or put one end next to a second copy of the other end's input vertex."""
+        cdef int k = s.k, i, j, gi, gj
+        for i in range(k):
+            self.bad[i] = 0
+        if self.group == NULL or s.mesh.he == NULL:
+            return
+        for j in range(k):
+            gj = self.group[s.link[j]]
+            if gj < 0:
+                continue
+            for i in range(k):
+                if i == j:
+                    continue
+                gi = self.group[s.link[i]]
+                if gi == gj or self.next_to_copy(s.mesh.he, s.link[i], gj, s.link[j], s.v):
+                    self.bad[i] |= 1ULL << j
+                    self.bad[j] |= 1ULL << i
 
     cdef int evaluate(self, const Star* s, Removal* r) noexcept nogil:
         cdef int k = s.k
@@ -99,6 +154,9 @@ cdef class RetileKernel(RemovalKernel):
                 return KERNEL_VETO
         if norm3(N) <= 0.0:
             return KERNEL_VETO
+        self.mark_bad_chords(s)
+        if not s.closed and (self.bad[0] >> (k - 1)) & 1ULL:
+            return KERNEL_VETO                             # the new boundary edge
         for i in range(k - 1):
             self.best[i * MAX_VALENCE + i + 1] = 2.0       # an edge of the polygon: no triangle
         for gap in range(2, k):
@@ -108,6 +166,9 @@ cdef class RetileKernel(RemovalKernel):
                 self.choice[i * MAX_VALENCE + j] = -1
                 if n_feat == 2 and ((i < fa < j < fb) or (fa < i < fb < j)):
                     self.best[i * MAX_VALENCE + j] = -2.0      # the chord i-j crosses the crease
+                    continue
+                if (self.bad[i] >> j) & 1ULL and not (s.closed and i == 0 and j == k - 1):
+                    self.best[i * MAX_VALENCE + j] = -2.0      # it would weld into a non-manifold edge
                     continue
                 for m in range(i + 1, j):
                     q = tri_quality(P + st * s.link[i], P + st * s.link[m], P + st * s.link[j], N)
