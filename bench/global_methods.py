@@ -16,8 +16,8 @@ count n_q; then
 
 Each output: seconds, vertices, faces, topology of the welded output against the welded
 input's (genus, boundary loops, components, Euler characteristic, non-manifold edges and
-vertices; no degenerate or duplicate faces), triangle quality (mean, min: 4 sqrt(3) A / sum l^2), and Metro-style symmetric
-distances (lodkit.evaluate, 100 000 samples a side; fractions of the bbox diagonal).
+vertices; no degenerate or duplicate faces), triangle quality (mean, min: 4 sqrt(3) A /
+sum l^2), and Metro-style symmetric distances (lodkit.evaluate, 100 000 samples a side; fractions of the bbox diagonal).
 
     python bench/global_methods.py                     # all, ~15-25 minutes on 2 busy cores
     python bench/global_methods.py --mesh bunny --fractions 0.02
