@@ -14,9 +14,10 @@ count n_q; then
   within 1% by annealing c_rep): both "lower error than QEM at the same count" and "as a
   post-process it lowers QEM's error" are read off this one run.
 
-Each output: seconds, vertices, faces, manifold / genus / boundary loops against the
-input's, triangle quality (mean, min: 4 sqrt(3) A / sum l^2), and Metro-style symmetric
-distances (lodkit.evaluate, 100 000 samples a side; fractions of the bbox diagonal).
+Each output: seconds, vertices, faces, topology of the welded output against the welded
+input's (genus, boundary loops, components, Euler characteristic, non-manifold edges and
+vertices; no degenerate or duplicate faces), triangle quality (mean, min: 4 sqrt(3) A /
+sum l^2), and Metro-style symmetric distances (lodkit.evaluate, 100 000 samples a side; fractions of the bbox diagonal).
 
     python bench/global_methods.py                     # all, ~15-25 minutes on 2 busy cores
     python bench/global_methods.py --mesh bunny --fractions 0.02
@@ -55,6 +56,18 @@ VARIANTS = (("retile", 0.0, None, False, 0, 0), ("retile_adapt2", 2.0, None, Fal
             ("retile_refine3_fit4", 0.0, None, False, 3, 4), ("retile_features40_refine3_fit4", 0.0, 40.0, False, 3, 4))
 
 
+def topology_kept(topo, t_in) -> bool:
+    """The welded output against the welded input: genus (None for a non-manifold mesh, so
+    it alone would pass vacuously there), boundary loops, components, Euler characteristic,
+    non-manifold edge and vertex counts, and no degenerate or duplicate faces."""
+    return bool(topo.genus == t_in.genus and topo.n_boundary_loops == t_in.n_boundary_loops
+                and topo.n_components == t_in.n_components
+                and topo.euler_characteristic == t_in.euler_characteristic
+                and topo.n_nonmanifold_edges == t_in.n_nonmanifold_edges
+                and topo.n_nonmanifold_vertices == t_in.n_nonmanifold_vertices
+                and topo.n_degenerate_faces == 0 and topo.n_duplicate_faces == 0)
+
+
 def measure(src, out, seconds, t_in) -> dict:
     topo = lodkit.topology(lodkit.Mesh(*weld_positions(out.vertices, out.faces)))
     q = triangle_quality(out.vertices, out.faces)
@@ -62,8 +75,9 @@ def measure(src, out, seconds, t_in) -> dict:
     return {
         "seconds": round(seconds, 2), "vertices": int(out.n_vertices), "faces": int(out.n_faces),
         "manifold": bool(topo.is_manifold), "genus": topo.genus, "boundary_loops": topo.n_boundary_loops,
-        "topology_kept": bool(topo.genus == t_in.genus and topo.n_boundary_loops == t_in.n_boundary_loops
-                              and topo.n_components == t_in.n_components),
+        "euler": topo.euler_characteristic, "nonmanifold_edges": topo.n_nonmanifold_edges,
+        "nonmanifold_vertices": topo.n_nonmanifold_vertices,
+        "topology_kept": topology_kept(topo, t_in),
         "quality_mean": round(float(q.mean()), 4), "quality_min": round(float(q.min()), 4),
         "hausdorff": float(d.hausdorff), "mean": float(d.mean), "rms": float(d.rms),
     }
@@ -97,7 +111,10 @@ def main(argv=None) -> int:
             key = f"{name}@{f:g}"
             row = results.get(key, {})
             row.update({"input_vertices": src.n_vertices, "input_faces": src.n_faces,
-                        "input_genus": t_in.genus, "input_boundary_loops": t_in.n_boundary_loops})
+                        "input_genus": t_in.genus, "input_boundary_loops": t_in.n_boundary_loops,
+                        "input_euler": t_in.euler_characteristic,
+                        "input_nonmanifold_edges": t_in.n_nonmanifold_edges,
+                        "input_nonmanifold_vertices": t_in.n_nonmanifold_vertices})
             t0 = time.perf_counter()
             qem = lodkit.simplify(src, target_faces=max(4, int(round(2 * f * src.n_vertices))))
             row["qem"] = measure(src, qem.mesh, time.perf_counter() - t0, t_in)
@@ -140,6 +157,8 @@ def table(results) -> str:
                 lines.append(f"| {key} | {label} | - | - | - | - | - | - | - | - | - | {r['error'][:60]} |")
                 continue
             topo = ("kept" if r["topology_kept"] else "changed") + ("" if r["manifold"] else ", non-manifold")
+            if not r["manifold"] and "euler" in r:
+                topo += f" (χ {r['euler']}, {r['nonmanifold_edges']} nm edges, {r['nonmanifold_vertices']} nm vertices)"
             lines.append(
                 f"| {key} | {label} | {r['vertices']} | {r['seconds']:.1f} | {topo} | "
                 f"{r['quality_mean']:.3f} / {r['quality_min']:.3f} | {r['hausdorff']:.2e} | {r['mean']:.2e} | "

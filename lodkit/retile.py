@@ -234,6 +234,10 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
     wsum = float((area0 * weight).sum())
     edge_len = math.sqrt(2.0 * wsum / (math.sqrt(3.0) * n_vertices))   # equilateral, 2 faces per vertex
     twins0 = np.asarray(hm.twins)
+    # the build cut each non-manifold input vertex into copies; welded back in the output,
+    # no vertex may be next to two of them (that edge would have more than two faces):
+    # group0[slot] = its input vertex where that has several slots, else -1
+    group0 = _copy_groups(prep.input_vertex) if hm.n_split_vertices else None
     loops = _boundary_loops(F0, twins0)
     lines, creases = ([], []) if features is None else _crease_lines(P0, F0, twins0,
                                                                       math.cos(math.radians(features)))
@@ -253,6 +257,10 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
                                     np.where(twins0 >= 0, weight[np.maximum(twins0, 0) // 3], 0.0)))
         B, bface, bw, kept, bh, bt = _boundary_points(P0, F0, loops + creases, edge_len, rng, corner_angle, lines,
                                                       hscale)
+        if group0 is not None and bh.size:
+            # a crease point joins the far corners of both faces of its edge: not two copies
+            keep = ~_joins_copies(F0, twins0, bh, group0)
+            B, bface, bw, bh, bt = B[keep], bface[keep], bw[keep], bh[keep], bt[keep]
         n_inner = n_vertices - B.shape[0] - kept.size
         if n_inner < 1:
             raise OptionError(f"n_vertices={n_vertices} is too few: the boundary loops"
@@ -357,7 +365,13 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
         fixed[kept] = 1                                                    # boundary corners stay
         fixed[:n0][np.asarray(hm.locked_vertices, dtype=bool)[:n0]] = 1     # non-manifold copies stay
         # (no crease network long enough: no creases for the kernel and the flips either)
-        kernel = kern.RetileKernel(math.cos(math.radians(features)) if lines or creases else -2.0)
+        group2 = weld = None
+        if group0 is not None:
+            # the removal's manifold rules then see the copies welded (vremove's ``weld``), and
+            # the kernel avoids the chords those rules would refuse
+            group2 = np.ascontiguousarray(np.concatenate([group0, np.full(n_new, -1)]), dtype=np.intc)
+            weld = _weld_arrays(group2)
+        kernel = kern.RetileKernel(math.cos(math.radians(features)) if lines or creases else -2.0, group2)
         crease_vertex = None
         if lines or creases:
             crease_vertex = np.zeros(n0 + n_new, dtype=np.uint8)
@@ -371,7 +385,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
         # faces that the new points do not resolve)
         for angle in _REMOVAL_ANGLES:
             remover = vremove.VertexRemover(hm2, P2, kernel, fixed, boundary=BOUNDARY_FREE,
-                                            max_normal_angle=angle, min_quality=0.0)
+                                            max_normal_angle=angle, min_quality=0.0, weld=weld)
             while remover.run(0, 1 << 30) == RUN_CHUNK:
                 pass
             if remover.failed:
@@ -380,7 +394,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
             held = remover.held_back
             if not np.asarray(hm2.alive_vertices, dtype=bool)[:n0][fixed[:n0] == 0].any():
                 break
-        n_collapsed = _collapse_leftovers(hm2, P2, n0, fixed)
+        n_collapsed = _collapse_leftovers(hm2, P2, n0, fixed, group2)
         alive_v = np.asarray(hm2.alive_vertices, dtype=bool)
         n_old_kept = int(np.count_nonzero(alive_v[:n0])) - int(kept.size)
         times["remove"] = times.get("remove", 0.0) + time.perf_counter() - t
@@ -391,25 +405,30 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
         flips = 0
         if flip_angle > 0 and F.shape[0]:
             twin = face_twins(F)
-            flips = int(kern.flip_edges(P2, F, twin, math.cos(math.radians(flip_angle)), 50, crease_vertex))
+            flips = int(kern.flip_edges(P2, F, twin, math.cos(math.radians(flip_angle)), 50, crease_vertex,
+                                             group=group2))
             # slivers (often across a crease the new points straddle): flips between faces
             # further apart, only where the worse triangle is a sliver
             flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE))),
-                                         20, crease_vertex, _SLIVER_QUALITY))
+                                         20, crease_vertex, _SLIVER_QUALITY,
+                                             group=group2))
         relaxed = worst_moves = 0
         cos_crease = math.cos(math.radians(features)) if features is not None else 2.0
         if relax and F.shape[0] and nX:
             relaxed = _relax(P2, F, n0, nX, surf, P0, F0, all_face, all_w, relax)
             if flip_angle > 0:
                 twin = face_twins(F)
-                flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(flip_angle)), 50, crease_vertex))
+                flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(flip_angle)), 50, crease_vertex,
+                                             group=group2))
                 flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE))),
-                                             20, crease_vertex, _SLIVER_QUALITY))
+                                             20, crease_vertex, _SLIVER_QUALITY,
+                                             group=group2))
             worst_moves = _improve_worst(P2, F, n0, nX, surf, P0, F0, all_face, all_w, _WORST_ROUNDS)
             if flip_angle > 0:
                 # slivers again, now also between two crease points where the edge is no crease
                 flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE))),
-                                             20, crease_vertex, _WORST_QUALITY, cos_crease))
+                                             20, crease_vertex, _WORST_QUALITY, cos_crease,
+                                             group=group2))
         times["finish"] = times.get("finish", 0.0) + time.perf_counter() - t
         if refine:
             # error-driven density: measure this pass, reweight the next by its local error
@@ -1065,11 +1084,65 @@ def _boundary_samples(P, F, loops, step):
     return np.concatenate(out)
 
 
-def _collapse_leftovers(hm, P, n0: int, fixed: np.ndarray) -> int:
+def _copy_groups(slot_input) -> np.ndarray:
+    """(n,) intc: each slot's input vertex where that vertex has several slots (the copies
+    the half-edge build cut a non-manifold vertex into), else -1."""
+    slot_input = np.asarray(slot_input, dtype=np.int64)
+    split = np.bincount(slot_input)[slot_input] > 1
+    return np.ascontiguousarray(np.where(split, slot_input, -1), dtype=np.intc)
+
+
+def _weld_arrays(group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(rep, next) for vremove's ``weld``: the slots of one group (>= 0) share a
+    representative and form a cycle through ``next``; a slot with group -1 is alone (its own
+    representative, next -1)."""
+    n = group.size
+    rep = np.arange(n, dtype=np.intc)
+    nxt = np.full(n, -1, dtype=np.intc)
+    members = np.flatnonzero(group >= 0)
+    if members.size:
+        order = members[np.argsort(group[members], kind="stable")]
+        g = group[order]
+        start = np.r_[True, g[1:] != g[:-1]]
+        first = order[np.flatnonzero(start)][np.cumsum(start) - 1]
+        rep[order] = first
+        last = np.r_[start[1:], True]
+        nxt[order] = np.where(last, first, np.r_[order[1:], 0])
+    return rep, nxt
+
+
+def _joins_copies(F, twins, h, group) -> np.ndarray:
+    """(len(h),) bool: a point on the interior half-edge h (running a -> b, faces (a, b, c)
+    and (b, a, d)) would be next to c and d: are they copies of one input vertex?"""
+    Ff = np.asarray(F).reshape(-1)
+    t = np.asarray(twins)[h]
+    c = Ff[3 * (h // 3) + (h % 3 + 2) % 3]
+    d = Ff[3 * (np.maximum(t, 0) // 3) + (np.maximum(t, 0) % 3 + 2) % 3]
+    return (t >= 0) & (group[c] >= 0) & (group[c] == group[d])
+
+
+def _collapse_keeps_copies_apart(hm, u: int, v: int, group: np.ndarray) -> bool:
+    """Would collapsing u into v leave no vertex next to two copies of one input vertex (nor
+    two copies joined)?  ``group`` as :func:`_copy_groups` (-1: not a copy)."""
+    nu = {int(x) for x in hm.star(u)[0]} - {v}
+    nv = {int(x) for x in hm.star(v)[0]} - {u}
+    gv = int(group[v])
+    gs = [int(group[x]) for x in nu | nv if group[x] >= 0]
+    if len(gs) != len(set(gs)) or (gv >= 0 and gv in gs):
+        return False
+    if gv >= 0:                       # u's neighbours join v: none may be next to another copy
+        for x in nu - nv:
+            if any(group[w] == gv and w != v for w in (int(y) for y in hm.star(x)[0])):
+                return False
+    return True
+
+
+def _collapse_leftovers(hm, P, n0: int, fixed: np.ndarray, group: np.ndarray | None = None) -> int:
     """Old vertices the removal rounds held back (typically at a sharp tip the new points
     do not resolve): collapse each into a neighbour -- a new vertex first, the nearest
-    first -- when the link condition holds and no remaining face flips or degenerates.
-    Returns the number of collapses."""
+    first -- when the link condition holds, no remaining face flips or degenerates and
+    (``group``: the copies of a non-manifold input vertex, :func:`_copy_groups`) no vertex
+    ends next to two copies of one input vertex.  Returns the number of collapses."""
     done = 0
     changed = True
     while changed:
@@ -1082,6 +1155,8 @@ def _collapse_leftovers(hm, P, n0: int, fixed: np.ndarray) -> int:
             best, best_key = -1, None
             for v in set(int(x) for x in link):
                 if not hm.can_collapse(u, v):
+                    continue
+                if group is not None and not _collapse_keeps_copies_apart(hm, u, v, group):
                     continue
                 stay = ~(corners == v).any(axis=1)
                 old = corners[stay]

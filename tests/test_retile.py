@@ -469,3 +469,97 @@ def test_property_topology_kept(kind, n, seed, refine, features):
     assert t.is_manifold and t.is_oriented
     assert (t.genus, t.n_boundary_loops, t.n_components) == (t0.genus, t0.n_boundary_loops, t0.n_components)
     assert off_surface(src, r.mesh) < 1e-9
+
+
+def pinched_spheres() -> lodkit.Mesh:
+    """Two spheres touching at one vertex (a pole of each): a non-manifold vertex whose two
+    fans are cones; Euler characteristic 2 + 2 - 1 = 3."""
+    s = sphere()
+    top = np.argmin(s.vertices[:, 2])                  # the south pole, at z = -1
+    a = s.vertices + [0.0, 0.0, 1.0]                  # its south pole at the origin
+    b = s.vertices * [1.0, 1.0, -1.0] - [0.0, 0.0, 1.0]     # mirrored: its north pole there
+    fb = s.faces[:, ::-1] + s.n_vertices               # mirrored faces flip their orientation
+    fb = np.where(fb == s.n_vertices + top, top, fb)  # weld the two poles
+    keep = np.ones(2 * s.n_vertices, dtype=bool)
+    keep[s.n_vertices + top] = False
+    remap = np.cumsum(keep) - 1
+    return lodkit.Mesh(np.concatenate([a, b])[keep], remap[np.concatenate([s.faces, fb])])
+
+
+def welded_topology(m: lodkit.Mesh):
+    return lodkit.topology(lodkit.Mesh(*weld_positions(m.vertices, m.faces)))
+
+
+def pinched_torus(n: int = 40, m: int = 12) -> lodkit.Mesh:
+    """A torus whose tube shrinks to a point at one meridian (tube radius 0.5 sin(theta / 2)):
+    a sphere with two points glued, like cow.obj's vertex 253.  The pinch vertex has two
+    narrow cones as its fans, close to each other; Euler characteristic 1."""
+    th = 2.0 * np.pi * np.arange(1, n) / n
+    ph = 2.0 * np.pi * np.arange(m) / m
+    r = 0.5 * np.sin(th / 2.0)[:, None]
+    t, p = np.meshgrid(th, ph, indexing="ij")
+    ring = np.stack([(1.0 + r * np.cos(p)) * np.cos(t), (1.0 + r * np.cos(p)) * np.sin(t), r * np.sin(p)], -1)
+    v = np.concatenate([[[1.0, 0.0, 0.0]], ring.reshape(-1, 3)])
+    idx = 1 + np.arange((n - 1) * m).reshape(n - 1, m)
+    a, b = idx[:-1], np.roll(idx[:-1], -1, axis=1)
+    c, d = np.roll(idx[1:], -1, axis=1), idx[1:]
+    f = [np.c_[a.ravel(), b.ravel(), c.ravel()], np.c_[a.ravel(), c.ravel(), d.ravel()],
+         np.c_[np.zeros(m, dtype=int), np.roll(idx[0], -1), idx[0]],
+         np.c_[np.zeros(m, dtype=int), idx[-1], np.roll(idx[-1], -1)]]
+    return lodkit.Mesh(v, np.concatenate(f))
+
+
+@pytest.mark.parametrize("make,n,kw", [(pinched_torus, 8, {"seed": 3}), (pinched_torus, 10, {"seed": 1}),
+                                       (pinched_torus, 24, {"refine": 1}), (pinched_spheres, 12, {}),
+                                       (pinched_spheres, 60, {"adapt": 2.0})])
+def test_non_manifold_vertex_kept_and_no_non_manifold_edge(make, n, kw):
+    """The build cuts the pinch into two copies; re-tiling must not join a vertex to both
+    (welded, that edge would have more than two faces) nor put both in one face.  Before
+    the fix, the pinched torus at 8 vertices (seed 3) and 10 (seed 1) welded into a
+    non-manifold edge and an Euler characteristic of 2."""
+    src = make()
+    t0 = welded_topology(src)
+    assert (t0.n_nonmanifold_vertices, t0.n_nonmanifold_edges) == (1, 0)
+    r = retile(src, n, **kw)
+    t = welded_topology(r.mesh)
+    assert t.n_nonmanifold_vertices == 1
+    assert t.n_nonmanifold_edges == 0
+    assert (t.n_degenerate_faces, t.n_duplicate_faces) == (0, 0)
+    assert t.euler_characteristic == t0.euler_characteristic
+    assert t.n_components == t0.n_components
+    pinch = src.vertices[0] if make is pinched_torus else np.zeros(3)
+    assert np.count_nonzero(np.linalg.norm(r.mesh.vertices - pinch, axis=1) < 1e-12) == 1
+    assert off_surface(src, r.mesh) < 1e-9
+
+
+def test_flip_edges_never_joins_two_copies():
+    """group: vertices 2 and 3 are copies of one input vertex; the flip that would join them
+    (the better diagonal) is refused.  With 3 next to a copy (4) of 2's vertex, the flip
+    that makes 2-3 is refused too."""
+    v = np.array([[0.0, 0, 0], [2, 0, 0], [1, 0.4, 0], [1, -0.4, 0]])
+    f = np.array([[0, 1, 2], [1, 0, 3]], dtype=np.intc)
+    group = np.array([-1, -1, 7, 7], dtype=np.intc)
+    assert kern.flip_edges(v, f, face_twins(f), 0.9, 10, group=group) == 0
+    assert kern.flip_edges(v, f, face_twins(f), 0.9, 10, group=np.full(4, -1, dtype=np.intc)) == 1
+    # a fan around 3 with a copy of 2 (vertex 4) in it
+    v = np.array([[0.0, 0, 0], [2, 0, 0], [1, 0.4, 0], [1, -0.4, 0], [1, -1.4, 0]])
+    f = np.array([[0, 1, 2], [1, 0, 3], [0, 4, 3]], dtype=np.intc)
+    group = np.array([-1, -1, 5, -1, 5], dtype=np.intc)
+    assert kern.flip_edges(v, f, face_twins(f), 0.9, 10, group=group) == 0
+    group[4] = -1
+    assert kern.flip_edges(v, f, face_twins(f), 0.9, 10, group=group) == 1
+
+
+@pytest.mark.parametrize("fraction", [0.02, 0.1])
+def test_cow_keeps_its_topology_welded(fraction):
+    """cow.obj's vertex 253 is non-manifold (two fans); its outputs used to weld into 1-3
+    non-manifold edges and an Euler characteristic of 2-4 against 1 (docs/retile.md)."""
+    src = lodkit.load(shared_mesh("cow.obj"))
+    t0 = welded_topology(src)
+    n = int(round(fraction * src.n_vertices))
+    for kw in ({}, {"refine": 3, "fit": 4}):
+        t = welded_topology(retile(src, n, **kw).mesh)
+        assert (t.n_nonmanifold_vertices, t.n_nonmanifold_edges) == (t0.n_nonmanifold_vertices, 0)
+        assert (t.n_degenerate_faces, t.n_duplicate_faces) == (0, 0)
+        assert t.euler_characteristic == t0.euler_characteristic
+        assert (t.n_boundary_loops, t.n_components) == (t0.n_boundary_loops, t0.n_components)

@@ -10,14 +10,18 @@ class RetileKernel(RemovalKernel):
     """Vertex-removal kernel of re-tiling: the max-min-quality triangulation of the hole."""
 
     api_version: ClassVar[int]
-    star_local: ClassVar[bool]
-    def __init__(self, cos_feature: float = -2.0) -> None:
+    def __init__(self, cos_feature: float = -2.0, group: NDArray[np.intc] | None = None) -> None:
         """cos_feature: edges whose faces' unit normals have a smaller dot product are
-        creases the hole must keep (-2: none)."""
+        creases the hole must keep (-2: none).  group: per vertex slot, the split copies of
+        a non-manifold input vertex share a value >= 0 (others -1); chords that would put a
+        vertex next to two copies of one input vertex are refused."""
+    @property
+    def star_local(self) -> bool:
+        """True without ``group``."""
 
 def flip_edges(V: NDArray[np.float64], F: NDArray[np.intc], twin: NDArray[np.intc], min_dot: float,
                max_sweeps: int, locked: NDArray[np.uint8] | None = None, below: float = 2.0,
-               locked_dot: float = 2.0) -> int:
+               locked_dot: float = 2.0, group: NDArray[np.intc] | None = None) -> int:
     """Quality-raising flips between nearly coplanar faces; F and twin updated in place."""
 
 def project_local(X: NDArray[np.float64], S: NDArray[np.int64], V: NDArray[np.float64],

@@ -15,6 +15,7 @@ import numpy as np
 from libc.stdint cimport int64_t
 
 from lodkit.kernel cimport KERNEL_OK, KERNEL_VETO
+from .halfedge cimport HEArrays, he_dest, he_prev, he_ring_next
 from lodkit.removal cimport RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION
 from .vec3 cimport sub3, cross3, dot3, norm3
 
@@ -45,16 +46,70 @@ cdef class RetileKernel(RemovalKernel):
     1 - that quality (the vertices that leave the best holes go first), error 0."""
 
     api_version = REMOVAL_API_VERSION
-    star_local = True
     cdef double best[MAX_VALENCE * MAX_VALENCE]
     cdef int choice[MAX_VALENCE * MAX_VALENCE]
     cdef double fn[3 * MAX_VALENCE]
     # feature edges: an edge (v, link[i]) of a closed star whose two faces' unit normals have
     # a dot product below this is a crease; -2: none (the default)
     cdef double cos_feature
+    # ``group``: the split copies of a non-manifold input vertex share a group >= 0 (others
+    # -1); a chord that would put a vertex next to two copies of one input vertex is refused
+    cdef int[::1] group_arr
+    cdef const int* group
+    cdef unsigned long long bad[MAX_VALENCE]
 
-    def __init__(self, double cos_feature=-2.0):
+    def __init__(self, double cos_feature=-2.0, group=None):
         self.cos_feature = cos_feature
+        self.group = NULL
+        if group is not None:
+            self.group_arr = np.ascontiguousarray(group, dtype=np.intc)
+            if self.group_arr.shape[0]:
+                self.group = &self.group_arr[0]
+
+    @property
+    def star_local(self):
+        """The triangulation depends on the star alone -- not with ``group``, where a chord
+        is refused by the link vertices' other neighbours (the driver then evaluates a
+        popped vertex again)."""
+        return self.group == NULL
+
+    cdef bint next_to_copy(self, const HEArrays* he, int x, int g, int y, int v) noexcept nogil:
+        """Is x next to a vertex of group g other than y and v?"""
+        cdef int start = he.v_he[x], h, w, nh
+        if start < 0:
+            return False
+        h = start
+        while True:
+            w = he_dest(he, h)
+            if w != y and w != v and self.group[w] == g:
+                return True
+            nh = he_ring_next(he, h)
+            if nh < 0:
+                w = he.corner[he_prev(h)]
+                return w != y and w != v and self.group[w] == g
+            if nh == start:
+                return False
+            h = nh
+
+    cdef void mark_bad_chords(self, const Star* s) noexcept nogil:
+        """self.bad[i] bit j: the chord link[i]-link[j] would join two copies of one input
+        vertex, or put one end next to a second copy of the other end's input vertex."""
+        cdef int k = s.k, i, j, gi, gj
+        for i in range(k):
+            self.bad[i] = 0
+        if self.group == NULL or s.mesh.he == NULL:
+            return
+        for j in range(k):
+            gj = self.group[s.link[j]]
+            if gj < 0:
+                continue
+            for i in range(k):
+                if i == j:
+                    continue
+                gi = self.group[s.link[i]]
+                if gi == gj or self.next_to_copy(s.mesh.he, s.link[i], gj, s.link[j], s.v):
+                    self.bad[i] |= 1ULL << j
+                    self.bad[j] |= 1ULL << i
 
     cdef int evaluate(self, const Star* s, Removal* r) noexcept nogil:
         cdef int k = s.k
@@ -99,6 +154,9 @@ cdef class RetileKernel(RemovalKernel):
                 return KERNEL_VETO
         if norm3(N) <= 0.0:
             return KERNEL_VETO
+        self.mark_bad_chords(s)
+        if not s.closed and (self.bad[0] >> (k - 1)) & 1ULL:
+            return KERNEL_VETO                             # the new boundary edge
         for i in range(k - 1):
             self.best[i * MAX_VALENCE + i + 1] = 2.0       # an edge of the polygon: no triangle
         for gap in range(2, k):
@@ -108,6 +166,9 @@ cdef class RetileKernel(RemovalKernel):
                 self.choice[i * MAX_VALENCE + j] = -1
                 if n_feat == 2 and ((i < fa < j < fb) or (fa < i < fb < j)):
                     self.best[i * MAX_VALENCE + j] = -2.0      # the chord i-j crosses the crease
+                    continue
+                if (self.bad[i] >> j) & 1ULL and not (s.closed and i == 0 and j == k - 1):
+                    self.best[i * MAX_VALENCE + j] = -2.0      # it would weld into a non-manifold edge
                     continue
                 for m in range(i + 1, j):
                     q = tri_quality(P + st * s.link[i], P + st * s.link[m], P + st * s.link[j], N)
@@ -154,15 +215,22 @@ cdef class RetileKernel(RemovalKernel):
         return KERNEL_OK
 
 
-cdef inline int has_edge(const int* F, const int* twin, int h_out, int d) noexcept nogil:
-    """Is d a neighbour of the vertex half-edge ``h_out`` leaves?  Walks the fan both ways
-    (to the boundary or around)."""
+cdef inline bint same(int x, int d, const int* group, int gd) noexcept nogil:
+    """x is d, or (``group`` given, ``gd`` >= 0) x is another copy of d's input vertex."""
+    return x == d or (gd >= 0 and group[x] == gd)
+
+
+cdef inline int has_edge(const int* F, const int* twin, int h_out, int d, const int* group=NULL,
+                         int gd=-1) noexcept nogil:
+    """Is d -- or, with ``group`` and ``gd`` >= 0, any vertex x with group[x] == gd (a copy of
+    d's input vertex) -- a neighbour of the vertex half-edge ``h_out`` leaves?  Walks the fan
+    both ways (to the boundary or around)."""
     cdef int h = h_out, f, nh
     while True:
         f = h // 3
-        if F[3 * f + (h % 3 + 1) % 3] == d:
+        if same(F[3 * f + (h % 3 + 1) % 3], d, group, gd):
             return 1
-        if F[3 * f + (h % 3 + 2) % 3] == d:
+        if same(F[3 * f + (h % 3 + 2) % 3], d, group, gd):
             return 1
         nh = twin[3 * f + (h % 3 + 2) % 3]           # the previous half-edge's twin leaves v
         if nh < 0:
@@ -179,9 +247,9 @@ cdef inline int has_edge(const int* F, const int* twin, int h_out, int d) noexce
         if h == h_out:
             return 0
         f = h // 3
-        if F[3 * f + (h % 3 + 1) % 3] == d:
+        if same(F[3 * f + (h % 3 + 1) % 3], d, group, gd):
             return 1
-        if F[3 * f + (h % 3 + 2) % 3] == d:
+        if same(F[3 * f + (h % 3 + 2) % 3], d, group, gd):
             return 1
 
 
@@ -192,7 +260,8 @@ cdef inline void set_twin(int* twin, int h, int t) noexcept nogil:
 
 
 def flip_edges(double[:, ::1] V, int[:, ::1] F, int[::1] twin, double min_dot, int max_sweeps,
-               const unsigned char[::1] locked=None, double below=2.0, double locked_dot=2.0):
+               const unsigned char[::1] locked=None, double below=2.0, double locked_dot=2.0,
+               const int[::1] group=None):
     """Flip interior edges while a flip raises min(quality) of its two triangles by more
     than 1e-9, and the two faces before and after are within ``min_dot`` (cosine) of each
     other.  ``F`` (m, 3) and ``twin`` (3 m,) (half-edge h = 3 f + i runs F[f, i] -> F[f, i+1];
@@ -200,7 +269,11 @@ def flip_edges(double[:, ::1] V, int[:, ::1] F, int[::1] twin, double min_dot, i
     not flipped (nor one that would join two) when its two faces' unit normals, before (or
     after) the flip, have a dot product below ``locked_dot`` (2: never; a crease's cosine:
     only the edges along the crease stay).  Only edges whose worse triangle has a quality
-    below ``below`` are flipped (2: all).  Returns the number of flips."""
+    below ``below`` are flipped (2: all).  ``group`` (one entry per vertex of ``V``): the
+    split copies of a non-manifold input vertex share a group >= 0, other vertices have -1;
+    a flip whose new edge c-d would join two copies of one input vertex, or make c (d)
+    adjacent to a second copy of d's (c's) input vertex, is refused (welded, the edge would
+    have more than two faces).  Returns the number of flips."""
     cdef Py_ssize_t m = F.shape[0]
     if twin.shape[0] != 3 * m:
         raise ValueError("twin must have 3 m entries")
@@ -208,6 +281,13 @@ def flip_edges(double[:, ::1] V, int[:, ::1] F, int[::1] twin, double min_dot, i
     cdef int* T = &twin[0] if m else NULL
     cdef const double* P = &V[0, 0] if V.shape[0] else NULL
     cdef bint use_lock = locked is not None
+    cdef const int* G = NULL
+    cdef int gc, gd
+    if group is not None:
+        if group.shape[0] != V.shape[0]:
+            raise ValueError("group must have one entry per vertex")
+        if V.shape[0]:
+            G = &group[0]
     cdef int flips = 0, _sweep, h, t, f, g, i, j, a, b, c, d, ha1, ha2, hb1, hb2, changed
     cdef bint lock_ab, lock_cd
     cdef double n1[3]
@@ -277,8 +357,14 @@ def flip_edges(double[:, ::1] V, int[:, ::1] F, int[::1] twin, double min_dot, i
                     continue
                 if lock_cd and dot3(m1, m2) < locked_dot * norm3(m1) * norm3(m2):
                     continue
-                if has_edge(Fp, T, 3 * f + (i + 2) % 3, d):
-                    continue
+                gc = G[c] if G != NULL else -1
+                gd = G[d] if G != NULL else -1
+                if gc >= 0 and gc == gd:
+                    continue                      # an edge between two copies of one vertex
+                if has_edge(Fp, T, 3 * f + (i + 2) % 3, d, G, gd):
+                    continue                      # c already next to d (or to a copy of it)
+                if gc >= 0 and has_edge(Fp, T, 3 * g + (j + 2) % 3, c, G, gc):
+                    continue                      # d already next to another copy of c
                 # outer half-edges: b->c (hb1), c->a (ha1) in f; a->d (ha2), d->b (hb2) in g
                 hb1 = T[3 * f + (i + 1) % 3]
                 ha1 = T[3 * f + (i + 2) % 3]
