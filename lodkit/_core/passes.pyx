@@ -325,6 +325,17 @@ cdef enum:
 
 cdef enum:
     RANK_CHUNK = 2048   # edges a thread ranks at a time
+    RANK_RUN = 64       # rank_range's runs: dirty edges gathered, their rows prefetched, then planned
+
+cdef extern from *:
+    """
+    #if defined(__GNUC__) || defined(__clang__)
+    #define lodkit_prefetch(p) __builtin_prefetch((const void*)(p))
+    #else
+    #define lodkit_prefetch(p) ((void)0)
+    #endif
+    """
+    void prefetch "lodkit_prefetch"(const void* p) noexcept nogil
 
 cdef enum:
     SERIAL_TAIL = 256   # a pass that may reach the target takes its last few candidates one by one
@@ -613,20 +624,51 @@ cdef class PassDriver:
 
     cdef void rank_range(self, int lo, int hi, int* hist) noexcept nogil:
         """rank() for edges lo .. hi - 1, counting into ``hist`` (the arrays are read through
-        locals: the histogram's stores would otherwise reload them for every edge)."""
+        locals: the histogram's stores would otherwise reload them for every edge).  In runs
+        of RANK_RUN edges: the run's dirty live edges are gathered and their ends' rows
+        prefetched (and the valid ones counted), then planned (their rows lie anywhere near
+        the run: the plans would otherwise wait for each one in turn) and counted if valid."""
         cdef const unsigned char* state = &self.state[0]
         cdef const unsigned char* alive = self.m.edge_alive
         cdef const float* cost = &self.cost[0]
-        cdef int i
-        for i in range(lo, hi):
-            if not alive[i]:
-                continue
-            if state[i] == ST_DIRTY:
-                self.rank_one(i)
+        cdef const int* edge_he = self.m.edge_he
+        cdef const int* corner = self.m.corner
+        cdef const double* Q = self.c.Q
+        cdef int dirty[RANK_RUN]
+        cdef int i, j, e, h, n, sub, sub_end
+        cdef unsigned char st
+        cdef const double* row
+        sub = lo
+        while sub < hi:
+            sub_end = min(sub + <int>RANK_RUN, hi)
+            n = 0
+            for i in range(sub, sub_end):
+                if not alive[i]:
+                    continue
+                st = state[i]
+                if st == ST_VALID:
+                    hist[bucket_of(cost[i])] += 1
+                elif st == ST_DIRTY:
+                    dirty[n] = i
+                    n += 1
+                    # (a row of VSTRIDE doubles spans up to three cache lines)
+                    h = edge_he[i]
+                    row = &Q[VSTRIDE * corner[h]]
+                    prefetch(row)
+                    prefetch(row + 7)
+                    prefetch(row + VSTRIDE - 1)
+                    row = &Q[VSTRIDE * corner[he_next(h)]]
+                    prefetch(row)
+                    prefetch(row + 7)
+                    prefetch(row + VSTRIDE - 1)
+            for j in range(n):
+                e = dirty[j]
+                self.rank_one(e)
                 if self.c.failed:
                     return
-            if state[i] == ST_VALID:
-                hist[bucket_of(cost[i])] += 1
+                if state[e] == ST_VALID:
+                    hist[bucket_of(cost[e])] += 1
+            sub = sub_end
 
     cdef inline void rank_one(self, int e) noexcept nogil:
         """Plan dirty live edge ``e`` (rank_range has checked it is one) into its state and
