@@ -1064,18 +1064,27 @@ cdef class PassDriver:
         of an open fan has its third corner tested apart.)"""
         cdef const int* corner = self.m.corner
         cdef const int* twin = self.m.twin
-        cdef int start, y, ny, t, nx
+        cdef const double* P = self.c.P
+        cdef int start, y, ny, t, nx, x
         if not self.in_block(w, lo):
             return False
         start = self.m.v_he[w]
         y = start
         while True:
             nx = he_next(y)
-            if not self.in_block(corner[nx], lo):
+            x = corner[nx]
+            if not self.in_block(x, lo):
                 return False
+            # (the checks read the positions of the ring and of the far corners next)
+            prefetch(&P[VSTRIDE * x])
+            prefetch(&P[VSTRIDE * x + 2])
             t = twin[nx]
-            if t >= 0 and not self.in_block(corner[he_prev(t)], lo):
-                return False
+            if t >= 0:
+                x = corner[he_prev(t)]
+                if not self.in_block(x, lo):
+                    return False
+                prefetch(&P[VSTRIDE * x])
+                prefetch(&P[VSTRIDE * x + 2])
             ny = twin[he_prev(y)]                    # he_ring_next
             if ny < 0:
                 return self.in_block(corner[he_prev(y)], lo)
