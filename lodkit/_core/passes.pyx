@@ -1065,6 +1065,7 @@ cdef class PassDriver:
         cdef const int* corner = self.m.corner
         cdef const int* twin = self.m.twin
         cdef const double* P = self.c.P
+        cdef const short* N0 = self.c.N0
         cdef int start, y, ny, t, nx, x
         if not self.in_block(w, lo):
             return False
@@ -1075,9 +1076,11 @@ cdef class PassDriver:
             x = corner[nx]
             if not self.in_block(x, lo):
                 return False
-            # (the checks read the positions of the ring and of the far corners next)
+            # (the checks read the positions of the ring and of the far corners next, and
+            # the input normals of the fan's faces)
             prefetch(&P[VSTRIDE * x])
             prefetch(&P[VSTRIDE * x + 2])
+            prefetch(&N0[3 * (y // 3)])
             t = twin[nx]
             if t >= 0:
                 x = corner[he_prev(t)]
