@@ -1066,6 +1066,7 @@ cdef class PassDriver:
         cdef const int* twin = self.m.twin
         cdef const double* P = self.c.P
         cdef const short* N0 = self.c.N0
+        cdef const int* edge = self.m.edge
         cdef int start, y, ny, t, nx, x
         if not self.in_block(w, lo):
             return False
@@ -1081,6 +1082,7 @@ cdef class PassDriver:
             prefetch(&P[VSTRIDE * x])
             prefetch(&P[VSTRIDE * x + 2])
             prefetch(&N0[3 * (y // 3)])
+            prefetch(&edge[y])                    # (dirty_ring's, after a collapse)
             t = twin[nx]
             if t >= 0:
                 x = corner[he_prev(t)]
