@@ -61,6 +61,19 @@ cdef extern from *:
     const double SQRT3 "LODKIT_SQRT3"
 
 
+# A hint that the cache line holding p will be read soon (GCC and Clang; a no-op for other
+# compilers): the pass driver's walks and the output's gathers fetch ahead what their
+# next steps read.  Never faults, whatever p is.
+cdef extern from *:
+    """
+    #if defined(__GNUC__) || defined(__clang__)
+    #define LODKIT_PREFETCH(p) __builtin_prefetch((const void*)(p))
+    #else
+    #define LODKIT_PREFETCH(p) ((void)0)
+    #endif
+    """
+    void prefetch "LODKIT_PREFETCH"(const void* p) noexcept nogil
+
 ctypedef fused sort_key:
     int
     long long

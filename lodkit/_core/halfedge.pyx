@@ -13,7 +13,7 @@ from libc.string cimport memset
 import numpy as np
 cimport numpy as cnp
 
-from .common cimport MAX_VALENCE, PARALLEL_MIN_VERTICES, insertion_sort
+from .common cimport MAX_VALENCE, PARALLEL_MIN_VERTICES, insertion_sort, prefetch
 
 cnp.import_array()
 
@@ -1112,17 +1112,6 @@ def count_face_components(HalfEdgeMesh hm):
 
 
 # ------------------------------------------------------------------ output
-cdef extern from *:
-    """
-    #if defined(__GNUC__) || defined(__clang__)
-    #define lk_prefetch(p) __builtin_prefetch(p)
-    #else
-    #define lk_prefetch(p) ((void)0)
-    #endif
-    """
-    void lk_prefetch(const void* p) noexcept nogil
-
-
 cdef enum:
     PREFETCH_AHEAD = 16      # rows fetched ahead of a sparse walk in slot order
 
@@ -1245,7 +1234,7 @@ def live_output(HalfEdgeMesh hm, input_vertex, input_face, vertices, int n_input
         # fetched ahead, or each is a miss)
         for j in range(n_moved):
             if j + PREFETCH_AHEAD < n_moved:
-                lk_prefetch(&P[ps * moved_slots[j + PREFETCH_AHEAD]])
+                prefetch(&P[ps * moved_slots[j + PREFETCH_AHEAD]])
             s = moved_slots[j]
             o = bit_rank(vbits, vbefore, iv[s])
             took[o] = 1

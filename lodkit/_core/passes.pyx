@@ -50,7 +50,7 @@ from .common cimport QSIZE, VSTRIDE, BOUNDARY_FREE, RUN_TARGET, RUN_CHUNK, RUN_E
 from .quadric cimport collapse_error, quadric_eval, within_reach
 from .checks cimport turns_inside_out
 from .edge cimport EdgeCollapser, SEAM_NONE
-from .common cimport RUN_INTERRUPTED, PARALLEL_MIN_VERTICES
+from .common cimport RUN_INTERRUPTED, PARALLEL_MIN_VERTICES, prefetch
 from .interrupt cimport signal_pending, raise_pending, INTERRUPT_EVERY
 
 cnp.import_array()
@@ -326,16 +326,6 @@ cdef enum:
 cdef enum:
     RANK_CHUNK = 2048   # edges a thread ranks at a time
     RANK_RUN = 64       # rank_range's runs: dirty edges gathered, their rows prefetched, then planned
-
-cdef extern from *:
-    """
-    #if defined(__GNUC__) || defined(__clang__)
-    #define lodkit_prefetch(p) __builtin_prefetch((const void*)(p))
-    #else
-    #define lodkit_prefetch(p) ((void)0)
-    #endif
-    """
-    void prefetch "lodkit_prefetch"(const void* p) noexcept nogil
 
 cdef enum:
     SERIAL_TAIL = 256   # a pass that may reach the target takes its last few candidates one by one
@@ -1307,7 +1297,7 @@ cdef class PassDriver:
         blk_start; and clear the ``nb`` blocks' tallies.  On threads, by runs of the
         candidates (each run counted into its row of hist_t, free between select and the
         next rank, then placed from run_starts: runs in order, so the same arrays)."""
-        cdef int b, t, acc = 0, size
+        cdef int b, t
         cdef int T = self.threads if n_sel >= PARALLEL_MIN_VERTICES and nb < N_BUCKETS else 1
         cdef int per = (n_sel + T - 1) // T
         if T > 1:
@@ -1322,17 +1312,12 @@ cdef class PassDriver:
             for t in prange(T, num_threads=T, schedule="static", chunksize=1):
                 self.place_range(t * per, min(t * per + per, n_sel), deferred, &self.hist_t[t, 0])
         else:
+            # counts one row up: block b's start lands in blk_start[b + 1], and placing
+            # advances it to b's end, which is b + 1's start
             memset(&self.blk_start[0], 0, (nb + 1) * sizeof(int))
             self.block_range(0, n_sel, half, deferred, &self.blk_start[1])
-            for b in range(nb):
-                size = self.blk_start[b + 1]
-                self.blk_start[b] = acc
-                acc += size
-            self.blk_start[nb] = acc
-            self.place_range(0, n_sel, deferred, &self.blk_start[0])
-            for b in range(nb - 1, 0, -1):
-                self.blk_start[b] = self.blk_start[b - 1]
-            self.blk_start[0] = 0
+            run_starts(&self.blk_start[1], nb, 1, 0)
+            self.place_range(0, n_sel, deferred, &self.blk_start[1])
         memset(&self.acc_i[0, 0], 0, nb * 4 * sizeof(int))
         memset(&self.acc_x[0, 0], 0, nb * 2 * sizeof(double))
 
