@@ -378,6 +378,28 @@ def seam_partners(src: Mesh, prep: Prepared, fixed: np.ndarray) -> np.ndarray | 
     return partners
 
 
+def weld_cycles(group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(rep, next) for the vertex remover's ``weld`` from a group id per slot (< 0: a slot
+    alone): the slots of a group share the first of them as representative and form a
+    cycle through ``next``; a slot alone (or alone in its group) is its own representative,
+    with next -1.  Seams (drivers.vertex_removal.weld_groups: slots grouped by position)
+    and the split copies of a non-manifold vertex (retile) weld this way."""
+    group = np.asarray(group)
+    n = group.size
+    rep = np.arange(n, dtype=np.intc)
+    nxt = np.full(n, -1, dtype=np.intc)
+    members = np.flatnonzero(group >= 0)
+    if members.size:
+        order = members[np.argsort(group[members], kind="stable")]
+        g = group[order]
+        start = np.r_[True, g[1:] != g[:-1]]
+        first = order[np.flatnonzero(start)][np.cumsum(start) - 1]     # each slot's group's first
+        rep[order] = first
+        last = np.r_[start[1:], True]                                  # last member of its group
+        succ = np.where(last, first, np.r_[order[1:], 0])              # the last wraps to the first
+        nxt[order] = np.where(start & last, -1, succ)
+    return rep, nxt
+
 def metric_context(work: Work, settings: dict) -> MetricContext:
     """What the metrics see at set-up: read-only views of the positions and plain face
     quadrics, the half-edge arrays, the fixed vertices and the run's settings."""

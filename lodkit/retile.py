@@ -36,7 +36,7 @@ import numpy as np
 from ._core import retile as kern
 from ._core import vremove
 from ._core.halfedge import build
-from ._pipeline import RUN_CHUNK, prepare
+from ._pipeline import RUN_CHUNK, prepare, weld_cycles
 from ._progress import Progress
 from .errors import MeshError, OptionError
 from .geometry import face_normals, triangle_quality
@@ -370,7 +370,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
             # the removal's manifold rules then see the copies welded (vremove's ``weld``), and
             # the kernel avoids the chords those rules would refuse
             group2 = np.ascontiguousarray(np.concatenate([group0, np.full(n_new, -1)]), dtype=np.intc)
-            weld = _weld_arrays(group2)
+            weld = weld_cycles(group2)
         kernel = kern.RetileKernel(math.cos(math.radians(features)) if lines or creases else -2.0, group2)
         crease_vertex = None
         if lines or creases:
@@ -1090,25 +1090,6 @@ def _copy_groups(slot_input) -> np.ndarray:
     slot_input = np.asarray(slot_input, dtype=np.int64)
     split = np.bincount(slot_input)[slot_input] > 1
     return np.ascontiguousarray(np.where(split, slot_input, -1), dtype=np.intc)
-
-
-def _weld_arrays(group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(rep, next) for vremove's ``weld``: the slots of one group (>= 0) share a
-    representative and form a cycle through ``next``; a slot with group -1 is alone (its own
-    representative, next -1)."""
-    n = group.size
-    rep = np.arange(n, dtype=np.intc)
-    nxt = np.full(n, -1, dtype=np.intc)
-    members = np.flatnonzero(group >= 0)
-    if members.size:
-        order = members[np.argsort(group[members], kind="stable")]
-        g = group[order]
-        start = np.r_[True, g[1:] != g[:-1]]
-        first = order[np.flatnonzero(start)][np.cumsum(start) - 1]
-        rep[order] = first
-        last = np.r_[start[1:], True]
-        nxt[order] = np.where(last, first, np.r_[order[1:], 0])
-    return rep, nxt
 
 
 def _joins_copies(F, twins, h, group) -> np.ndarray:

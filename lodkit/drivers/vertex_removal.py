@@ -17,6 +17,7 @@ from .._pipeline import (
     closed_connected,
     progress_bar,
     run_chunked,
+    weld_cycles,
 )
 from ..errors import MetricError, OptionError
 from ..settings import BOUNDARY_POLICIES
@@ -115,22 +116,7 @@ def weld_groups(work: Work):
         return None
     pos = work.src.vertices[work.prep.input_vertex] + 0.0        # -0.0 and 0.0 are one position
     _, inverse = np.unique(pos, axis=0, return_inverse=True)
-    inverse = inverse.reshape(-1)
-    n = inverse.shape[0]
-    order = np.argsort(inverse, kind="stable")
-    group = inverse[order]
-    start = np.r_[True, group[1:] != group[:-1]]
-    first = order[np.flatnonzero(start)]                   # each group's first slot
-    rep = np.empty(n, np.intc)
-    rep[order] = first[np.cumsum(start) - 1]
-    nxt = np.full(n, -1, np.intc)
-    last = np.r_[start[1:], True]                          # last member of its group
-    succ = np.r_[order[1:], 0]
-    succ[last] = first[np.cumsum(start) - 1][last]         # the last wraps to the first
-    alone = start & last
-    nxt[order] = np.where(alone, -1, succ)
-    return rep, nxt
-
+    return weld_cycles(inverse.reshape(-1))
 
 def _raise_if_failed(remover, metric) -> None:
     if remover.failed:
