@@ -58,7 +58,6 @@ cdef class EdgeCollapser:
     cdef CollapseOptions opt
     cdef CheckLimits lim            # the checks' limits (checks.pxd)
     cdef bint end_fallback          # place_ok may fall back to an end or the midpoint (allow_end_fallback)
-    cdef bint knife_cost            # a knife collapse costs its fans' tilt too (allow_knives; knife_penalty)
     cdef short[::1] face_n0         # (3 * n_faces,) unit normals of the input faces, x 32767
     cdef short* N0
     cdef unsigned char[::1] normal_sign  # (n,) per vertex: its faces' input normals' sign bits (knife)
@@ -110,7 +109,6 @@ cdef class EdgeCollapser:
                      double* dvol, double* min_q) noexcept nogil
     cdef double fan_worst_quality(self, int center, double floor) noexcept nogil
     cdef bint knife(self, int r, int k, int fa, int fb) noexcept nogil
-    cdef void knife_planes(self, int u, int v, int fa, int fb, double* q) noexcept nogil
     cdef bint opposite_signs(self, int r, int k) noexcept nogil
     cdef void merge_signs(self, int r, int k) noexcept nogil
     cdef void normal_signs(self)

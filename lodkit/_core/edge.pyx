@@ -33,7 +33,7 @@ from .chain import make_chain
 from .common cimport (QSIZE, VSTRIDE, RUN_TARGET, RUN_CHUNK, RUN_EXHAUSTED, RUN_ERROR, BOUNDARY_LOCK,
                       BOUNDARY_PRESERVE, BOUNDARY_FREE, PLACE_OPTIMAL, PLACE_ENDPOINT)
 from .quadric cimport (AttributeQuadrics, sq, collapse_error, quadric_eval, quadric_sum, take_if_lower, quadric_solve,
-                       quadric_solve_truncated, within_reach, Rows, face_normal16, add_plane)
+                       quadric_solve_truncated, within_reach, Rows, face_normal16)
 from .checks cimport (CheckLimits, check_limits, angle_exceeds, turned_from_input, new_fold, folds, tri_quality,
                       face_volume, turns_inside_out, sides_of_a_sheet, flat_sides)
 from .fields cimport FieldSet, STEP_VFIELD, STEP_EFIELD
@@ -87,20 +87,6 @@ cdef class Records:
 
 cdef enum:
     VOLUME_RUN = 65536      # faces whose volumes _input_faces holds at a time
-
-
-cdef double _KW = 1.0
-cdef bint _KPLACE = True
-
-
-def _set_kplace(bint b):
-    global _KPLACE
-    _KPLACE = b
-
-
-def _set_kw(double w):
-    global _KW
-    _KW = w
 
 
 cdef class EdgeCollapser:
@@ -439,11 +425,10 @@ cdef class EdgeCollapser:
         cdef bint fv = (gv & VERTEX_FIXED) != 0
         cdef double q[QSIZE]
         cdef double qg[QSIZE]
-        cdef double qk[QSIZE]
         cdef double cand[3]
-        cdef double best, c, cq, t, denom, d0, d1
+        cdef double best, c, t, denom, d0, d1
         cdef double du[3]
-        cdef int i, keep, hs, k, fa, fb
+        cdef int i, keep, hs, k
         hs_out[0] = -1
         if self.SP != NULL:
             if self.SP[u] != SEAM_NONE or self.SP[v] != SEAM_NONE:
@@ -541,33 +526,12 @@ cdef class EdgeCollapser:
                 r_out[0] = v if (d0 < d1 or (d0 == d1 and u < v)) else u
         if c < 0.0:
             c = 0.0
-        cq = c
-        if self.knife_cost and self.opposite_signs(u, v):
-            fa = h // 3
-            fb = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
-            if self.knife(u, v, fa, fb):
-                # a knife collapse: its quadric holds the two ends' fans as they are now
-                # too (knife_planes), placed on it when free
-                for i in range(QSIZE):
-                    qk[i] = q[i]
-                self.knife_planes(u, v, fa, fb, qk)
-                if _KPLACE and not (fu or fv) and self.opt.placement != PLACE_ENDPOINT:
-                    if quadric_solve(qk, cand) and within_reach(cand, &self.P[VSTRIDE * u], &self.P[VSTRIDE * v]):
-                        if quadric_eval(qk, cand) < quadric_eval(qk, p):
-                            for i in range(3):
-                                p[i] = cand[i]
-                            cq = quadric_eval(q, p)
-                            if cq < 0.0:
-                                cq = 0.0
-                c = quadric_eval(qk, p)
-                if c < 0.0:
-                    c = 0.0
         if self.opt.has_extras:
             keep = self.metric_cost(h, u, v, fu, fv, q, &qg[0] if self.aq.dim > 0 else &q[0], r_out, p, &c, err)
             cost[0] = c
             return keep
         if err != NULL:
-            err[0] = collapse_error(quadric_eval(qg, p) if self.aq.dim > 0 else cq, q[10], self.opt.error_scale)
+            err[0] = collapse_error(quadric_eval(qg, p) if self.aq.dim > 0 else c, q[10], self.opt.error_scale)
         cost[0] = self.opt.quadric_weight * c
         return 0
 
@@ -1032,37 +996,6 @@ cdef class EdgeCollapser:
                 if flat_sides(self.N0, fk[i], fk[j]):
                     return False
         return True
-
-    cdef void knife_planes(self, int u, int v, int fa, int fb, double* q) noexcept nogil:
-        """Add to ``q`` the planes of both ends' fans (but fa and fb) as they are now, each
-        weighted by its area: a knife collapse's quadric (``allow_knives``).  The input
-        quadric of a plate's rim vertex holds a few slivers of little area; these planes
-        hold what the collapse tilts through the thickness, so knife collapses go last, the
-        cheapest tilts first, and a knife vertex goes to the side whose faces are larger."""
-        cdef int fs[KNIFE_FAN]
-        cdef int n, i, j, k, w, f
-        cdef double ab[3]
-        cdef double ac[3]
-        cdef double nx, ny, nz, ln
-        cdef const double* a
-        for j in range(2):
-            w = u if j == 0 else v
-            n = self.fan_faces(w, fa, fb, fs)
-            for i in range(n):
-                f = fs[i]
-                a = &self.P[VSTRIDE * self.m.corner[3 * f]]
-                for k in range(3):
-                    ab[k] = self.P[VSTRIDE * self.m.corner[3 * f + 1] + k] - a[k]
-                    ac[k] = self.P[VSTRIDE * self.m.corner[3 * f + 2] + k] - a[k]
-                nx = ab[1] * ac[2] - ab[2] * ac[1]
-                ny = ab[2] * ac[0] - ab[0] * ac[2]
-                nz = ab[0] * ac[1] - ab[1] * ac[0]
-                ln = sqrt(nx * nx + ny * ny + nz * nz)
-                if ln > 0.0:
-                    nx /= ln
-                    ny /= ln
-                    nz /= ln
-                    add_plane(q, nx, ny, nz, -(nx * a[0] + ny * a[1] + nz * a[2]), _KW * 0.5 * ln)
 
     cdef int fan_faces(self, int center, int fa, int fb, int* out) noexcept nogil:
         """The faces around ``center`` but fa and fb, into ``out`` (at most KNIFE_FAN); their count."""
@@ -1683,7 +1616,6 @@ cdef class EdgeCollapser:
         if self.released:
             raise RuntimeError("this EdgeCollapser was released")
         self.lim.check_knife = False
-        self.knife_cost = True
         self.collapses_since_rescan += 1
 
     def allow_end_fallback(self):

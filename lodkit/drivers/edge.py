@@ -102,9 +102,6 @@ def run_collapser(work: Work, compiled: Compiled, settings: dict, *, target: int
         work.n_seam_fixed = collapser.n_seam_fixed      # seam ends stay too (EdgeCollapser)
 
     relaxable = max_error == math.inf and error_bound is None and not compiled.batch
-    import os
-    if os.environ.get("LK_KNIFE_START") and collapser.knife_test:
-        collapser.allow_knives()
     if not relaxable and collapser.knife_test:
         # the knife test is a first step that simplify relaxes when stuck (below); a run
         # that cannot take that step (a max_error, an error bound, a batch metric) goes without it
