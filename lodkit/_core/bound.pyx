@@ -229,6 +229,7 @@ cdef bint frame_apart(const Frame* f, const double* q, int m) noexcept nogil:
     than the margin beyond it (and q's hull on its other side).  False can mean "not sure"."""
     cdef int k, i, j
     cdef double lo, hi, ex, ey, le, s0, s1, s2, third
+    cdef double ins[9]
     # the boxes first
     lo = hi = q[0]
     for i in range(1, m):
@@ -246,9 +247,17 @@ cdef bint frame_apart(const Frame* f, const double* q, int m) noexcept nogil:
             hi = q[2 * i + 1]
     if hi < f.lo[1] or lo > f.hi[1]:
         return True
+    # each point's distance inside t's three edges: one that is inside all three by the
+    # margin settles it (no line can separate: the triangles under t mostly stop here)
+    for i in range(m):
+        ins[3 * i] = frame_inside(f, 0, &q[2 * i])
+        ins[3 * i + 1] = frame_inside(f, 1, &q[2 * i])
+        ins[3 * i + 2] = frame_inside(f, 2, &q[2 * i])
+        if ins[3 * i] >= PATCH_MARGIN and ins[3 * i + 1] >= PATCH_MARGIN and ins[3 * i + 2] >= PATCH_MARGIN:
+            return False
     for k in range(3):
         for i in range(m):
-            if frame_inside(f, k, &q[2 * i]) >= PATCH_MARGIN:
+            if ins[3 * i + k] >= PATCH_MARGIN:
                 break
         else:
             return True
@@ -438,10 +447,16 @@ cdef class Bound:
         self.overflow = False
         self.sphere = np.zeros((max(n_faces, 1), 4))
         self.cert = np.zeros(max(n_faces, 1))
+        self.pdist = np.zeros(max(n_faces, 1))
         self.pending = np.zeros(max(n_faces, 1))
         self.last = np.zeros(max(hm.n_vertices, 1))
         self.vd2 = np.full(max(hm.n_vertices, 1), -1.0)
         self.vtri = np.full(max(hm.n_vertices, 1), -1, dtype=np.intc)
+        self.vver = np.zeros(max(hm.n_vertices, 1), dtype=np.intc)
+        memo = np.empty((max(hm.n_edges, 1), 4), dtype=np.intc)
+        memo[:, 0] = -1                       # nothing refused yet
+        self.memo = memo
+        self.memo_p = np.zeros((max(hm.n_edges, 1), 3))
         cdef int f
         for f in faces:
             self.fit_sphere(f)
@@ -1068,9 +1083,55 @@ cdef class Bound:
             if y < 0 or y == start:
                 return n
 
+    cdef int memo_kind(self, int r, int k, const double* p) noexcept nogil:
+        """Which of the points a collapse of r into k is tried at ``p`` is, as a bit of
+        ``memo``'s kinds: k's position 2, r's 4, their midpoint 8 (computed as
+        EdgeCollapser.end_points does), any other 1 (the planned point, kept in memo_p)."""
+        cdef const double* a = &self.P[self.stride * k]
+        cdef const double* b = &self.P[self.stride * r]
+        cdef int i
+        if p[0] == a[0] and p[1] == a[1] and p[2] == a[2]:   # exact: the same point, not a near one
+            return 2
+        if p[0] == b[0] and p[1] == b[1] and p[2] == b[2]:   # exact: as above
+            return 4
+        for i in range(3):
+            if p[i] != 0.5 * (a[i] + b[i]):                  # exact: as above
+                return 1
+        return 8
+
     cdef bint check(self, int h, int r, int k, const double* p) noexcept nogil:
         """May half-edge h collapse (``r`` goes, ``k`` moves to ``p``) and the mesh stay
-        within eps of the original both ways?  Writes ``pending`` of the new faces."""
+        within eps of the original both ways?  Writes ``pending`` of the new faces.
+
+        A refusal is kept (``memo``, per edge) and given again without the work while no
+        face around r or k has changed since (their versions, ``vver``, which every commit
+        that changes a face raises for the face's corners): the check reads nothing else
+        -- those faces, their corners' positions, their pieces and covers -- so it would
+        refuse again."""
+        cdef int e = self.m.edge[h]
+        cdef int s = self.vver[r] + self.vver[k]
+        cdef int kind = self.memo_kind(r, k, p)
+        cdef int* mm = &self.memo[e, 0]
+        if mm[0] == r and mm[1] == k and mm[2] == s and (mm[3] & kind):
+            if kind != 1 or (p[0] == self.memo_p[e, 0] and p[1] == self.memo_p[e, 1]      # exact: the same point
+                             and p[2] == self.memo_p[e, 2]):                             # exact: as above
+                return False
+        if self.check_uncached(h, r, k, p):
+            return True
+        if not (mm[0] == r and mm[1] == k and mm[2] == s):
+            mm[0] = r
+            mm[1] = k
+            mm[2] = s
+            mm[3] = 0
+        mm[3] |= kind
+        if kind == 1:
+            self.memo_p[e, 0] = p[0]
+            self.memo_p[e, 1] = p[1]
+            self.memo_p[e, 2] = p[2]
+        return False
+
+    cdef bint check_uncached(self, int h, int r, int k, const double* p) noexcept nogil:
+        """check, always done."""
         cdef double tris[9 * BOUND_MAX_FAN]
         cdef double balls[4 * BOUND_MAX_FAN]
         cdef int fids[BOUND_MAX_FAN]
@@ -1090,8 +1151,9 @@ cdef class Bound:
             return False
         face_balls(tris, n, balls)
         # original -> simplified: the pieces on every face the collapse changes, each within
-        # eps of one new face; a face whose ball of pieces lies so near one new face passes
-        # whole
+        # eps of one new face.  A face passes whole when its corners are near enough one new
+        # face (face_fits: the one in its slot, its moved self, first), or when its ball of
+        # pieces lies so near one
         for pass_ in range(2):
             center = r if pass_ == 0 else k
             start = self.m.v_he[center]
@@ -1106,6 +1168,12 @@ cdef class Bound:
                     for i in range(n):
                         if fids[i] == f:
                             hint = i
+                    if hint >= 0 and self.face_fits(f, &tris[9 * hint]):
+                        ok = True
+                    for i in range(n):
+                        if not ok and i != hint and self.face_fits(f, &tris[9 * i]):
+                            ok = True
+                    for i in range(n):
                         if not ok and lim >= 0.0 and tri_sqdist(&self.sphere[f, 0], &tris[9 * i]) <= lim * lim:
                             ok = True
                     while q >= 0 and not ok:
@@ -1138,6 +1206,10 @@ cdef class Bound:
             while True:
                 f = y // 3
                 if pass_ == 0 or (f != fa and f != fb):
+                    # every face around r and k changes (or goes): its corners' refusals lapse
+                    self.vver[self.m.corner[3 * f]] += 1
+                    self.vver[self.m.corner[3 * f + 1]] += 1
+                    self.vver[self.m.corner[3 * f + 2]] += 1
                     q = self.head[f]
                     while q >= 0:
                         nq = self.nxt[q]
@@ -1146,6 +1218,7 @@ cdef class Bound:
                         q = nq
                     self.head[f] = -1
                     self.cert[f] = 0.0
+                    self.pdist[f] = 0.0
                 y = he_ring_next(self.m, y)
                 if y < 0 or y == start:
                     break
@@ -1288,6 +1361,24 @@ cdef class Bound:
             v = sqrt(bv)
             if v > self.cert[fids[best]]:
                 self.cert[fids[best]] = v
+            if v > self.pdist[fids[best]]:
+                self.pdist[fids[best]] = v
+
+    cdef bint face_fits(self, int f, const double* t) noexcept nogil:
+        """Do all the pieces on face f (as it is) lie within eps of triangle t?  Each point
+        of a piece is within pdist[f] of a point y of f (convexity: the distance to f is
+        largest at the piece's corners), and y within the largest distance of f's corners
+        to t (convexity again): their sum at most eps is enough (the triangle inequality;
+        pdist taken a hair large for rounding)."""
+        cdef double x[9]
+        cdef double lim = self.eps - self.pdist[f] * (1.0 + 1e-12)
+        cdef int c, a
+        if not (lim >= 0.0):
+            return False
+        for c in range(3):
+            for a in range(3):
+                x[3 * c + a] = self.P[self.stride * self.m.corner[3 * f + c] + a]
+        return corners_sqdist(x, t, lim * lim) <= lim * lim
 
     cdef void fit_sphere(self, int f) noexcept nogil:
         """sphere[f]: a ball around the pieces on f (the centroid of their corners, the
