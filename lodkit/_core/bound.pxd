@@ -42,6 +42,7 @@ cdef class Bound:
     cdef double[::1] pending          # (n_faces,) the check's face-to-original value
     cdef int[::1] ctri                # (n_faces,) the original triangle that covers the face whole, else one near it
     cdef int[::1] pending_tri         # (n_faces,) the check's
+    cdef double[::1] pending_keep     # (n_faces,) the check's: its pieces may stay on it (their distance to it at most), -1 not
     cdef double[:, ::1] sphere        # (n_faces, 4) a ball around the pieces on the face (centre, radius)
     cdef double[::1] last             # (n_vertices,) the bound of the last collapse that kept it
     cdef double[::1] vd2              # (n_vertices,) squared distance to the original, -1 not known
@@ -74,6 +75,6 @@ cdef class Bound:
     cdef bint fits(self, int t, int code, const double* tris, const double* balls, int n,
                    int* hint) noexcept nogil
     cdef void place(self, int q, const double* tris, const double* balls, const int* fids, int n,
-                    int* hint) noexcept nogil
+                    int* hint, unsigned char* got) noexcept nogil
     cdef void fit_sphere(self, int f) noexcept nogil
-    cdef bint face_fits(self, int f, const double* t) noexcept nogil
+    cdef double face_fits(self, int f, const double* t) noexcept nogil

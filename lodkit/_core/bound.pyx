@@ -440,6 +440,7 @@ cdef class Bound:
         ctri[face_of] = np.arange(n_tri, dtype=np.intc)
         self.ctri = ctri
         self.pending_tri = np.full(max(n_faces, 1), -1, dtype=np.intc)
+        self.pending_keep = np.full(max(n_faces, 1), -1.0)
         np.asarray(self.ptri)[:n_tri] = np.arange(n_tri, dtype=np.intc)
         np.asarray(self.pcode)[:n_tri] = 0
         np.asarray(self.nxt)[:n_tri] = -1
@@ -1152,8 +1153,8 @@ cdef class Bound:
         face_balls(tris, n, balls)
         # original -> simplified: the pieces on every face the collapse changes, each within
         # eps of one new face.  A face passes whole when its corners are near enough one new
-        # face (face_fits: the one in its slot, its moved self, first), or when its ball of
-        # pieces lies so near one
+        # face (face_fits), or when its ball of pieces lies so near one; when that face is
+        # its moved self (the one in its slot), its pieces stay on it (pending_keep)
         for pass_ in range(2):
             center = r if pass_ == 0 else k
             start = self.m.v_he[center]
@@ -1161,6 +1162,8 @@ cdef class Bound:
             while True:
                 f = y // 3
                 q = self.head[f]
+                if pass_ == 0 or (f != fa and f != fb):
+                    self.pending_keep[f] = -1.0
                 if q >= 0 and (pass_ == 0 or (f != fa and f != fb)):
                     hint = -1
                     ok = False
@@ -1168,10 +1171,11 @@ cdef class Bound:
                     for i in range(n):
                         if fids[i] == f:
                             hint = i
-                    if hint >= 0 and self.face_fits(f, &tris[9 * hint]):
-                        ok = True
+                    if hint >= 0:
+                        self.pending_keep[f] = self.face_fits(f, &tris[9 * hint])
+                        ok = self.pending_keep[f] >= 0.0
                     for i in range(n):
-                        if not ok and i != hint and self.face_fits(f, &tris[9 * i]):
+                        if not ok and i != hint and self.face_fits(f, &tris[9 * i]) >= 0.0:
                             ok = True
                     for i in range(n):
                         if not ok and lim >= 0.0 and tri_sqdist(&self.sphere[f, 0], &tris[9 * i]) <= lim * lim:
@@ -1195,7 +1199,8 @@ cdef class Bound:
 
     cdef int commit_begin(self, int h, int r, int k) noexcept nogil:
         """Before collapsing h: detach the pieces on the faces around r and k into one
-        chain (returned); those faces' certificates are redone by commit_end."""
+        chain (returned), but those of a face the check let keep them (``pending_keep``);
+        those faces' certificates are redone by commit_end."""
         cdef int fa = h // 3
         cdef int fb = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
         cdef int chain = -1, pass_, center, start, y, f, q, nq
@@ -1210,15 +1215,21 @@ cdef class Bound:
                     self.vver[self.m.corner[3 * f]] += 1
                     self.vver[self.m.corner[3 * f + 1]] += 1
                     self.vver[self.m.corner[3 * f + 2]] += 1
-                    q = self.head[f]
-                    while q >= 0:
-                        nq = self.nxt[q]
-                        self.nxt[q] = chain
-                        chain = q
-                        q = nq
-                    self.head[f] = -1
-                    self.cert[f] = 0.0
-                    self.pdist[f] = 0.0
+                    if self.pending_keep[f] >= 0.0 and self.head[f] >= 0:
+                        # its pieces stay on it, within pending_keep of it (face_fits)
+                        self.pdist[f] = self.pending_keep[f]
+                        self.cert[f] = self.pending_keep[f]
+                    else:
+                        self.pending_keep[f] = -1.0
+                        q = self.head[f]
+                        while q >= 0:
+                            nq = self.nxt[q]
+                            self.nxt[q] = chain
+                            chain = q
+                            q = nq
+                        self.head[f] = -1
+                        self.cert[f] = 0.0
+                        self.pdist[f] = 0.0
                 y = he_ring_next(self.m, y)
                 if y < 0 or y == start:
                     break
@@ -1231,6 +1242,7 @@ cdef class Bound:
         cdef double tris[9 * BOUND_MAX_FAN]
         cdef double balls[4 * BOUND_MAX_FAN]
         cdef int fids[BOUND_MAX_FAN]
+        cdef unsigned char got[BOUND_MAX_FAN]
         cdef int n, i, q, nq, hint = -1
         cdef double worst = 0.0
         n = self.collect(k, -1, -1, &self.P[self.stride * k], tris, fids, NULL, 0)
@@ -1238,16 +1250,20 @@ cdef class Bound:
             n = 0
         face_balls(tris, n, balls)
         for i in range(n):
-            self.cert[fids[i]] = self.pending[fids[i]]
+            # (pieces kept on the face: their bound, commit_begin)
+            if self.pending[fids[i]] > self.cert[fids[i]]:
+                self.cert[fids[i]] = self.pending[fids[i]]
             self.ctri[fids[i]] = self.pending_tri[fids[i]]
+            got[i] = self.pending_keep[fids[i]] < 0.0        # no pieces kept: its ball is redone
         self.vd2[k] = -1.0                   # k moved
         q = chain
         while q >= 0:
             nq = self.nxt[q]
-            self.place(q, tris, balls, fids, n, &hint)
+            self.place(q, tris, balls, fids, n, &hint, got)
             q = nq
         for i in range(n):
-            self.fit_sphere(fids[i])
+            if got[i]:
+                self.fit_sphere(fids[i])
             if self.cert[fids[i]] > worst:
                 worst = self.cert[fids[i]]
         self.last[k] = worst
@@ -1311,7 +1327,7 @@ cdef class Bound:
         return True
 
     cdef void place(self, int q, const double* tris, const double* balls, const int* fids, int n,
-                    int* hint) noexcept nogil:
+                    int* hint, unsigned char* got) noexcept nogil:
         """Attach piece q (its face is gone) to the new face nearest its three corners, if
         that holds them within eps; else split it as :meth:`fits` did (child 0 keeps slot
         q, the others take new slots) and place the children.  Each face's certificate
@@ -1358,27 +1374,33 @@ cdef class Bound:
                 self.overflow = True         # placed whole: the driver raises OptionError
             self.nxt[s] = self.head[fids[best]]
             self.head[fids[best]] = s
+            got[best] = 1
             v = sqrt(bv)
             if v > self.cert[fids[best]]:
                 self.cert[fids[best]] = v
             if v > self.pdist[fids[best]]:
                 self.pdist[fids[best]] = v
 
-    cdef bint face_fits(self, int f, const double* t) noexcept nogil:
-        """Do all the pieces on face f (as it is) lie within eps of triangle t?  Each point
-        of a piece is within pdist[f] of a point y of f (convexity: the distance to f is
-        largest at the piece's corners), and y within the largest distance of f's corners
-        to t (convexity again): their sum at most eps is enough (the triangle inequality;
-        pdist taken a hair large for rounding)."""
+    cdef double face_fits(self, int f, const double* t) noexcept nogil:
+        """A bound (<= eps) on the distance of the pieces on face f (as it is) to triangle
+        t, or -1 when none is found.  Each point of a piece is within pdist[f] of a point y
+        of f (convexity: the distance to f is largest at the piece's corners), and y within
+        the largest distance of f's corners to t (convexity again): the sum bounds it (the
+        triangle inequality; pdist taken a hair large for rounding)."""
         cdef double x[9]
-        cdef double lim = self.eps - self.pdist[f] * (1.0 + 1e-12)
+        cdef double pd = self.pdist[f] * (1.0 + 1e-12)
+        cdef double lim = self.eps - pd, v
         cdef int c, a
         if not (lim >= 0.0):
-            return False
+            return -1.0
         for c in range(3):
             for a in range(3):
                 x[3 * c + a] = self.P[self.stride * self.m.corner[3 * f + c] + a]
-        return corners_sqdist(x, t, lim * lim) <= lim * lim
+        v = corners_sqdist(x, t, lim * lim)
+        if not (v <= lim * lim):
+            return -1.0
+        v = sqrt(v) + pd
+        return v if v < self.eps else self.eps
 
     cdef void fit_sphere(self, int f) noexcept nogil:
         """sphere[f]: a ball around the pieces on f (the centroid of their corners, the
