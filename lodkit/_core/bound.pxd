@@ -42,7 +42,7 @@ cdef class Bound:
     cdef double[::1] pending          # (n_faces,) the check's face-to-original value
     cdef int[::1] ctri                # (n_faces,) the original triangle that covers the face whole, else one near it
     cdef int[::1] pending_tri         # (n_faces,) the check's
-    cdef double[::1] pending_keep     # (n_faces,) the check's: its pieces may stay on it (their distance to it at most), -1 not
+    cdef double[::1] pending_keep     # (n_faces,) the check's: its pieces may stay on it (within this), -1 not
     cdef double[:, ::1] sphere        # (n_faces, 4) a ball around the pieces on the face (centre, radius)
     cdef double[::1] last             # (n_vertices,) the bound of the last collapse that kept it
     cdef double[::1] vd2              # (n_vertices,) squared distance to the original, -1 not known
