@@ -229,6 +229,7 @@ cdef bint frame_apart(const Frame* f, const double* q, int m) noexcept nogil:
     than the margin beyond it (and q's hull on its other side).  False can mean "not sure"."""
     cdef int k, i, j
     cdef double lo, hi, ex, ey, le, s0, s1, s2, third
+    cdef double ins[9]
     # the boxes first
     lo = hi = q[0]
     for i in range(1, m):
@@ -246,9 +247,17 @@ cdef bint frame_apart(const Frame* f, const double* q, int m) noexcept nogil:
             hi = q[2 * i + 1]
     if hi < f.lo[1] or lo > f.hi[1]:
         return True
+    # each point's distance inside t's three edges: one that is inside all three by the
+    # margin settles it (no line can separate: the triangles under t mostly stop here)
+    for i in range(m):
+        ins[3 * i] = frame_inside(f, 0, &q[2 * i])
+        ins[3 * i + 1] = frame_inside(f, 1, &q[2 * i])
+        ins[3 * i + 2] = frame_inside(f, 2, &q[2 * i])
+        if ins[3 * i] >= PATCH_MARGIN and ins[3 * i + 1] >= PATCH_MARGIN and ins[3 * i + 2] >= PATCH_MARGIN:
+            return False
     for k in range(3):
         for i in range(m):
-            if frame_inside(f, k, &q[2 * i]) >= PATCH_MARGIN:
+            if ins[3 * i + k] >= PATCH_MARGIN:
                 break
         else:
             return True
@@ -431,6 +440,7 @@ cdef class Bound:
         ctri[face_of] = np.arange(n_tri, dtype=np.intc)
         self.ctri = ctri
         self.pending_tri = np.full(max(n_faces, 1), -1, dtype=np.intc)
+        self.pending_keep = np.full(max(n_faces, 1), -1.0)
         np.asarray(self.ptri)[:n_tri] = np.arange(n_tri, dtype=np.intc)
         np.asarray(self.pcode)[:n_tri] = 0
         np.asarray(self.nxt)[:n_tri] = -1
@@ -438,10 +448,16 @@ cdef class Bound:
         self.overflow = False
         self.sphere = np.zeros((max(n_faces, 1), 4))
         self.cert = np.zeros(max(n_faces, 1))
+        self.pdist = np.zeros(max(n_faces, 1))
         self.pending = np.zeros(max(n_faces, 1))
         self.last = np.zeros(max(hm.n_vertices, 1))
         self.vd2 = np.full(max(hm.n_vertices, 1), -1.0)
         self.vtri = np.full(max(hm.n_vertices, 1), -1, dtype=np.intc)
+        self.vver = np.zeros(max(hm.n_vertices, 1), dtype=np.intc)
+        memo = np.empty((max(hm.n_edges, 1), 4), dtype=np.intc)
+        memo[:, 0] = -1                       # nothing refused yet
+        self.memo = memo
+        self.memo_p = np.zeros((max(hm.n_edges, 1), 3))
         cdef int f
         for f in faces:
             self.fit_sphere(f)
@@ -1068,9 +1084,55 @@ cdef class Bound:
             if y < 0 or y == start:
                 return n
 
+    cdef int memo_kind(self, int r, int k, const double* p) noexcept nogil:
+        """Which of the points a collapse of r into k is tried at ``p`` is, as a bit of
+        ``memo``'s kinds: k's position 2, r's 4, their midpoint 8 (computed as
+        EdgeCollapser.end_points does), any other 1 (the planned point, kept in memo_p)."""
+        cdef const double* a = &self.P[self.stride * k]
+        cdef const double* b = &self.P[self.stride * r]
+        cdef int i
+        if p[0] == a[0] and p[1] == a[1] and p[2] == a[2]:   # exact: the same point, not a near one
+            return 2
+        if p[0] == b[0] and p[1] == b[1] and p[2] == b[2]:   # exact: as above
+            return 4
+        for i in range(3):
+            if p[i] != 0.5 * (a[i] + b[i]):                  # exact: as above
+                return 1
+        return 8
+
     cdef bint check(self, int h, int r, int k, const double* p) noexcept nogil:
         """May half-edge h collapse (``r`` goes, ``k`` moves to ``p``) and the mesh stay
-        within eps of the original both ways?  Writes ``pending`` of the new faces."""
+        within eps of the original both ways?  Writes ``pending`` of the new faces.
+
+        A refusal is kept (``memo``, per edge) and given again without the work while no
+        face around r or k has changed since (their versions, ``vver``, which every commit
+        that changes a face raises for the face's corners): the check reads nothing else
+        -- those faces, their corners' positions, their pieces and covers -- so it would
+        refuse again."""
+        cdef int e = self.m.edge[h]
+        cdef int s = self.vver[r] + self.vver[k]
+        cdef int kind = self.memo_kind(r, k, p)
+        cdef int* mm = &self.memo[e, 0]
+        if mm[0] == r and mm[1] == k and mm[2] == s and (mm[3] & kind):
+            if kind != 1 or (p[0] == self.memo_p[e, 0] and p[1] == self.memo_p[e, 1]      # exact: the same point
+                             and p[2] == self.memo_p[e, 2]):                             # exact: as above
+                return False
+        if self.check_uncached(h, r, k, p):
+            return True
+        if not (mm[0] == r and mm[1] == k and mm[2] == s):
+            mm[0] = r
+            mm[1] = k
+            mm[2] = s
+            mm[3] = 0
+        mm[3] |= kind
+        if kind == 1:
+            self.memo_p[e, 0] = p[0]
+            self.memo_p[e, 1] = p[1]
+            self.memo_p[e, 2] = p[2]
+        return False
+
+    cdef bint check_uncached(self, int h, int r, int k, const double* p) noexcept nogil:
+        """check, always done."""
         cdef double tris[9 * BOUND_MAX_FAN]
         cdef double balls[4 * BOUND_MAX_FAN]
         cdef int fids[BOUND_MAX_FAN]
@@ -1090,8 +1152,9 @@ cdef class Bound:
             return False
         face_balls(tris, n, balls)
         # original -> simplified: the pieces on every face the collapse changes, each within
-        # eps of one new face; a face whose ball of pieces lies so near one new face passes
-        # whole
+        # eps of one new face.  A face passes whole when its corners are near enough one new
+        # face (face_fits), or when its ball of pieces lies so near one; when that face is
+        # its moved self (the one in its slot), its pieces stay on it (pending_keep)
         for pass_ in range(2):
             center = r if pass_ == 0 else k
             start = self.m.v_he[center]
@@ -1099,6 +1162,8 @@ cdef class Bound:
             while True:
                 f = y // 3
                 q = self.head[f]
+                if pass_ == 0 or (f != fa and f != fb):
+                    self.pending_keep[f] = -1.0
                 if q >= 0 and (pass_ == 0 or (f != fa and f != fb)):
                     hint = -1
                     ok = False
@@ -1106,6 +1171,13 @@ cdef class Bound:
                     for i in range(n):
                         if fids[i] == f:
                             hint = i
+                    if hint >= 0:
+                        self.pending_keep[f] = self.face_fits(f, &tris[9 * hint])
+                        ok = self.pending_keep[f] >= 0.0
+                    for i in range(n):
+                        if not ok and i != hint and self.face_fits(f, &tris[9 * i]) >= 0.0:
+                            ok = True
+                    for i in range(n):
                         if not ok and lim >= 0.0 and tri_sqdist(&self.sphere[f, 0], &tris[9 * i]) <= lim * lim:
                             ok = True
                     while q >= 0 and not ok:
@@ -1127,7 +1199,8 @@ cdef class Bound:
 
     cdef int commit_begin(self, int h, int r, int k) noexcept nogil:
         """Before collapsing h: detach the pieces on the faces around r and k into one
-        chain (returned); those faces' certificates are redone by commit_end."""
+        chain (returned), but those of a face the check let keep them (``pending_keep``);
+        those faces' certificates are redone by commit_end."""
         cdef int fa = h // 3
         cdef int fb = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
         cdef int chain = -1, pass_, center, start, y, f, q, nq
@@ -1138,14 +1211,25 @@ cdef class Bound:
             while True:
                 f = y // 3
                 if pass_ == 0 or (f != fa and f != fb):
-                    q = self.head[f]
-                    while q >= 0:
-                        nq = self.nxt[q]
-                        self.nxt[q] = chain
-                        chain = q
-                        q = nq
-                    self.head[f] = -1
-                    self.cert[f] = 0.0
+                    # every face around r and k changes (or goes): its corners' refusals lapse
+                    self.vver[self.m.corner[3 * f]] += 1
+                    self.vver[self.m.corner[3 * f + 1]] += 1
+                    self.vver[self.m.corner[3 * f + 2]] += 1
+                    if self.pending_keep[f] >= 0.0 and self.head[f] >= 0:
+                        # its pieces stay on it, within pending_keep of it (face_fits)
+                        self.pdist[f] = self.pending_keep[f]
+                        self.cert[f] = self.pending_keep[f]
+                    else:
+                        self.pending_keep[f] = -1.0
+                        q = self.head[f]
+                        while q >= 0:
+                            nq = self.nxt[q]
+                            self.nxt[q] = chain
+                            chain = q
+                            q = nq
+                        self.head[f] = -1
+                        self.cert[f] = 0.0
+                        self.pdist[f] = 0.0
                 y = he_ring_next(self.m, y)
                 if y < 0 or y == start:
                     break
@@ -1158,6 +1242,7 @@ cdef class Bound:
         cdef double tris[9 * BOUND_MAX_FAN]
         cdef double balls[4 * BOUND_MAX_FAN]
         cdef int fids[BOUND_MAX_FAN]
+        cdef unsigned char got[BOUND_MAX_FAN]
         cdef int n, i, q, nq, hint = -1
         cdef double worst = 0.0
         n = self.collect(k, -1, -1, &self.P[self.stride * k], tris, fids, NULL, 0)
@@ -1165,16 +1250,20 @@ cdef class Bound:
             n = 0
         face_balls(tris, n, balls)
         for i in range(n):
-            self.cert[fids[i]] = self.pending[fids[i]]
+            # (pieces kept on the face: their bound, commit_begin)
+            if self.pending[fids[i]] > self.cert[fids[i]]:
+                self.cert[fids[i]] = self.pending[fids[i]]
             self.ctri[fids[i]] = self.pending_tri[fids[i]]
+            got[i] = self.pending_keep[fids[i]] < 0.0        # no pieces kept: its ball is redone
         self.vd2[k] = -1.0                   # k moved
         q = chain
         while q >= 0:
             nq = self.nxt[q]
-            self.place(q, tris, balls, fids, n, &hint)
+            self.place(q, tris, balls, fids, n, &hint, got)
             q = nq
         for i in range(n):
-            self.fit_sphere(fids[i])
+            if got[i]:
+                self.fit_sphere(fids[i])
             if self.cert[fids[i]] > worst:
                 worst = self.cert[fids[i]]
         self.last[k] = worst
@@ -1238,7 +1327,7 @@ cdef class Bound:
         return True
 
     cdef void place(self, int q, const double* tris, const double* balls, const int* fids, int n,
-                    int* hint) noexcept nogil:
+                    int* hint, unsigned char* got) noexcept nogil:
         """Attach piece q (its face is gone) to the new face nearest its three corners, if
         that holds them within eps; else split it as :meth:`fits` did (child 0 keeps slot
         q, the others take new slots) and place the children.  Each face's certificate
@@ -1285,9 +1374,33 @@ cdef class Bound:
                 self.overflow = True         # placed whole: the driver raises OptionError
             self.nxt[s] = self.head[fids[best]]
             self.head[fids[best]] = s
+            got[best] = 1
             v = sqrt(bv)
             if v > self.cert[fids[best]]:
                 self.cert[fids[best]] = v
+            if v > self.pdist[fids[best]]:
+                self.pdist[fids[best]] = v
+
+    cdef double face_fits(self, int f, const double* t) noexcept nogil:
+        """A bound (<= eps) on the distance of the pieces on face f (as it is) to triangle
+        t, or -1 when none is found.  Each point of a piece is within pdist[f] of a point y
+        of f (convexity: the distance to f is largest at the piece's corners), and y within
+        the largest distance of f's corners to t (convexity again): the sum bounds it (the
+        triangle inequality; pdist taken a hair large for rounding)."""
+        cdef double x[9]
+        cdef double pd = self.pdist[f] * (1.0 + 1e-12)
+        cdef double lim = self.eps - pd, v
+        cdef int c, a
+        if not (lim >= 0.0):
+            return -1.0
+        for c in range(3):
+            for a in range(3):
+                x[3 * c + a] = self.P[self.stride * self.m.corner[3 * f + c] + a]
+        v = corners_sqdist(x, t, lim * lim)
+        if not (v <= lim * lim):
+            return -1.0
+        v = sqrt(v) + pd
+        return v if v < self.eps else self.eps
 
     cdef void fit_sphere(self, int f) noexcept nogil:
         """sphere[f]: a ball around the pieces on f (the centroid of their corners, the
