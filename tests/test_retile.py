@@ -301,7 +301,7 @@ def test_worst_triangle_step_moves_a_point_on_the_surface_and_keeps_the_faces():
     face, w, _ = surf.closest(X)
     q0 = triangle_quality(P2, F)
     assert q0.min() < 0.15
-    moved = _improve_worst(P2, F, n0, X.shape[0], surf, P0, F0, face, w, 10)
+    moved, slid = _improve_worst(P2, F, n0, X.shape[0], surf, P0, F0, face, w, 10)
     q1 = triangle_quality(P2, F)
     assert moved > 0
     assert q1.min() > 0.6
