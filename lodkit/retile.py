@@ -166,7 +166,10 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
                  then the flips again, then the worst-triangle step: the new points of
                  faces below quality 0.4 move, on the surface, to where their worst face is
                  best (report["worst_moves"]; crease points slide along their crease line,
-                 report["slid"]), and a last sliver flip pass (docs/retile.md)
+                 report["slid"]); faces still below 0.3 get a second, wider round in which
+                 the old vertices the removal left move too (report["old_moved"]) and a
+                 sliver's free vertex may collapse into a neighbour
+                 (report["sliver_collapses"]); then a last sliver flip pass (docs/retile.md)
     refine     : error-driven passes (lodkit's addition, 0: off): after each pass the
                  distance between the re-tiling and the input is measured both ways, the
                  density is multiplied by the local error over its mean (at most 4x
