@@ -166,7 +166,10 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
                  then the flips again, then the worst-triangle step: the new points of
                  faces below quality 0.4 move, on the surface, to where their worst face is
                  best (report["worst_moves"]; crease points slide along their crease line,
-                 report["slid"]), and a last sliver flip pass (docs/retile.md)
+                 report["slid"]); faces still below 0.3 get a second, wider round in which
+                 the old vertices the removal left move too (report["old_moved"]) and a
+                 sliver's free vertex may collapse into a neighbour
+                 (report["sliver_collapses"]); then a last sliver flip pass (docs/retile.md)
     refine     : error-driven passes (lodkit's addition, 0: off): after each pass the
                  distance between the re-tiling and the input is measured both ways, the
                  density is multiplied by the local error over its mean (at most 4x
@@ -413,7 +416,8 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
             flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE))),
                                          20, crease_vertex, _SLIVER_QUALITY,
                                              group=group2))
-        relaxed = worst_moves = slid = 0
+        relaxed = worst_moves = slid = collapsed = 0
+        old_at = (np.full(n0, -1, dtype=np.int64), np.zeros((n0, 3)))
         cos_crease = math.cos(math.radians(features)) if features is not None else 2.0
         if relax and F.shape[0] and nX:
             relaxed = _relax(P2, F, n0, nX, surf, P0, F0, all_face, all_w, relax)
@@ -429,9 +433,34 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
                 # crease points slide along their line (boundary points stay)
                 slider = LineSlider(P0, F0, [(x, True) for x in loops + creases] + [(x, False) for x in lines],
                                     n0 + nX + np.flatnonzero(on), bh[on], bt[on])
+            # old vertices the removal left (not copies, boundary corners or crease vertices)
+            # may move like new points; where they went is in old_at
+            free_old = np.zeros(P2.shape[0], dtype=bool)
+            free_old[np.unique(F.reshape(-1))] = True
+            free_old[n0:] = False
+            free_old &= fixed == 0
+            if crease_vertex is not None:
+                free_old &= crease_vertex == 0
             worst_moves, n_slid = _improve_worst(P2, F, n0, nX, surf, P0, F0, all_face, all_w, _WORST_ROUNDS,
                                                  slider)
             slid += n_slid
+            if F.shape[0] and float(triangle_quality(P2, F).min()) < _COLLAPSE_QUALITY:
+                # still below the target: the old vertices the removal left move too, further,
+                # then a free vertex of a sliver may go, then the points around move again
+                for k in range(2):
+                    more, n_slid = _improve_worst(P2, F, n0, nX, surf, P0, F0, all_face, all_w, _WORST_ROUNDS,
+                                                  slider, free_old, old_at, _COLLAPSE_QUALITY, _FAR_STEPS,
+                                                  _FAR_DIRECTIONS, _FAR_TURN)
+                    worst_moves += more
+                    slid += n_slid
+                    if k:
+                        break
+                    F_c, n_sliver = _collapse_slivers(P2, F, n0, nX, free_old, group2, crease_vertex)
+                    if not n_sliver:
+                        break
+                    F = F_c
+                    collapsed += n_sliver
+                twin = face_twins(F)
             if flip_angle > 0:
                 # slivers again, now also between two crease points where the edge is no crease
                 flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE))),
@@ -445,22 +474,25 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
             errors.append(err * prep.scale)
             if best is None or err < best[0]:
                 best = (err, pass_, P2.copy(), F, n_new, nX, all_face, all_w, B, kept, on, n_dropped,
-                        removals, held, n_collapsed, flips, relaxed, worst_moves, slid, n_old_kept)
+                        removals, held, n_collapsed, flips, relaxed, worst_moves, slid, n_old_kept, collapsed,
+                        old_at)
             weight = new_weight
             times["refine"] = times.get("refine", 0.0) + time.perf_counter() - t
     if refine:
         # each pass draws new points: the one with the smallest largest error is kept
         (_, kept_pass, P2, F, n_new, nX, all_face, all_w, B, kept, on, n_dropped, removals, held,
-         n_collapsed, flips, relaxed, worst_moves, slid, n_old_kept) = best
+         n_collapsed, flips, relaxed, worst_moves, slid, n_old_kept, collapsed, old_at) = best
     t = time.perf_counter()
     fitted = _fit_normal(P2, F, n0, nX, surf, normals0, fit) if fit and nX else 0
     used = np.zeros(n0 + n_new, dtype=bool)
     used[F.reshape(-1)] = True
-    # old vertices: one output vertex per input vertex (split copies weld back)
-    old_slots = np.flatnonzero(used[:n0])
+    # old vertices: one output vertex per input vertex (split copies weld back); an old
+    # vertex the worst-triangle step moved is a point on the surface like the new ones
+    moved_old = used[:n0] & (old_at[0] >= 0)
+    old_slots = np.flatnonzero(used[:n0] & ~moved_old)
     old_inputs = prep.input_vertex[old_slots]
     uniq_in, first, inv = np.unique(old_inputs, return_index=True, return_inverse=True)
-    new_slots = n0 + np.flatnonzero(used[n0:])
+    new_slots = np.concatenate([n0 + np.flatnonzero(used[n0:]), np.flatnonzero(moved_old)])
     remap = np.full(n0 + n_new, -1, dtype=np.int64)
     remap[old_slots] = inv.reshape(-1)
     remap[new_slots] = uniq_in.size + np.arange(new_slots.size)
@@ -468,9 +500,10 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
     verts = np.concatenate([src.vertices[uniq_in], P2[new_slots] * prep.scale + prep.center])
     attrs = {}
     corner_inputs = prep.input_vertex[F0]                      # (m0, 3) input vertex per corner
-    sel = new_slots - n0
+    at_face = np.concatenate([all_face[new_slots[new_slots >= n0] - n0], old_at[0][new_slots[new_slots < n0]]])
+    at_w = np.concatenate([all_w[new_slots[new_slots >= n0] - n0], old_at[1][new_slots[new_slots < n0]]])
     for name, arr in src.attributes().items():
-        interp = np.einsum("nk,nkj->nj", all_w[sel], arr[corner_inputs[all_face[sel]]])
+        interp = np.einsum("nk,nkj->nj", at_w, arr[corner_inputs[at_face]])
         if name == "normals":
             ln = np.linalg.norm(interp, axis=1, keepdims=True)
             interp = np.divide(interp, ln, out=np.zeros_like(interp), where=ln > 0)
@@ -504,6 +537,8 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
             "relaxed_moves": relaxed,
             "worst_moves": worst_moves,
             "slid": slid,
+            "sliver_collapses": collapsed,
+            "old_moved": int(np.count_nonzero(moved_old)),
             "refine_errors": errors,
             "refine_pass": kept_pass if refine else 0,
             "fitted": fitted,
@@ -519,12 +554,15 @@ _RELAX_TURN = 30.0
 _RELAX_QUALITY = 0.3
 
 
-def _new_interior_points(F: np.ndarray, n: int, n0: int, nX: int):
+def _new_interior_points(F: np.ndarray, n: int, n0: int, nX: int, extra=None):
     """(movable, edges): which of the n slots are new interior points -- slots n0 .. n0 + nX
-    - 1 not on a boundary edge of ``F`` (those were placed along it and stay) -- and F's
-    half-edges as sorted vertex pairs ((3 m, 2), one row per face corner)."""
+    - 1 not on a boundary edge of ``F`` (those were placed along it and stay), and the
+    slots ``extra`` marks ((n,) bool or None) not on one either -- and F's half-edges as
+    sorted vertex pairs ((3 m, 2), one row per face corner)."""
     movable = np.zeros(n, dtype=bool)
     movable[n0:n0 + nX] = True
+    if extra is not None:
+        movable |= extra
     e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
     uniq, count = np.unique(e, axis=0, return_counts=True)
     movable[uniq[count == 1].reshape(-1)] = False
@@ -679,6 +717,11 @@ _WORST_QUALITY = 0.4
 _WORST_DIRECTIONS = 12
 _WORST_STEPS = (0.04, 0.1, 0.2, 0.35)
 _WORST_ROUNDS = 10
+#: faces still below _COLLAPSE_QUALITY after that: a second round with these steps and
+#: directions, the old vertices the removal left movable too, and this turn limit
+_FAR_STEPS = _WORST_STEPS + (0.5, 0.7, 1.0)
+_FAR_DIRECTIONS = 24
+_FAR_TURN = _RELAX_TURN
 #: a crease point slides at most this fraction of the way to the next vertex on its line
 _SLIDE_ROOM = 0.9
 #: a crease point's candidates: these fractions of its mean edge length either way along
@@ -688,7 +731,9 @@ _SLIDE_STEPS = _WORST_STEPS + (0.5, 0.7)
 
 
 def _improve_worst(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, rounds: int,
-                   slider: LineSlider | None = None) -> tuple[int, int]:
+                   slider: LineSlider | None = None, free_old=None, old_at=None, limit: float = _WORST_QUALITY,
+                   steps=_WORST_STEPS, directions: int = _WORST_DIRECTIONS,
+                   turn: float = _RELAX_TURN) -> tuple[int, int]:
     """The worst-triangle step (lodkit's addition, the last step of remeshers, Botsch and
     Kobbelt 2004): ``rounds`` rounds that each take the new interior points (slots n0 ..
     n0 + nX - 1 of ``P2``, in place) on faces of quality below _WORST_QUALITY, worst star
@@ -701,10 +746,13 @@ def _improve_worst(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, round
     candidates are points of the line ahead and behind (_SLIDE_STEPS of the mean edge
     length, and half-way between the next output vertices on the line), never past those.
     ``all_face`` / ``all_w`` (rows 0 .. nX - 1, and the crease points' rows) follow the
-    moved points.  Returns (moves made, of them crease points slid)."""
+    moved points.  ``free_old`` ((n,) bool or None): old vertices the removal left that may
+    move too, like new points (not copies of a split vertex, boundary corners or crease
+    vertices); ``old_at`` = (faces (n0,), weights (n0, 3)) records where they went (face -1:
+    not moved).  Returns (moves made, of them crease points slid)."""
     F = np.asarray(F, dtype=np.int64)
     n = P2.shape[0]
-    movable, _ = _new_interior_points(F, n, n0, nX)
+    movable, _ = _new_interior_points(F, n, n0, nX, free_old)
     slides = np.zeros(n, dtype=bool)
     if slider is not None and slider.slots.size:
         slides[slider.slots] = True
@@ -714,15 +762,15 @@ def _improve_worst(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, round
     order = np.argsort(corners, kind="stable")
     start = np.searchsorted(corners[order], np.arange(n + 1))
     vface = order // 3                                  # faces of v: vface[start[v]:start[v + 1]]
-    cos_turn = math.cos(math.radians(_RELAX_TURN))
-    ang = 2.0 * math.pi * np.arange(_WORST_DIRECTIONS) / _WORST_DIRECTIONS
+    cos_turn = math.cos(math.radians(turn))
+    ang = 2.0 * math.pi * np.arange(directions) / directions
     unit = np.stack([np.cos(ang), np.sin(ang)], axis=1)
-    ring = np.concatenate([unit * s for s in _WORST_STEPS])            # (K - 1, 2)
+    ring = np.concatenate([unit * s for s in steps])                   # (K - 1, 2)
     along = np.concatenate([-np.asarray(_SLIDE_STEPS), np.asarray(_SLIDE_STEPS)])
     moves = slid = 0
     for _ in range(rounds):
         q = triangle_quality(P2, F)
-        verts = np.unique(F[q < _WORST_QUALITY].reshape(-1))
+        verts = np.unique(F[q < limit].reshape(-1))
         verts = verts[movable[verts] | slides[verts]]
         if verts.size == 0:
             break
@@ -788,13 +836,92 @@ def _improve_worst(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, round
             best = int(np.argmax(score))
             if score[best] > q[fs].min() + 1e-6:
                 P2[v] = Yv[best]
-                all_face[v - n0] = face_v[best]
-                all_w[v - n0] = w_v[best]
+                if v < n0:
+                    old_at[0][v] = face_v[best]
+                    old_at[1][v] = w_v[best]
+                else:
+                    all_face[v - n0] = face_v[best]
+                    all_w[v - n0] = w_v[best]
                 moves += 1
                 if slides[v]:
                     slider.s[slider.row[v]] = s_v[best]
                     slid += 1
     return moves, slid
+
+
+#: the sliver collapses: faces below this quality (the issue's target) get their free
+#: vertices collapsed into a neighbour when that raises the smallest quality around them
+_COLLAPSE_QUALITY = 0.3
+_COLLAPSE_ROUNDS = 4
+
+
+def _collapse_slivers(P2, F, n0: int, nX: int, free_old, group, crease_vertex) -> tuple[np.ndarray, int]:
+    """Faces still below _COLLAPSE_QUALITY after the worst-triangle step (lodkit's addition):
+    a free vertex of such a face -- a new interior point, or an old vertex ``free_old`` marks
+    -- is collapsed into the neighbour that leaves the best smallest quality over the two
+    stars, when that beats the smallest quality before, no remaining face turns by more than
+    _RELAX_TURN degrees, the link condition holds and (``group``, :func:`_copy_groups`) no
+    vertex ends next to two copies of one input vertex.  The vertex goes; its neighbour
+    stays where it is, on the surface.  Crease and boundary vertices never go.  Returns
+    (the faces, collapses made)."""
+    F = np.asarray(F, dtype=np.int64)
+    n = P2.shape[0]
+    movable, _ = _new_interior_points(F, n, n0, nX, free_old)
+    if crease_vertex is not None:
+        movable &= crease_vertex[:n] == 0
+    q = triangle_quality(P2, F)
+    if not (q < _COLLAPSE_QUALITY).any():
+        return F, 0
+    hm = build(np.ascontiguousarray(F, dtype=np.int32), n)
+    cos_turn = math.cos(math.radians(_RELAX_TURN))
+    corners_all = np.asarray(hm.corners)
+    done = 0
+    for _ in range(_COLLAPSE_ROUNDS):
+        Fa = np.asarray(hm.faces(), dtype=np.int64)
+        q = triangle_quality(P2, Fa)
+        bad = np.argsort(q, kind="stable")
+        bad = bad[q[bad] < _COLLAPSE_QUALITY]
+        changed = False
+        for f in bad.tolist():
+            alive = np.asarray(hm.alive_vertices, dtype=bool)
+            if not alive[Fa[f]].all():
+                continue
+            best, best_key = None, None
+            for u in Fa[f].tolist():
+                if not movable[u]:
+                    continue
+                link, slots, _closed = hm.star(u)
+                cu = corners_all[np.asarray(slots, dtype=np.int64)]
+                for v in sorted(set(int(x) for x in link)):
+                    if not hm.can_collapse(u, v):
+                        continue
+                    if group is not None and not _collapse_keeps_copies_apart(hm, u, v, group):
+                        continue
+                    _lv, slots_v, _c = hm.star(v)
+                    cv = corners_all[np.asarray(slots_v, dtype=np.int64)]
+                    before = min(float(triangle_quality(P2, cu).min()), float(triangle_quality(P2, cv).min()))
+                    stay = ~(cu == v).any(axis=1)
+                    old = cu[stay]
+                    new = np.where(old == u, v, old)
+                    n_old = np.cross(P2[old[:, 1]] - P2[old[:, 0]], P2[old[:, 2]] - P2[old[:, 0]])
+                    n_new = np.cross(P2[new[:, 1]] - P2[new[:, 0]], P2[new[:, 2]] - P2[new[:, 0]])
+                    l_old = np.linalg.norm(n_old, axis=1)
+                    l_new = np.linalg.norm(n_new, axis=1)
+                    if not (l_new > 0).all() or \
+                            (np.einsum("ij,ij->i", n_old, n_new) < cos_turn * l_old * l_new).any():
+                        continue
+                    rest = cv[~(cv == u).any(axis=1)]
+                    after = min(float(triangle_quality(P2, new).min()) if new.size else 1.0,
+                                float(triangle_quality(P2, rest).min()) if rest.size else 1.0)
+                    if after > before + 1e-6 and (best_key is None or after > best_key):
+                        best, best_key = (u, v), after
+            if best is not None:
+                hm.collapse_edge(*best)
+                done += 1
+                changed = True
+        if not changed:
+            break
+    return np.ascontiguousarray(hm.faces(), dtype=np.int32), done
 
 
 #: fit: a vertex moves by at most this fraction of its mean edge length in all
