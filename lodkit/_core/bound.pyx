@@ -188,13 +188,29 @@ cdef double PATCH_AT[9]
 PATCH_AT[:] = [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0, 0.4142135, 0.3183099, 0.2674766, 0.2718282, 0.4472136, 0.2809582]
 
 
-cdef inline int patch_slot(const int* seen, int t) noexcept nogil:
+cdef inline bint patch_taken(const unsigned long long* used, int hsh) noexcept nogil:
+    """Is slot hsh of the flat patch's table taken (its bit in ``used``)?"""
+    return (used[hsh >> 6] >> (hsh & 63)) & 1
+
+
+cdef inline int patch_slot(const int* seen, const unsigned long long* used, int t) noexcept nogil:
     """The slot of input triangle t in the flat patch's open-addressing table ``seen``
-    (BOUND_PATCH_HASH slots, -1 empty): where t is, or the empty slot it would take."""
+    (BOUND_PATCH_HASH slots, those taken marked in the bitmap ``used``, which alone is
+    cleared per call): where t is, or the empty slot it would take."""
     cdef int hsh = (<unsigned int>t * 2654435761u) & (BOUND_PATCH_HASH - 1)
-    while seen[hsh] >= 0 and seen[hsh] != t:
+    while patch_taken(used, hsh) and seen[hsh] != t:
         hsh = (hsh + 1) & (BOUND_PATCH_HASH - 1)
     return hsh
+
+
+cdef inline void patch_mark(int* seen, unsigned long long* used, int hsh, int t) noexcept nogil:
+    seen[hsh] = t
+    used[hsh >> 6] |= 1ULL << (hsh & 63)
+
+
+# (k + 1) % 3 and (k + 2) % 3 for a corner k: NEXT3[k], NEXT3[k + 1]
+cdef int NEXT3[5]
+NEXT3[:] = [1, 2, 0, 1, 2]
 
 
 cdef struct Frame:
@@ -405,8 +421,14 @@ cdef class Bound:
             tw = np.asarray(hm.twins)[(3 * faces[idx])[:, None] + np.arange(3)]
             self.nbr = np.ascontiguousarray(np.where(tw >= 0, row_of_face[np.maximum(tw, 0) // 3], -1),
                                             dtype=np.intc)
+            # nbe[T, j]: which edge of that neighbour N is the twin (N's corners nbe, nbe + 1
+            # are T's j + 1, j), -1 when none or when those corners are not the very same
+            # points (then the flat patch projects all of N's corners)
+            self.nbe = np.ascontiguousarray(np.where(tw >= 0, tw % 3, -1), dtype=np.intc)
+            self.link_edges(n_tri)
         else:
             self.nbr = np.full((1, 3), -1, dtype=np.intc)
+            self.nbe = np.full((1, 3), -1, dtype=np.intc)
         # each triangle's own box, a cheap test before its distance
         self.tbox = np.ascontiguousarray(tb[idx]) if n_tri else np.zeros((1, 6))
         # the pieces of the original: at first each triangle whole (a piece of depth 0, code
@@ -523,6 +545,21 @@ cdef class Bound:
             sp += 2
             nn += 2
         return nn
+
+    cdef void link_edges(self, int n) noexcept nogil:
+        """Keep nbe[T, j] (the twin's edge in the neighbour N across T's edge j) only where
+        N's corners nbe, nbe + 1 are T's corners j + 1, j -- the very same points; else -1,
+        and the flat patch projects all of N's corners."""
+        cdef int t, j, m, nb
+        for t in range(n):
+            for j in range(3):
+                m = self.nbe[t, j]
+                nb = self.nbr[t, j]
+                if m < 0 or nb < 0:
+                    self.nbe[t, j] = -1
+                elif not (same_point(&self.tri[nb, 3 * m], &self.tri[t, 3 * ((j + 1) % 3)])
+                          and same_point(&self.tri[nb, 3 * ((m + 1) % 3)], &self.tri[t, 3 * j])):
+                    self.nbe[t, j] = -1
 
     # ------------------------------------------------------------- queries
     cdef bint within(self, const double* x, double d2) noexcept nogil:
@@ -732,13 +769,17 @@ cdef class Bound:
         cdef int rows[BOUND_PATCH_MAX]
         cdef double q2[6 * BOUND_PATCH_MAX]
         cdef int seen[BOUND_PATCH_HASH]
+        cdef unsigned long long used[BOUND_PATCH_HASH >> 6]
+        cdef double hr[3 * BOUND_PATCH_MAX]
+        cdef double* qt
+        cdef double* ht
         cdef double e1[3]
         cdef double e2[3]
         cdef double x0[2]
         cdef double q[6]
         cdef double hq[3]
         cdef double l1, l2, l3, big, area, r, slack, lim, H = 0.0
-        cdef int i, j, k, c, n = 0, head = 0, n_seen = 0, T, N, w, tries
+        cdef int i, j, k, c, m, a, n = 0, head = 0, n_seen = 0, T, N, w, tries
         cdef unsigned int hsh
         # the frame: u along t's first edge, n its normal, v = n x u
         for i in range(3):
@@ -794,26 +835,27 @@ cdef class Bound:
         lim = self.eps - slack
         if not (lim > 0.0):
             return -1.0
-        for i in range(BOUND_PATCH_HASH):
-            seen[i] = -1
+        for i in range(BOUND_PATCH_HASH >> 6):
+            used[i] = 0
         # the seed: the first that is near t's projection (all of them are marked seen)
         for c in range(n_seeds):
             T = seeds[c]
             if T < 0:
                 continue
-            hsh = patch_slot(seen, T)
-            if seen[hsh] == T:
+            hsh = patch_slot(seen, used, T)
+            if patch_taken(used, hsh):
                 continue
             for k in range(3):
                 frame_project(&f, &self.tri[T, 3 * k], &q[2 * k], &hq[k])
             if frame_apart(&f, q, 3) or fabs(hq[0]) > lim or fabs(hq[1]) > lim or fabs(hq[2]) > lim:
                 continue                       # not marked: if the patch reaches it, it decides
-            seen[hsh] = T
+            patch_mark(seen, used, hsh, T)
             n_seen += 1
             rows[0] = T
             for k in range(6):
                 q2[k] = q[k]
             for k in range(3):
+                hr[k] = hq[k]
                 if fabs(hq[k]) > H:
                     H = fabs(hq[k])
             n = 1
@@ -823,27 +865,44 @@ cdef class Bound:
         # grow it across the edges (breadth first)
         while head < n:
             T = rows[head]
+            qt = &q2[6 * head]
+            ht = &hr[3 * head]
             head += 1
             for j in range(3):
                 N = self.nbr[T, j]
                 if N < 0:
                     # a border edge of the original: it must stay apart from t
-                    q[0] = q2[6 * (head - 1) + 2 * j]
-                    q[1] = q2[6 * (head - 1) + 2 * j + 1]
-                    q[2] = q2[6 * (head - 1) + 2 * ((j + 1) % 3)]
-                    q[3] = q2[6 * (head - 1) + 2 * ((j + 1) % 3) + 1]
+                    q[0] = qt[2 * j]
+                    q[1] = qt[2 * j + 1]
+                    q[2] = qt[2 * NEXT3[j]]
+                    q[3] = qt[2 * NEXT3[j] + 1]
                     if not frame_apart(&f, q, 2):
                         return -1.0
                     continue
-                hsh = patch_slot(seen, N)
-                if seen[hsh] == N:
+                hsh = patch_slot(seen, used, N)
+                if patch_taken(used, hsh):
                     continue
                 if n_seen >= BOUND_PATCH_HASH // 2:
                     return -1.0
-                seen[hsh] = N
+                patch_mark(seen, used, hsh, N)
                 n_seen += 1
-                for k in range(3):
+                m = self.nbe[T, j]
+                if m >= 0:
+                    # N's corners m, m + 1 are T's j + 1, j (the same points): their
+                    # projections are T's; only its third corner is new
+                    c = NEXT3[j]
+                    q[2 * m] = qt[2 * c]
+                    q[2 * m + 1] = qt[2 * c + 1]
+                    hq[m] = ht[c]
+                    k = NEXT3[m]
+                    q[2 * k] = qt[2 * j]
+                    q[2 * k + 1] = qt[2 * j + 1]
+                    hq[k] = ht[j]
+                    k = NEXT3[m + 1]
                     frame_project(&f, &self.tri[N, 3 * k], &q[2 * k], &hq[k])
+                else:
+                    for k in range(3):
+                        frame_project(&f, &self.tri[N, 3 * k], &q[2 * k], &hq[k])
                 if frame_apart(&f, q, 3):
                     continue                   # its edges are apart from t too
                 if fabs(hq[0]) > lim or fabs(hq[1]) > lim or fabs(hq[2]) > lim:
@@ -854,6 +913,7 @@ cdef class Bound:
                 for k in range(6):
                     q2[6 * n + k] = q[k]
                 for k in range(3):
+                    hr[3 * n + k] = hq[k]
                     if fabs(hq[k]) > H:
                         H = fabs(hq[k])
                 n += 1
