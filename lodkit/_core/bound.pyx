@@ -140,6 +140,21 @@ cdef inline double corners_box_sqdist(const double* b, const double* t, double l
     return lb
 
 
+cdef inline double corners_box_sqdist0(const double* b, const double* t, double lim2, double* d0) noexcept nogil:
+    """corners_box_sqdist, and in ``d0`` the first corner's squared distance to the box."""
+    cdef double lb, d
+    lb = d0[0] = box_sqdist(b, t)
+    if lb > lim2:
+        return lb
+    d = box_sqdist(b, &t[3])
+    if d > lb:
+        lb = d
+        if lb > lim2:
+            return lb
+    d = box_sqdist(b, &t[6])
+    return d if d > lb else lb
+
+
 cdef inline int piece_depth(int code) noexcept nogil:
     return code >> PIECE_DEPTH_SHIFT
 
@@ -573,6 +588,7 @@ cdef class Bound:
         triangle to try first (its row in ``tri``; -1 none), out, the one found (-1 when
         the original is empty)."""
         cdef int stack[BOUND_STACK]
+        cdef double sdist[BOUND_STACK]        # the node's box's squared distance to x
         cdef int sp = 1, node, i, a
         cdef double best = INFINITY, d, da, db
         if near[0] >= 0:
@@ -582,10 +598,11 @@ cdef class Bound:
         if self.n_nodes == 0:
             return INFINITY
         stack[0] = 0
+        sdist[0] = box_sqdist(&self.box[0, 0], x)
         while sp > 0:
             sp -= 1
             node = stack[sp]
-            if box_sqdist(&self.box[node, 0], x) >= best:
+            if sdist[sp] >= best:
                 continue
             if self.left[node] < 0:
                 for i in range(self.first[node], self.first[node] + self.count[node]):
@@ -603,10 +620,14 @@ cdef class Bound:
             db = box_sqdist(&self.box[a + 1, 0], x)
             if da <= db:               # the nearer child on top
                 stack[sp] = a + 1
+                sdist[sp] = db
                 stack[sp + 1] = a
+                sdist[sp + 1] = da
             else:
                 stack[sp] = a
+                sdist[sp] = da
                 stack[sp + 1] = a + 1
+                sdist[sp + 1] = db
             sp += 2
         return best
 
@@ -620,8 +641,9 @@ cdef class Bound:
         the same, found without searching).  Unless ``search``, no hint within eps is the
         answer too (INFINITY, without searching)."""
         cdef int stack[BOUND_STACK]
+        cdef double sval[BOUND_STACK]         # corners_box_sqdist of the node, when pushed
         cdef int sp = 1, node, i, c, a
-        cdef double found = INFINITY, bound = self.eps2, v
+        cdef double found = INFINITY, bound = self.eps2, v, va, vb, da, db
         cover[0] = -1
         for c in range(3):
             if hints[c] >= 0:
@@ -632,11 +654,15 @@ cdef class Bound:
                     cover[0] = hints[c]
         if self.n_nodes == 0 or (found <= self.eps2 and not least) or (found > self.eps2 and not search):
             return found
+        # a node is pushed with corners_box_sqdist of its box, taken against the bound then
+        # (all three corners unless one was past it: then it is not pushed), and dropped when
+        # popped if that is past the bound now -- as if it were taken again
         stack[0] = 0
+        sval[0] = corners_box_sqdist(&self.box[0, 0], t, bound)
         while sp > 0:
             sp -= 1
             node = stack[sp]
-            if corners_box_sqdist(&self.box[node, 0], t, bound) > bound:
+            if sval[sp] > bound:
                 continue
             if self.left[node] < 0:
                 for i in range(self.first[node], self.first[node] + self.count[node]):
@@ -649,14 +675,27 @@ cdef class Bound:
                         cover[0] = i
                 continue
             a = self.left[node]
+            va = corners_box_sqdist0(&self.box[a, 0], t, bound, &da)
+            vb = corners_box_sqdist0(&self.box[a + 1, 0], t, bound, &db)
             # the child nearer the first corner on top
-            if box_sqdist(&self.box[a, 0], t) <= box_sqdist(&self.box[a + 1, 0], t):
-                stack[sp] = a + 1
-                stack[sp + 1] = a
+            if da <= db:
+                if vb <= bound:
+                    stack[sp] = a + 1
+                    sval[sp] = vb
+                    sp += 1
+                if va <= bound:
+                    stack[sp] = a
+                    sval[sp] = va
+                    sp += 1
             else:
-                stack[sp] = a
-                stack[sp + 1] = a + 1
-            sp += 2
+                if va <= bound:
+                    stack[sp] = a
+                    sval[sp] = va
+                    sp += 1
+                if vb <= bound:
+                    stack[sp] = a + 1
+                    sval[sp] = vb
+                    sp += 1
         return found
 
     cdef double vertex_dist2(self, int v, const double* x, int* near) noexcept nogil:
