@@ -47,6 +47,7 @@ cnp.import_array()
 
 cdef enum:
     LEAF_SIZE = 4
+    SPHERE_KEEP = 64     # pieces whose corners fit_sphere keeps for its second pass
 
 
 cdef inline double sq(double x) noexcept nogil:
@@ -1504,16 +1505,19 @@ cdef class Bound:
     cdef void fit_sphere(self, int f) noexcept nogil:
         """sphere[f]: a ball around the pieces on f (the centroid of their corners, the
         farthest corner's distance)."""
-        cdef int q = self.head[f], cnt = 0, i, c
+        cdef int q = self.head[f], cnt = 0, i, c, k = 0
         cdef double x[9]
+        cdef double keep[9 * SPHERE_KEEP]    # the first pieces' corners, for the second pass
+        cdef double* y
         cdef double ctr[3]
         cdef double r2 = 0.0, d
         ctr[0] = ctr[1] = ctr[2] = 0.0
         while q >= 0:
-            self.corners(self.ptri[q], self.pcode[q], x)
+            y = &keep[3 * cnt] if cnt < 3 * SPHERE_KEEP else x
+            self.corners(self.ptri[q], self.pcode[q], y)
             for c in range(3):
                 for i in range(3):
-                    ctr[i] += x[3 * c + i]
+                    ctr[i] += y[3 * c + i]
             cnt += 3
             q = self.nxt[q]
         if cnt == 0:
@@ -1524,9 +1528,14 @@ cdef class Bound:
             ctr[i] /= cnt
         q = self.head[f]
         while q >= 0:
-            self.corners(self.ptri[q], self.pcode[q], x)
+            if k < SPHERE_KEEP:
+                y = &keep[9 * k]
+            else:
+                y = x
+                self.corners(self.ptri[q], self.pcode[q], y)
+            k += 1
             for c in range(3):
-                d = sq(x[3 * c] - ctr[0]) + sq(x[3 * c + 1] - ctr[1]) + sq(x[3 * c + 2] - ctr[2])
+                d = sq(y[3 * c] - ctr[0]) + sq(y[3 * c + 1] - ctr[1]) + sq(y[3 * c + 2] - ctr[2])
                 if d > r2:
                     r2 = d
             q = self.nxt[q]
