@@ -819,7 +819,7 @@ cdef class Bound:
         cdef double q[6]
         cdef double hq[3]
         cdef double l1, l2, l3, big, area, r, slack, lim, H = 0.0
-        cdef int i, j, k, c, m, a, n = 0, head = 0, n_seen = 0, T, N, w, tries
+        cdef int i, j, k, c, m, n = 0, head = 0, n_seen = 0, T, N, w, tries
         cdef unsigned int hsh
         # the frame: u along t's first edge, n its normal, v = n x u
         for i in range(3):
