@@ -27,6 +27,7 @@ cdef class Bound:
     cdef int[::1] count               # leaf: number of triangles
     cdef int n_nodes
     cdef int[:, ::1] nbr              # (n_tri, 3) the triangle across edge j (corner j to j + 1), -1 none
+    cdef int[:, ::1] nbe              # (n_tri, 3) which edge of that triangle is the twin, -1 none (bound.pyx)
     # the pieces of the original (bound.pyx), attached to the face slots of the current mesh
     cdef double[:, ::1] base          # (n_tri, 9) in BVH order: a, b - a, c - a
     cdef int[::1] tdepth              # (n_tri,) the depth its pieces split to at most
@@ -55,6 +56,7 @@ cdef class Bound:
 
     cdef object keep                  # the half-edge mesh and the rows the pointers see
     cdef int build(self, int* idx, const double* cent, const double* tb, int n) noexcept nogil
+    cdef void link_edges(self, int n) noexcept nogil
     cdef bint within(self, const double* x, double d2) noexcept nogil
     cdef double nearest2(self, const double* x, double stop2, int* near) noexcept nogil
     cdef double cover2(self, const double* t, const int* hints, int* cover, bint least,

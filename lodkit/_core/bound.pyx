@@ -47,6 +47,7 @@ cnp.import_array()
 
 cdef enum:
     LEAF_SIZE = 4
+    SPHERE_KEEP = 64     # pieces whose corners fit_sphere keeps for its second pass
 
 
 cdef inline double sq(double x) noexcept nogil:
@@ -140,6 +141,21 @@ cdef inline double corners_box_sqdist(const double* b, const double* t, double l
     return lb
 
 
+cdef inline double corners_box_sqdist0(const double* b, const double* t, double lim2, double* d0) noexcept nogil:
+    """corners_box_sqdist, and in ``d0`` the first corner's squared distance to the box."""
+    cdef double lb, d
+    lb = d0[0] = box_sqdist(b, t)
+    if lb > lim2:
+        return lb
+    d = box_sqdist(b, &t[3])
+    if d > lb:
+        lb = d
+        if lb > lim2:
+            return lb
+    d = box_sqdist(b, &t[6])
+    return d if d > lb else lb
+
+
 cdef inline int piece_depth(int code) noexcept nogil:
     return code >> PIECE_DEPTH_SHIFT
 
@@ -188,13 +204,29 @@ cdef double PATCH_AT[9]
 PATCH_AT[:] = [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0, 0.4142135, 0.3183099, 0.2674766, 0.2718282, 0.4472136, 0.2809582]
 
 
-cdef inline int patch_slot(const int* seen, int t) noexcept nogil:
+cdef inline bint patch_taken(const unsigned long long* used, int hsh) noexcept nogil:
+    """Is slot hsh of the flat patch's table taken (its bit in ``used``)?"""
+    return (used[hsh >> 6] >> (hsh & 63)) & 1
+
+
+cdef inline int patch_slot(const int* seen, const unsigned long long* used, int t) noexcept nogil:
     """The slot of input triangle t in the flat patch's open-addressing table ``seen``
-    (BOUND_PATCH_HASH slots, -1 empty): where t is, or the empty slot it would take."""
+    (BOUND_PATCH_HASH slots, those taken marked in the bitmap ``used``, which alone is
+    cleared per call): where t is, or the empty slot it would take."""
     cdef int hsh = (<unsigned int>t * 2654435761u) & (BOUND_PATCH_HASH - 1)
-    while seen[hsh] >= 0 and seen[hsh] != t:
+    while patch_taken(used, hsh) and seen[hsh] != t:
         hsh = (hsh + 1) & (BOUND_PATCH_HASH - 1)
     return hsh
+
+
+cdef inline void patch_mark(int* seen, unsigned long long* used, int hsh, int t) noexcept nogil:
+    seen[hsh] = t
+    used[hsh >> 6] |= 1ULL << (hsh & 63)
+
+
+# (k + 1) % 3 and (k + 2) % 3 for a corner k: NEXT3[k], NEXT3[k + 1]
+cdef int NEXT3[5]
+NEXT3[:] = [1, 2, 0, 1, 2]
 
 
 cdef struct Frame:
@@ -405,8 +437,14 @@ cdef class Bound:
             tw = np.asarray(hm.twins)[(3 * faces[idx])[:, None] + np.arange(3)]
             self.nbr = np.ascontiguousarray(np.where(tw >= 0, row_of_face[np.maximum(tw, 0) // 3], -1),
                                             dtype=np.intc)
+            # nbe[T, j]: which edge of that neighbour N is the twin (N's corners nbe, nbe + 1
+            # are T's j + 1, j), -1 when none or when those corners are not the very same
+            # points (then the flat patch projects all of N's corners)
+            self.nbe = np.ascontiguousarray(np.where(tw >= 0, tw % 3, -1), dtype=np.intc)
+            self.link_edges(n_tri)
         else:
             self.nbr = np.full((1, 3), -1, dtype=np.intc)
+            self.nbe = np.full((1, 3), -1, dtype=np.intc)
         # each triangle's own box, a cheap test before its distance
         self.tbox = np.ascontiguousarray(tb[idx]) if n_tri else np.zeros((1, 6))
         # the pieces of the original: at first each triangle whole (a piece of depth 0, code
@@ -524,6 +562,21 @@ cdef class Bound:
             nn += 2
         return nn
 
+    cdef void link_edges(self, int n) noexcept nogil:
+        """Keep nbe[T, j] (the twin's edge in the neighbour N across T's edge j) only where
+        N's corners nbe, nbe + 1 are T's corners j + 1, j -- the very same points; else -1,
+        and the flat patch projects all of N's corners."""
+        cdef int t, j, m, nb
+        for t in range(n):
+            for j in range(3):
+                m = self.nbe[t, j]
+                nb = self.nbr[t, j]
+                if m < 0 or nb < 0:
+                    self.nbe[t, j] = -1
+                elif not (same_point(&self.tri[nb, 3 * m], &self.tri[t, 3 * ((j + 1) % 3)])
+                          and same_point(&self.tri[nb, 3 * ((m + 1) % 3)], &self.tri[t, 3 * j])):
+                    self.nbe[t, j] = -1
+
     # ------------------------------------------------------------- queries
     cdef bint within(self, const double* x, double d2) noexcept nogil:
         """Is x within sqrt(d2) of the original?"""
@@ -536,6 +589,7 @@ cdef class Bound:
         triangle to try first (its row in ``tri``; -1 none), out, the one found (-1 when
         the original is empty)."""
         cdef int stack[BOUND_STACK]
+        cdef double sdist[BOUND_STACK]        # the node's box's squared distance to x
         cdef int sp = 1, node, i, a
         cdef double best = INFINITY, d, da, db
         if near[0] >= 0:
@@ -545,10 +599,11 @@ cdef class Bound:
         if self.n_nodes == 0:
             return INFINITY
         stack[0] = 0
+        sdist[0] = box_sqdist(&self.box[0, 0], x)
         while sp > 0:
             sp -= 1
             node = stack[sp]
-            if box_sqdist(&self.box[node, 0], x) >= best:
+            if sdist[sp] >= best:
                 continue
             if self.left[node] < 0:
                 for i in range(self.first[node], self.first[node] + self.count[node]):
@@ -566,10 +621,14 @@ cdef class Bound:
             db = box_sqdist(&self.box[a + 1, 0], x)
             if da <= db:               # the nearer child on top
                 stack[sp] = a + 1
+                sdist[sp] = db
                 stack[sp + 1] = a
+                sdist[sp + 1] = da
             else:
                 stack[sp] = a
+                sdist[sp] = da
                 stack[sp + 1] = a + 1
+                sdist[sp + 1] = db
             sp += 2
         return best
 
@@ -583,8 +642,9 @@ cdef class Bound:
         the same, found without searching).  Unless ``search``, no hint within eps is the
         answer too (INFINITY, without searching)."""
         cdef int stack[BOUND_STACK]
+        cdef double sval[BOUND_STACK]         # corners_box_sqdist of the node, when pushed
         cdef int sp = 1, node, i, c, a
-        cdef double found = INFINITY, bound = self.eps2, v
+        cdef double found = INFINITY, bound = self.eps2, v, va, vb, da, db
         cover[0] = -1
         for c in range(3):
             if hints[c] >= 0:
@@ -595,11 +655,15 @@ cdef class Bound:
                     cover[0] = hints[c]
         if self.n_nodes == 0 or (found <= self.eps2 and not least) or (found > self.eps2 and not search):
             return found
+        # a node is pushed with corners_box_sqdist of its box, taken against the bound then
+        # (all three corners unless one was past it: then it is not pushed), and dropped when
+        # popped if that is past the bound now -- as if it were taken again
         stack[0] = 0
+        sval[0] = corners_box_sqdist(&self.box[0, 0], t, bound)
         while sp > 0:
             sp -= 1
             node = stack[sp]
-            if corners_box_sqdist(&self.box[node, 0], t, bound) > bound:
+            if sval[sp] > bound:
                 continue
             if self.left[node] < 0:
                 for i in range(self.first[node], self.first[node] + self.count[node]):
@@ -612,14 +676,27 @@ cdef class Bound:
                         cover[0] = i
                 continue
             a = self.left[node]
+            va = corners_box_sqdist0(&self.box[a, 0], t, bound, &da)
+            vb = corners_box_sqdist0(&self.box[a + 1, 0], t, bound, &db)
             # the child nearer the first corner on top
-            if box_sqdist(&self.box[a, 0], t) <= box_sqdist(&self.box[a + 1, 0], t):
-                stack[sp] = a + 1
-                stack[sp + 1] = a
+            if da <= db:
+                if vb <= bound:
+                    stack[sp] = a + 1
+                    sval[sp] = vb
+                    sp += 1
+                if va <= bound:
+                    stack[sp] = a
+                    sval[sp] = va
+                    sp += 1
             else:
-                stack[sp] = a
-                stack[sp + 1] = a + 1
-            sp += 2
+                if va <= bound:
+                    stack[sp] = a
+                    sval[sp] = va
+                    sp += 1
+                if vb <= bound:
+                    stack[sp] = a + 1
+                    sval[sp] = vb
+                    sp += 1
         return found
 
     cdef double vertex_dist2(self, int v, const double* x, int* near) noexcept nogil:
@@ -732,13 +809,17 @@ cdef class Bound:
         cdef int rows[BOUND_PATCH_MAX]
         cdef double q2[6 * BOUND_PATCH_MAX]
         cdef int seen[BOUND_PATCH_HASH]
+        cdef unsigned long long used[BOUND_PATCH_HASH >> 6]
+        cdef double hr[3 * BOUND_PATCH_MAX]
+        cdef double* qt
+        cdef double* ht
         cdef double e1[3]
         cdef double e2[3]
         cdef double x0[2]
         cdef double q[6]
         cdef double hq[3]
         cdef double l1, l2, l3, big, area, r, slack, lim, H = 0.0
-        cdef int i, j, k, c, n = 0, head = 0, n_seen = 0, T, N, w, tries
+        cdef int i, j, k, c, m, n = 0, head = 0, n_seen = 0, T, N, w, tries
         cdef unsigned int hsh
         # the frame: u along t's first edge, n its normal, v = n x u
         for i in range(3):
@@ -794,26 +875,27 @@ cdef class Bound:
         lim = self.eps - slack
         if not (lim > 0.0):
             return -1.0
-        for i in range(BOUND_PATCH_HASH):
-            seen[i] = -1
+        for i in range(BOUND_PATCH_HASH >> 6):
+            used[i] = 0
         # the seed: the first that is near t's projection (all of them are marked seen)
         for c in range(n_seeds):
             T = seeds[c]
             if T < 0:
                 continue
-            hsh = patch_slot(seen, T)
-            if seen[hsh] == T:
+            hsh = patch_slot(seen, used, T)
+            if patch_taken(used, hsh):
                 continue
             for k in range(3):
                 frame_project(&f, &self.tri[T, 3 * k], &q[2 * k], &hq[k])
             if frame_apart(&f, q, 3) or fabs(hq[0]) > lim or fabs(hq[1]) > lim or fabs(hq[2]) > lim:
                 continue                       # not marked: if the patch reaches it, it decides
-            seen[hsh] = T
+            patch_mark(seen, used, hsh, T)
             n_seen += 1
             rows[0] = T
             for k in range(6):
                 q2[k] = q[k]
             for k in range(3):
+                hr[k] = hq[k]
                 if fabs(hq[k]) > H:
                     H = fabs(hq[k])
             n = 1
@@ -823,27 +905,44 @@ cdef class Bound:
         # grow it across the edges (breadth first)
         while head < n:
             T = rows[head]
+            qt = &q2[6 * head]
+            ht = &hr[3 * head]
             head += 1
             for j in range(3):
                 N = self.nbr[T, j]
                 if N < 0:
                     # a border edge of the original: it must stay apart from t
-                    q[0] = q2[6 * (head - 1) + 2 * j]
-                    q[1] = q2[6 * (head - 1) + 2 * j + 1]
-                    q[2] = q2[6 * (head - 1) + 2 * ((j + 1) % 3)]
-                    q[3] = q2[6 * (head - 1) + 2 * ((j + 1) % 3) + 1]
+                    q[0] = qt[2 * j]
+                    q[1] = qt[2 * j + 1]
+                    q[2] = qt[2 * NEXT3[j]]
+                    q[3] = qt[2 * NEXT3[j] + 1]
                     if not frame_apart(&f, q, 2):
                         return -1.0
                     continue
-                hsh = patch_slot(seen, N)
-                if seen[hsh] == N:
+                hsh = patch_slot(seen, used, N)
+                if patch_taken(used, hsh):
                     continue
                 if n_seen >= BOUND_PATCH_HASH // 2:
                     return -1.0
-                seen[hsh] = N
+                patch_mark(seen, used, hsh, N)
                 n_seen += 1
-                for k in range(3):
+                m = self.nbe[T, j]
+                if m >= 0:
+                    # N's corners m, m + 1 are T's j + 1, j (the same points): their
+                    # projections are T's; only its third corner is new
+                    c = NEXT3[j]
+                    q[2 * m] = qt[2 * c]
+                    q[2 * m + 1] = qt[2 * c + 1]
+                    hq[m] = ht[c]
+                    k = NEXT3[m]
+                    q[2 * k] = qt[2 * j]
+                    q[2 * k + 1] = qt[2 * j + 1]
+                    hq[k] = ht[j]
+                    k = NEXT3[m + 1]
                     frame_project(&f, &self.tri[N, 3 * k], &q[2 * k], &hq[k])
+                else:
+                    for k in range(3):
+                        frame_project(&f, &self.tri[N, 3 * k], &q[2 * k], &hq[k])
                 if frame_apart(&f, q, 3):
                     continue                   # its edges are apart from t too
                 if fabs(hq[0]) > lim or fabs(hq[1]) > lim or fabs(hq[2]) > lim:
@@ -854,6 +953,7 @@ cdef class Bound:
                 for k in range(6):
                     q2[6 * n + k] = q[k]
                 for k in range(3):
+                    hr[3 * n + k] = hq[k]
                     if fabs(hq[k]) > H:
                         H = fabs(hq[k])
                 n += 1
@@ -1405,16 +1505,19 @@ cdef class Bound:
     cdef void fit_sphere(self, int f) noexcept nogil:
         """sphere[f]: a ball around the pieces on f (the centroid of their corners, the
         farthest corner's distance)."""
-        cdef int q = self.head[f], cnt = 0, i, c
+        cdef int q = self.head[f], cnt = 0, i, c, k = 0
         cdef double x[9]
+        cdef double keep[9 * SPHERE_KEEP]    # the first pieces' corners, for the second pass
+        cdef double* y
         cdef double ctr[3]
         cdef double r2 = 0.0, d
         ctr[0] = ctr[1] = ctr[2] = 0.0
         while q >= 0:
-            self.corners(self.ptri[q], self.pcode[q], x)
+            y = &keep[3 * cnt] if cnt < 3 * SPHERE_KEEP else x
+            self.corners(self.ptri[q], self.pcode[q], y)
             for c in range(3):
                 for i in range(3):
-                    ctr[i] += x[3 * c + i]
+                    ctr[i] += y[3 * c + i]
             cnt += 3
             q = self.nxt[q]
         if cnt == 0:
@@ -1425,9 +1528,14 @@ cdef class Bound:
             ctr[i] /= cnt
         q = self.head[f]
         while q >= 0:
-            self.corners(self.ptri[q], self.pcode[q], x)
+            if k < SPHERE_KEEP:
+                y = &keep[9 * k]
+            else:
+                y = x
+                self.corners(self.ptri[q], self.pcode[q], y)
+            k += 1
             for c in range(3):
-                d = sq(x[3 * c] - ctr[0]) + sq(x[3 * c + 1] - ctr[1]) + sq(x[3 * c + 2] - ctr[2])
+                d = sq(y[3 * c] - ctr[0]) + sq(y[3 * c + 1] - ctr[1]) + sq(y[3 * c + 2] - ctr[2])
                 if d > r2:
                     r2 = d
             q = self.nxt[q]
