@@ -466,10 +466,6 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
                 flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE))),
                                              20, crease_vertex, _WORST_QUALITY, cos_crease,
                                              group=group2))
-        snapped = 0
-        if relax and F.shape[0] and nX:
-            # the worst spots of the two-sided distance (a tip the chords cut off) get a point
-            snapped = _snap_worst(P2, F, n0, nX, surf, P0, F0, all_face, all_w)
         times["finish"] = times.get("finish", 0.0) + time.perf_counter() - t
         if refine:
             # error-driven density: measure this pass, reweight the next by its local error
@@ -479,18 +475,15 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
             if best is None or err < best[0]:
                 best = (err, pass_, P2.copy(), F, n_new, nX, all_face, all_w, B, kept, on, n_dropped,
                         removals, held, n_collapsed, flips, relaxed, worst_moves, slid, n_old_kept, collapsed,
-                        old_at, snapped)
+                        old_at)
             weight = new_weight
             times["refine"] = times.get("refine", 0.0) + time.perf_counter() - t
     if refine:
         # each pass draws new points: the one with the smallest largest error is kept
         (_, kept_pass, P2, F, n_new, nX, all_face, all_w, B, kept, on, n_dropped, removals, held,
-         n_collapsed, flips, relaxed, worst_moves, slid, n_old_kept, collapsed, old_at, snapped) = best
+         n_collapsed, flips, relaxed, worst_moves, slid, n_old_kept, collapsed, old_at) = best
     t = time.perf_counter()
     fitted = _fit_normal(P2, F, n0, nX, surf, normals0, fit) if fit and nX else 0
-    if fit and nX and relax:
-        # fit moved the points off the surface: the worst spots once more
-        snapped += _snap_worst(P2, F, n0, nX, surf, P0, F0, all_face, all_w)
     used = np.zeros(n0 + n_new, dtype=bool)
     used[F.reshape(-1)] = True
     # old vertices: one output vertex per input vertex (split copies weld back); an old
@@ -543,7 +536,6 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
             "quality_min": float(q.min()),
             "relaxed_moves": relaxed,
             "worst_moves": worst_moves,
-            "snapped": snapped,
             "slid": slid,
             "sliver_collapses": collapsed,
             "old_moved": int(np.count_nonzero(moved_old)),
@@ -1015,159 +1007,6 @@ def _fit_normal(P2, F, n0: int, nX: int, surf, normals0, rounds: int) -> int:
             P2[idx[rows]] = old[rows]
             moved[rows] = False
     return int(np.count_nonzero(np.linalg.norm(P2[idx] - origin, axis=1) > 0))
-
-
-#: the error step: the worst spots of the two-sided distance (at least this fraction of the
-#: largest), at most _SNAP_SPOTS of them, at least _SNAP_APART mean edge lengths apart
-_SNAP_FRACTION = 0.6
-_SNAP_SPOTS = 16
-_SNAP_APART = 2.0
-#: a move there may leave no face of the moved vertex below this quality (nor below its
-#: worst face before, when that was lower)
-_SNAP_QUALITY = 0.4
-
-
-def _snap_worst(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w) -> int:
-    """The error step (lodkit's addition): Turk's points are spread evenly, so a spot the
-    two-sided distance finds far from the re-tiling -- a sharp tip of the input the chords
-    cut off, a chord far from the surface -- keeps its error.  At each of the worst spots (an
-    input vertex far from the re-tiling, or a sample of the re-tiling -- face centroid, edge
-    midpoint -- far from the input), the new interior points of the nearest output face are
-    tried at the spot's point of the input surface (the input vertex, or the sample's
-    closest input point) and half-way to it (projected back onto the input).  A point moves
-    to the candidate that lowers the local largest error most (the input vertices near it
-    to the faces around it, and its faces' samples to the input), when no face of it turns
-    by more than _RELAX_TURN degrees or ends below min(_SNAP_QUALITY, its worst face
-    before).  Points stay on the input surface; connectivity is unchanged; ``all_face`` /
-    ``all_w`` follow.  Returns the moves made."""
-    import open3d as o3d
-    from scipy.spatial import cKDTree
-
-    F = np.asarray(F, dtype=np.int64)
-    n = P2.shape[0]
-    movable, e = _new_interior_points(F, n, n0, nX)
-    if not movable.any() or F.shape[0] == 0:
-        return 0
-    corners = F.reshape(-1)
-    order = np.argsort(corners, kind="stable")
-    start = np.searchsorted(corners[order], np.arange(n + 1))
-    vface = order // 3
-    h_mean = float(np.linalg.norm(P2[e[:, 0]] - P2[e[:, 1]], axis=1).mean())
-    # the worst spots, both ways
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(P2.astype(np.float32)), o3d.core.Tensor(F.astype(np.uint32)))
-    used0 = np.zeros(n0, dtype=bool)
-    used0[F0.reshape(-1)] = True
-    iv = np.flatnonzero(used0)
-    res = scene.compute_closest_points(o3d.core.Tensor(P0[iv].astype(np.float32)))
-    d_in = np.linalg.norm(res["points"].numpy().astype(np.float64) - P0[iv], axis=1)
-    f_in = res["primitive_ids"].numpy().astype(np.int64)
-    S = np.concatenate([P2[F].mean(axis=1), 0.5 * (P2[F] + P2[F[:, [1, 2, 0]]]).reshape(-1, 3)])
-    s_face = np.concatenate([np.arange(F.shape[0]), np.repeat(np.arange(F.shape[0]), 3)])
-    fo, wo, _ = surf.closest(S)
-    T_out = np.einsum("nk,nkj->nj", wo, P0[F0[fo]])
-    d_out = np.linalg.norm(S - T_out, axis=1)
-    # an input vertex's own face and weights (a corner of weight 1)
-    vf = np.full(n0, -1, dtype=np.int64)
-    vf[F0.reshape(-1)] = np.repeat(np.arange(F0.shape[0]), 3)
-    vk = np.full(n0, 0, dtype=np.int64)
-    vk[F0.reshape(-1)] = np.tile(np.arange(3), F0.shape[0])
-    dist = np.concatenate([d_in, d_out])
-    top = float(dist.max())
-    if not top > 0:
-        return 0
-    cand = np.flatnonzero(dist >= _SNAP_FRACTION * top)
-    cand = cand[np.argsort(-dist[cand], kind="stable")]
-    spot_pos = np.concatenate([P0[iv], S])
-    spots = []
-    for c in cand.tolist():
-        if len(spots) >= _SNAP_SPOTS:
-            break
-        if any(np.linalg.norm(spot_pos[c] - spot_pos[s]) < _SNAP_APART * h_mean for s in spots):
-            continue
-        spots.append(c)
-    tree0 = cKDTree(P0[iv])
-    taken = np.zeros(n, dtype=bool)
-    moves = 0
-    ni = iv.size
-    for c in spots:
-        if c < ni:
-            f_near = int(f_in[c])
-            v_in = int(iv[c])
-            target = P0[v_in]
-            t_face = int(vf[v_in])
-            t_w = np.zeros(3)
-            t_w[vk[v_in]] = 1.0
-        else:
-            f_near = int(s_face[c - ni])
-            target = T_out[c - ni]
-            t_face = int(fo[c - ni])
-            t_w = wo[c - ni]
-        best = None
-        for u in F[f_near].tolist():
-            if not movable[u] or taken[u]:
-                continue
-            fs = vface[start[u]:start[u + 1]]
-            link = np.unique(F[fs].reshape(-1))
-            ring2 = np.unique(np.concatenate([vface[start[x]:start[x + 1]] for x in link.tolist()]))
-            half, hf, hw = _project_half(P2[u], target, surf, P0, F0)
-            radius = float(np.linalg.norm(P2[link] - P2[u], axis=1).max()) + float(np.linalg.norm(target - P2[u]))
-            near = iv[tree0.query_ball_point(P2[u], radius)]
-            before = _local_error(P2, F, fs, ring2, near, P0, surf)
-            q0 = float(triangle_quality(P2, F[fs]).min())
-            n_before, _ = face_normals(P2, F[fs])
-            old = P2[u].copy()
-            for pos, pf, pw in ((target, t_face, t_w), (half, hf, hw)):
-                P2[u] = pos
-                n_after, a_after = face_normals(P2, F[fs])
-                q1 = float(triangle_quality(P2, F[fs]).min())
-                ok = (a_after > 0).all() and \
-                    (np.einsum("ij,ij->i", n_after, n_before) >= math.cos(math.radians(_RELAX_TURN))).all() and \
-                    q1 >= min(_SNAP_QUALITY, q0)
-                if ok:
-                    err = _local_error(P2, F, fs, ring2, near, P0, surf)
-                    if err < before - 1e-12 and (best is None or err < best[0]):
-                        best = (err, u, pos.copy(), pf, pw.copy(), fs)
-                P2[u] = old
-        if best is not None:
-            _, u, pos, pf, pw, fs = best
-            P2[u] = pos
-            all_face[u - n0] = pf
-            all_w[u - n0] = pw
-            taken[F[fs].reshape(-1)] = True
-            moves += 1
-    return moves
-
-
-def _project_half(p, target, surf, P0, F0):
-    """The point half-way from ``p`` to ``target``, projected onto the input: (position,
-    face, barycentric weights)."""
-    f, w, _ = surf.closest((0.5 * (p + target))[None])
-    return np.einsum("k,kj->j", w[0], P0[F0[f[0]]]), int(f[0]), w[0]
-
-
-def _local_error(P2, F, fs, ring2, near, P0, surf) -> float:
-    """The largest distance, both ways, around a vertex: the input vertices ``near`` to the
-    faces ``ring2`` of the re-tiling (its 2-ring), and the samples (centroid, edge midpoints,
-    quarter points) of its faces ``fs`` to the input."""
-    T = P2[F[fs]]
-    C = T.mean(axis=1)
-    M = (0.5 * (T + T[:, [1, 2, 0]])).reshape(-1, 3)
-    Q1 = (0.75 * T + 0.25 * T[:, [1, 2, 0]]).reshape(-1, 3)
-    Q2 = (0.25 * T + 0.75 * T[:, [1, 2, 0]]).reshape(-1, 3)
-    S = np.concatenate([C, M, Q1, Q2])
-    out = float(surf.distance(S).max())
-    if near.size == 0:
-        return out
-    import open3d as o3d
-
-    used = np.unique(F[ring2])
-    scene = o3d.t.geometry.RaycastingScene()
-    scene.add_triangles(o3d.core.Tensor(P2[used].astype(np.float32)),
-                        o3d.core.Tensor(np.searchsorted(used, F[ring2]).astype(np.uint32)))
-    Q = P0[near].astype(np.float32)
-    d = np.linalg.norm(scene.compute_closest_points(o3d.core.Tensor(Q))["points"].numpy() - Q, axis=1)
-    return max(out, float(d.max()))
 
 
 def _equalizing_density(P, F, area, edge_len: float) -> np.ndarray:

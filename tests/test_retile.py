@@ -4,8 +4,6 @@ attributes interpolated; the native kernel's hole triangulation and the edge fli
 and errors."""
 from __future__ import annotations
 
-import importlib
-
 import numpy as np
 import open3d as o3d
 import pytest
@@ -698,40 +696,3 @@ def test_cow_pinch_second_worst_round_lifts_the_worst_triangle(kw, before):
     again = retile(src, 59, **kw)
     assert np.array_equal(again.mesh.faces, r.mesh.faces)
     assert np.allclose(again.mesh.vertices, r.mesh.vertices, rtol=0.0, atol=0.0)
-
-
-def cone_plane(n: int = 41, height: float = 0.15, radius: float = 0.04) -> lodkit.Mesh:
-    """plane(n) with a narrow cone in the middle: z = height * (1 - r / radius) within
-    ``radius`` of (0.5, 0.5), a sharp tip on a single vertex."""
-    src = plane(n)
-    v = src.vertices.copy()
-    v[:, 2] = height * np.clip(1.0 - np.hypot(v[:, 0] - 0.5, v[:, 1] - 0.5) / radius, 0.0, None)
-    return lodkit.Mesh(v, src.faces)
-
-
-def test_error_step_puts_a_point_on_a_sharp_tip(monkeypatch):
-    # a narrow cone holds little area, so the evenly spread points miss it and
-    # the chords cut it off; the error step moves the nearest new point onto the tip
-    src = cone_plane()
-    tip = src.vertices[src.vertices[:, 2].argmax()]
-    r = retile(src, 120)
-    assert r.report["snapped"] >= 1
-    d_tip = float(np.linalg.norm(r.mesh.vertices - tip, axis=1).min())
-    assert d_tip < 1e-9
-    assert off_surface(src, r.mesh) < 1e-9
-    q = triangle_quality(r.mesh.vertices, r.mesh.faces)
-    assert q.min() >= MIN_QUALITY
-    t = lodkit.topology(r.mesh)
-    assert t.is_manifold and t.genus == 0 and t.n_boundary_loops == 1
-    # the same run without the step (no spots): the tip is cut off
-    monkeypatch.setattr(importlib.import_module("lodkit.retile"), "_SNAP_SPOTS", 0)
-    off = retile(src, 120)
-    assert off.report["snapped"] == 0
-    cut = np.linalg.norm(closest_points(off.mesh.vertices, off.mesh.faces, tip[None])[0][0] - tip)
-    assert cut > 0.1 * tip[2]
-    h_on = lodkit.evaluate(src, r.mesh, samples=20000).distance.hausdorff
-    h_off = lodkit.evaluate(src, off.mesh, samples=20000).distance.hausdorff
-    assert h_on < 0.9 * h_off
-    monkeypatch.undo()
-    again = retile(src, 120)
-    np.testing.assert_array_equal(again.mesh.vertices, r.mesh.vertices)
