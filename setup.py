@@ -19,9 +19,38 @@ MODULES = ["heap", "halfedge", "chain", "quadric", "fields", "bound", "edge", "t
            "volume_kernel", "cluster", "retile"]
 # the public C interface plugins cimport: lodkit/kernel.pxd, lodkit/removal.pxd (lodkit.kernel, ...)
 PUBLIC_MODULES = ["kernel", "removal"]
-# LODKIT_BUILD_ONLY=a,b builds only those modules (development: others may be mid-edit)
+
+
+def _with_dependants(names):
+    """``names`` and every module that cimports one of them, directly or through another:
+    a module compiled against an older .pxd of one it cimports reads its classes with the
+    old layout (a crash at run time), so those rebuild too."""
+    import re
+    here = os.path.dirname(os.path.abspath(__file__))
+    pattern = re.compile(r"^\s*from\s+(?:\.|lodkit\._core\.|lodkit\.)(\w+)\s+cimport", re.M)
+    uses = {}
+    for package, mods in (("lodkit", PUBLIC_MODULES), ("lodkit/_core", MODULES)):
+        for m in mods:
+            text = ""
+            for ext in (".pyx", ".pxd"):
+                path = os.path.join(here, package, m + ext)
+                if os.path.exists(path):
+                    with open(path, encoding="utf-8") as f:
+                        text += f.read()
+            uses[m] = set(pattern.findall(text))
+    wanted = set(names)
+    while True:
+        more = {m for m, deps in uses.items() if m not in wanted and deps & wanted}
+        if not more:
+            return wanted
+        wanted |= more
+
+
+# LODKIT_BUILD_ONLY=a,b builds only those modules (development: others may be mid-edit), and
+# the modules that cimport them
 _only = [m for m in os.environ.get("LODKIT_BUILD_ONLY", "").split(",") if m]
 if _only:
+    _only = _with_dependants(_only)
     MODULES = [m for m in MODULES if m in _only]
     PUBLIC_MODULES = [m for m in PUBLIC_MODULES if m in _only]
 

@@ -398,15 +398,17 @@ def triangle_areas(t):
 @pytest.mark.parametrize("eps", [0.004, 0.02])
 def test_pieces_tile_the_input_within_their_faces(monkeypatch, eps):
     """After a run the pieces of the input cover it exactly (their areas add up to its
-    area) and each lies within its face's certificate of that face, at its corners and
-    so everywhere (convexity)."""
+    area), each is on a live face (none is left on a face a collapse removed) and lies
+    within its face's certificate of that face, at its corners and so everywhere
+    (convexity)."""
     rng = np.random.default_rng(6)
     mesh = grid(12, 0.04 * rng.uniform(size=(12, 12)))
     made = keep_collapsers(monkeypatch)
     res = lodkit.simplify(mesh, max_error=eps, error="hausdorff", threads=1)
     b = made[-1].bound
-    pieces, faces, cert = b.pieces()
+    pieces, faces, cert, alive = b.pieces()
     assert len(pieces) == b.n_pieces == res.report["error_bound"]["pieces"]
+    assert alive.all()
     prep = prepare(mesh)
     tris = prep.positions[np.asarray(prep.hm.corners)].reshape(-1, 9)
     np.testing.assert_allclose(triangle_areas(pieces).sum(), triangle_areas(tris).sum(), rtol=1e-12)

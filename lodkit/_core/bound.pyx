@@ -1557,12 +1557,12 @@ cdef class Bound:
         return bool(self.overflow)
 
     def pieces(self):
-        """(pieces (k, 9), faces (k, 9), cert (k,)): the corners of each piece of the
-        original, of the face of the current mesh it is on, and that face's certificate
-        (tests)."""
+        """(pieces (k, 9), faces (k, 9), cert (k,), alive (k,)): the corners of each piece
+        of the original, of the face it is on, that face's certificate, and whether that
+        face is live (tests: a piece on a dead face would be lost from the output)."""
         cdef int f, q, a, c
         cdef double[::1] x = np.empty(9)
-        out_p, out_f, out_c = [], [], []
+        out_p, out_f, out_c, out_a = [], [], [], []
         for f in range(self.head.shape[0]):
             q = self.head[f]
             while q >= 0:
@@ -1570,8 +1570,10 @@ cdef class Bound:
                 out_p.append(np.asarray(x).copy())
                 out_f.append([self.P[self.stride * self.m.corner[3 * f + c] + a] for c in range(3) for a in range(3)])
                 out_c.append(self.cert[f])
+                out_a.append(self.m.face_alive[f] != 0)
                 q = self.nxt[q]
-        return np.asarray(out_p).reshape(-1, 9), np.asarray(out_f, dtype=np.float64).reshape(-1, 9), np.asarray(out_c)
+        return (np.asarray(out_p).reshape(-1, 9), np.asarray(out_f, dtype=np.float64).reshape(-1, 9),
+                np.asarray(out_c), np.asarray(out_a, dtype=bool))
 
     @property
     def n_nodes_bvh(self):
