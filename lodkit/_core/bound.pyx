@@ -127,22 +127,9 @@ cdef enum:
     PIECE_DEPTH_SHIFT = 2 * PIECE_BITS + 1
 
 
-cdef inline double corners_box_sqdist(const double* b, const double* t, double lim2) noexcept nogil:
-    """The largest squared distance of the three corners of ``t`` (9 doubles) to box ``b``,
-    or, once one exceeds ``lim2``, that one (enough to know the triangle is out of reach)."""
-    cdef double lb = 0.0, d
-    cdef int c
-    for c in range(3):
-        d = box_sqdist(b, &t[3 * c])
-        if d > lb:
-            lb = d
-            if lb > lim2:
-                break
-    return lb
-
-
 cdef inline double corners_box_sqdist0(const double* b, const double* t, double lim2, double* d0) noexcept nogil:
-    """corners_box_sqdist, and in ``d0`` the first corner's squared distance to the box."""
+    """The largest squared distance of the three corners of ``t`` (9 doubles) to box ``b``,
+    or, once one exceeds ``lim2``, that one; and in ``d0`` the first corner's."""
     cdef double lb, d
     lb = d0[0] = box_sqdist(b, t)
     if lb > lim2:
@@ -154,6 +141,13 @@ cdef inline double corners_box_sqdist0(const double* b, const double* t, double 
             return lb
     d = box_sqdist(b, &t[6])
     return d if d > lb else lb
+
+
+cdef inline double corners_box_sqdist(const double* b, const double* t, double lim2) noexcept nogil:
+    """The largest squared distance of the three corners of ``t`` (9 doubles) to box ``b``,
+    or, once one exceeds ``lim2``, that one (enough to know the triangle is out of reach)."""
+    cdef double d0
+    return corners_box_sqdist0(b, t, lim2, &d0)
 
 
 cdef inline int piece_depth(int code) noexcept nogil:
@@ -1190,15 +1184,15 @@ cdef class Bound:
         EdgeCollapser.end_points does), any other 1 (the planned point, kept in memo_p)."""
         cdef const double* a = &self.P[self.stride * k]
         cdef const double* b = &self.P[self.stride * r]
+        cdef double mid[3]
         cdef int i
-        if p[0] == a[0] and p[1] == a[1] and p[2] == a[2]:   # exact: the same point, not a near one
+        if same_point(p, a):
             return 2
-        if p[0] == b[0] and p[1] == b[1] and p[2] == b[2]:   # exact: as above
+        if same_point(p, b):
             return 4
         for i in range(3):
-            if p[i] != 0.5 * (a[i] + b[i]):                  # exact: as above
-                return 1
-        return 8
+            mid[i] = 0.5 * (a[i] + b[i])
+        return 8 if same_point(p, mid) else 1
 
     cdef bint check(self, int h, int r, int k, const double* p) noexcept nogil:
         """May half-edge h collapse (``r`` goes, ``k`` moves to ``p``) and the mesh stay
@@ -1214,8 +1208,7 @@ cdef class Bound:
         cdef int kind = self.memo_kind(r, k, p)
         cdef int* mm = &self.memo[e, 0]
         if mm[0] == r and mm[1] == k and mm[2] == s and (mm[3] & kind):
-            if kind != 1 or (p[0] == self.memo_p[e, 0] and p[1] == self.memo_p[e, 1]      # exact: the same point
-                             and p[2] == self.memo_p[e, 2]):                             # exact: as above
+            if kind != 1 or same_point(p, &self.memo_p[e, 0]):
                 return False
         if self.check_uncached(h, r, k, p):
             return True

@@ -331,6 +331,13 @@ cdef enum:
     SERIAL_TAIL = 256   # a pass that may reach the target takes its last few candidates one by one
 
 
+cdef inline void prefetch_row(const double* row) noexcept nogil:
+    """Fetch a vertex row ahead: VSTRIDE doubles span up to three cache lines."""
+    prefetch(row)
+    prefetch(row + 7)
+    prefetch(row + VSTRIDE - 1)
+
+
 cdef inline unsigned int bucket_of(float c) noexcept nogil:
     cdef unsigned int bits
     if isnan(c):
@@ -627,7 +634,6 @@ cdef class PassDriver:
         cdef int dirty[RANK_RUN]
         cdef int i, j, e, h, n, sub, sub_end
         cdef unsigned char st
-        cdef const double* row
         sub = lo
         while sub < hi:
             sub_end = min(sub + <int>RANK_RUN, hi)
@@ -641,16 +647,9 @@ cdef class PassDriver:
                 elif st == ST_DIRTY:
                     dirty[n] = i
                     n += 1
-                    # (a row of VSTRIDE doubles spans up to three cache lines)
                     h = edge_he[i]
-                    row = &Q[VSTRIDE * corner[h]]
-                    prefetch(row)
-                    prefetch(row + 7)
-                    prefetch(row + VSTRIDE - 1)
-                    row = &Q[VSTRIDE * corner[he_next(h)]]
-                    prefetch(row)
-                    prefetch(row + 7)
-                    prefetch(row + VSTRIDE - 1)
+                    prefetch_row(&Q[VSTRIDE * corner[h]])
+                    prefetch_row(&Q[VSTRIDE * corner[he_next(h)]])
             for j in range(n):
                 e = dirty[j]
                 self.rank_one(e)
