@@ -400,6 +400,7 @@ def weld_cycles(group: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         nxt[order] = np.where(start & last, -1, succ)
     return rep, nxt
 
+
 def metric_context(work: Work, settings: dict) -> MetricContext:
     """What the metrics see at set-up: read-only views of the positions and plain face
     quadrics, the half-edge arrays, the fixed vertices and the run's settings."""

@@ -900,11 +900,7 @@ def _collapse_slivers(P2, F, n0: int, nX: int, free_old, group, crease_vertex) -
                     _lv, slots_v, _c = hm.star(v)
                     cv = corners_all[np.asarray(slots_v, dtype=np.int64)]
                     before = min(float(triangle_quality(P2, cu).min()), float(triangle_quality(P2, cv).min()))
-                    stay = ~(cu == v).any(axis=1)
-                    old = cu[stay]
-                    new = np.where(old == u, v, old)
-                    n_old = np.cross(P2[old[:, 1]] - P2[old[:, 0]], P2[old[:, 2]] - P2[old[:, 0]])
-                    n_new = np.cross(P2[new[:, 1]] - P2[new[:, 0]], P2[new[:, 2]] - P2[new[:, 0]])
+                    new, n_old, n_new = _star_after_collapse(P2, cu, u, v)
                     l_old = np.linalg.norm(n_old, axis=1)
                     l_new = np.linalg.norm(n_new, axis=1)
                     if not (l_new > 0).all() or \
@@ -1369,6 +1365,16 @@ def _collapse_keeps_copies_apart(hm, u: int, v: int, group: np.ndarray) -> bool:
     return True
 
 
+def _star_after_collapse(P, corners, u: int, v: int):
+    """u's faces ``corners`` (k, 3) when u collapses into its neighbour v: (those that stay,
+    with u replaced by v; their normals before; after)."""
+    old = corners[~(corners == v).any(axis=1)]
+    new = np.where(old == u, v, old)
+    n_old = np.cross(P[old[:, 1]] - P[old[:, 0]], P[old[:, 2]] - P[old[:, 0]])
+    n_new = np.cross(P[new[:, 1]] - P[new[:, 0]], P[new[:, 2]] - P[new[:, 0]])
+    return new, n_old, n_new
+
+
 def _collapse_leftovers(hm, P, n0: int, fixed: np.ndarray, group: np.ndarray | None = None) -> int:
     """Old vertices the removal rounds held back (typically at a sharp tip the new points
     do not resolve): collapse each into a neighbour -- a new vertex first, the nearest
@@ -1390,11 +1396,7 @@ def _collapse_leftovers(hm, P, n0: int, fixed: np.ndarray, group: np.ndarray | N
                     continue
                 if group is not None and not _collapse_keeps_copies_apart(hm, u, v, group):
                     continue
-                stay = ~(corners == v).any(axis=1)
-                old = corners[stay]
-                new = np.where(old == u, v, old)
-                n_old = np.cross(P[old[:, 1]] - P[old[:, 0]], P[old[:, 2]] - P[old[:, 0]])
-                n_new = np.cross(P[new[:, 1]] - P[new[:, 0]], P[new[:, 2]] - P[new[:, 0]])
+                new, n_old, n_new = _star_after_collapse(P, corners, u, v)
                 if (np.einsum("ij,ij->i", n_old, n_new) <= 0).any():
                     continue
                 q = float(triangle_quality(P, new).min()) if new.size else 1.0

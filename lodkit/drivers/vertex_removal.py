@@ -118,6 +118,7 @@ def weld_groups(work: Work):
     _, inverse = np.unique(pos, axis=0, return_inverse=True)
     return weld_cycles(inverse.reshape(-1))
 
+
 def _raise_if_failed(remover, metric) -> None:
     if remover.failed:
         raise MetricError(f"metric {metric.name!r} failed during the run: {remover.error_message}")
