@@ -421,22 +421,26 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
         cos_crease = math.cos(math.radians(features)) if features is not None else 2.0
         if relax and F.shape[0] and nX:
             slider = None
-            if np.any(on):
+            if on.size:
                 # crease points slide along their line, in the relaxation and in the
-                # worst-triangle step (boundary points stay)
+                # worst-triangle step; boundary points along their loop
                 slider = LineSlider(P0, F0, [(x, True) for x in loops + creases] + [(x, False) for x in lines],
-                                    n0 + nX + np.flatnonzero(on), bh[on], bt[on])
+                                    n0 + nX + np.arange(on.size), bh, bt, ~on)
             if slider is None:
                 relaxed = _relax(P2, F, n0, nX, surf, P0, F0, all_face, all_w, relax)
             for _ in range(relax if slider is not None else 0):
                 # interior points in their tangent planes, then the crease points along their
                 # lines, then the flips (edges between two crease points too, where no crease)
                 relaxed += _relax(P2, F, n0, nX, surf, P0, F0, all_face, all_w, 1)
-                for _sweep in range(_SLIDE_SWEEPS):
+                for _sweep in range(_SLIDE_SWEEPS if np.any(on) else 0):
                     relaxed_slid = _slide_relax(P2, F, slider, surf, all_face, all_w, n0)
                     relaxed += relaxed_slid
                     slid_relax += relaxed_slid
-                if flip_angle > 0:
+                for _sweep in range(_BOUNDARY_SWEEPS if slider.boundary.any() else 0):
+                    relaxed_slid = _slide_boundary(P2, F, slider, all_face, all_w, n0)
+                    relaxed += relaxed_slid
+                    slid_relax += relaxed_slid
+                if flip_angle > 0 and np.any(on):
                     twin = face_twins(F)
                     flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(flip_angle)), 50, crease_vertex,
                                                  2.0, cos_crease, group=group2))
@@ -660,7 +664,7 @@ class LineSlider:
     the line and the crease edges between them stay.  Corners and line ends are old
     vertices and do not move."""
 
-    def __init__(self, P0, F0, lines, slots, h, t):
+    def __init__(self, P0, F0, lines, slots, h, t, boundary=None):
         Ff = np.asarray(F0).reshape(-1)
         self.P0 = P0
         self.geo = []
@@ -679,6 +683,8 @@ class LineSlider:
         e = np.array([x[1] for x in at], dtype=np.int64)
         keep = self.line >= 0
         self.slots, self.line, e = self.slots[keep], self.line[keep], e[keep]
+        self.boundary = (np.zeros(keep.size, dtype=bool) if boundary is None
+                         else np.asarray(boundary, dtype=bool))[keep]
         t = np.asarray(t, dtype=np.float64)[keep]
         self.s = np.array([self.geo[li][4][k] + tt * self.geo[li][3][k]
                            for li, k, tt in zip(self.line.tolist(), e.tolist(), t.tolist())])
@@ -699,6 +705,29 @@ class LineSlider:
         w[np.arange(s.size), (i + 1) % 3] = tt
         X = self.P0[a[e]] + tt[:, None] * (self.P0[b[e]] - self.P0[a[e]])
         return X, he // 3, w, s
+
+    def deviation(self, li: int, s0: float, s1: float) -> float:
+        """The largest distance of line ``li``'s input vertices strictly between arc lengths
+        ``s0`` < ``s1`` (on a closed line ``s1`` may pass its length) to the chord between
+        the line's points at ``s0`` and ``s1``: how far that output edge leaves the line."""
+        loop, a, b, seg, cum, closed = self.geo[li]
+        length = float(cum[-1])
+        if closed:
+            shift = math.floor(s0 / length) * length
+            s0, s1 = s0 - shift, s1 - shift
+            arcs = np.concatenate([cum[:-1], cum[:-1] + length])
+            verts = np.concatenate([a, a])
+        else:
+            arcs = cum
+            verts = np.concatenate([a, b[-1:]])
+        inside = (arcs > s0) & (arcs < s1)
+        if not inside.any():
+            return 0.0
+        (x0, x1), _, _, _ = self.locate(li, np.array([s0, s1]))
+        d = x1 - x0
+        X = self.P0[verts[inside]] - x0
+        t = np.clip(X @ d / max(float(d @ d), 1e-300), 0.0, 1.0)
+        return float(np.linalg.norm(X - t[:, None] * d, axis=1).max())
 
     def room(self, v: int, alive: np.ndarray):
         """(back, ahead): how far the point in slot ``v`` may slide along its line before it
@@ -757,8 +786,8 @@ def _improve_worst(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, round
     quality of its faces: points around it in its tangent plane and its link's centroid,
     projected onto the input surface.  A candidate that turns one of its faces by more than
     _RELAX_TURN degrees is refused; a point moves only when its worst face gets better.
-    Connectivity is unchanged; old and boundary vertices stay.  Crease points (``slider``,
-    a :class:`LineSlider`; None: they stay too) slide along their crease line instead: their
+    Connectivity is unchanged; old vertices stay.  Crease and boundary points (``slider``,
+    a :class:`LineSlider`; None: they stay too) slide along their line or loop instead: their
     candidates are points of the line ahead and behind (_SLIDE_STEPS of the mean edge
     length, and half-way between the next output vertices on the line), never past those.
     ``all_face`` / ``all_w`` (rows 0 .. nX - 1, and the crease points' rows) follow the
@@ -912,7 +941,7 @@ def _slide_relax(P2, F, slider: LineSlider, surf, all_face, all_w, n0: int) -> i
     along = np.concatenate([-np.asarray(_SLIDE_RELAX_STEPS), np.asarray(_SLIDE_RELAX_STEPS)])
     moves = 0
     for i, v in enumerate(slider.slots.tolist()):
-        if not alive[v]:
+        if not alive[v] or slider.boundary[i]:
             continue
         fs = vface[start[v]:start[v + 1]]
         link = np.unique(F[fs].reshape(-1))
@@ -942,6 +971,66 @@ def _slide_relax(P2, F, slider: LineSlider, surf, all_face, all_w, n0: int) -> i
             cur = float(q0.mean())
         best = int(np.argmax(score))
         if score[best] > cur + 1e-6:
+            P2[v] = Y[best]
+            all_face[v - n0] = face[best]
+            all_w[v - n0] = w[best]
+            slider.s[i] = s_new[best]
+            normals[fs] = face_normals(P2, F[fs])[0]
+            moves += 1
+    return moves
+
+
+#: sweeps of the boundary points' relaxation per relaxation round
+_BOUNDARY_SWEEPS = 2
+
+
+def _slide_boundary(P2, F, slider: LineSlider, all_face, all_w, n0: int) -> int:
+    """One sweep of the boundary points' relaxation along their boundary loops (lodkit's
+    addition): each boundary point of ``slider``, in turn, is tried at points of its loop
+    (_SLIDE_RELAX_STEPS of its mean edge length ahead and behind, never past _SLIDE_ROOM of
+    the way to its neighbours on the loop, so their order stays) and moves to the one where
+    its two boundary edges leave the input's loop least (:meth:`LineSlider.deviation`), if
+    that is less than now, no face turns by more than _RELAX_TURN degrees and its worst face
+    gets no worse.  Connectivity is unchanged;
+    ``all_face`` / ``all_w`` (rows slot - n0) and ``slider.s`` follow.  Returns the moves."""
+    F = np.asarray(F, dtype=np.int64)
+    n = P2.shape[0]
+    alive = np.zeros(n, dtype=bool)
+    alive[F.reshape(-1)] = True
+    corners = F.reshape(-1)
+    order = np.argsort(corners, kind="stable")
+    start = np.searchsorted(corners[order], np.arange(n + 1))
+    vface = order // 3
+    normals, _ = face_normals(P2, F)
+    cos_turn = math.cos(math.radians(_RELAX_TURN))
+    along = np.concatenate([-np.asarray(_SLIDE_RELAX_STEPS), np.asarray(_SLIDE_RELAX_STEPS)])
+    moves = 0
+    for i, v in enumerate(slider.slots.tolist()):
+        if not alive[v] or not slider.boundary[i]:
+            continue
+        fs = vface[start[v]:start[v + 1]]
+        link = np.unique(F[fs].reshape(-1))
+        link = link[link != v]
+        h = float(np.linalg.norm(P2[link] - P2[v], axis=1).mean())
+        back, ahead = slider.room(v, alive)
+        ds = h * along
+        ds = ds[(ds > -_SLIDE_ROOM * back) & (ds < _SLIDE_ROOM * ahead)]
+        if ds.size == 0:
+            continue
+        li = int(slider.line[i])
+        s0 = float(slider.s[i])
+        Y, face, w, s_new = slider.locate(li, s0 + ds)
+        q0 = triangle_quality(P2, F[fs])
+        qs, ok = _star_candidates(P2, F[fs], v, Y, normals[fs], cos_turn)
+        ok &= qs.min(axis=1) >= float(q0.min())
+        if not ok.any():
+            continue
+        lo, hi = s0 - back, s0 + ahead
+        dev0 = max(slider.deviation(li, lo, s0), slider.deviation(li, s0, hi))
+        dev = np.array([max(slider.deviation(li, lo, s0 + d), slider.deviation(li, s0 + d, hi)) if good else np.inf
+                        for d, good in zip(ds.tolist(), ok.tolist())])
+        best = int(np.argmin(dev))
+        if dev[best] < dev0 * (1.0 - 1e-3):
             P2[v] = Y[best]
             all_face[v - n0] = face[best]
             all_w[v - n0] = w[best]

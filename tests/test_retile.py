@@ -765,3 +765,63 @@ def test_cow_pinch_second_worst_round_lifts_the_worst_triangle(kw, before):
     again = retile(src, 59, **kw)
     assert np.array_equal(again.mesh.faces, r.mesh.faces)
     assert np.allclose(again.mesh.vertices, r.mesh.vertices, rtol=0.0, atol=0.0)
+
+
+def ellipse_disc(n: int = 25) -> lodkit.Mesh:
+    """plane(n) mapped onto a disc and stretched into an ellipse (semi-axes 1 and 0.4): one
+    boundary loop whose curvature varies along it."""
+    src = plane(n)
+    u, v = 2 * src.vertices[:, 0] - 1, 2 * src.vertices[:, 1] - 1
+    x, y = u * np.sqrt(1 - v ** 2 / 2), v * np.sqrt(1 - u ** 2 / 2)
+    return lodkit.Mesh(np.c_[x, 0.4 * y, np.zeros(x.size)], src.faces)
+
+
+def test_boundary_points_slide_along_their_loop_and_stay_on_it_in_order():
+    """Boundary points relax along their boundary loops (``_slide_boundary``: to where their
+    two boundary edges leave the input's loop least; the worst-triangle step slides them
+    too).  On an ellipse they move, and every output boundary vertex still lies on the
+    input's boundary polygon, in the loop's order.  Two runs give the same bytes."""
+    from lodkit.optimize import closest_on_segments
+    from lodkit.retile import _boundary_loops
+
+    src = ellipse_disc()
+    r = retile(src, 120)
+    assert r.report["relax_slides"] >= 1
+    assert r.report["quality_min"] >= MIN_QUALITY
+    P, F = src.vertices, np.ascontiguousarray(src.faces, dtype=np.int32)
+    loops = _boundary_loops(F, face_twins(F))
+    Ff = F.reshape(-1)
+    a = np.concatenate([Ff[x] for x in loops])
+    b = np.concatenate([Ff[3 * (x // 3) + (x % 3 + 1) % 3] for x in loops])
+    V, G = r.mesh.vertices, np.ascontiguousarray(r.mesh.faces, dtype=np.int32)
+    out_loops = _boundary_loops(G, face_twins(G))
+    assert len(out_loops) == 1
+    ring = V[G.reshape(-1)[out_loops[0]]]
+    _, _, d2 = closest_on_segments(ring, P[a], P[b])
+    assert np.sqrt(d2).max() < 1e-9                                   # on the input's loop
+    ang = np.arctan2(ring[:, 1] / 0.4, ring[:, 0])
+    step = np.mod(np.diff(np.r_[ang, ang[0]]), 2 * np.pi)
+    assert (step < np.pi).all() or (step > np.pi).all()               # in the loop's order
+    assert np.isclose(np.mod(np.diff(np.r_[ang, ang[0]]), 2 * np.pi).sum(), 2 * np.pi) or \
+        np.isclose(np.mod(-np.diff(np.r_[ang, ang[0]]), 2 * np.pi).sum(), 2 * np.pi)   # once round
+    again = retile(src, 120)
+    assert np.array_equal(again.mesh.faces, r.mesh.faces)
+    assert np.allclose(again.mesh.vertices, r.mesh.vertices, rtol=0.0, atol=0.0)
+
+
+def test_line_slider_deviation_is_the_chord_error_of_the_loop():
+    """LineSlider.deviation: the largest distance of a loop's input vertices between two arc
+    lengths to the chord between the loop's points there (here: a unit square's boundary)."""
+    from lodkit.retile import LineSlider, _boundary_loops
+
+    src = plane(3)
+    P = src.vertices.astype(np.float64)
+    F = np.ascontiguousarray(src.faces, dtype=np.int32)
+    loop = _boundary_loops(F, face_twins(F))[0]
+    sl = LineSlider(P, F, [(loop, True)], np.zeros(0, dtype=np.int64), [], [])
+    assert np.isclose(sl.geo[0][4][-1], 4.0)                             # the perimeter
+    assert sl.deviation(0, 0.1, 0.4) < 1e-12                              # within one straight side
+    # across a corner: the chord between points 0.5 before and after it misses it by sqrt(2) / 4
+    corner = 1.0
+    for base in (corner, corner + 4.0, corner - 4.0):                     # a closed loop wraps
+        assert np.isclose(sl.deviation(0, base - 0.5, base + 0.5), np.sqrt(2.0) / 4.0)
