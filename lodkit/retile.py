@@ -163,10 +163,13 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
                  0: Turk's steps only): each new interior point moves half-way to the
                  area-weighted centroid of its faces within its tangent plane, back onto
                  the input surface; a move that would turn or spoil a face is undone;
-                 then the flips again, then the worst-triangle step: the new points of
+                 each round, crease points then slide along their crease lines to better
+                 triangles and boundary points along their loops to chords closer to the
+                 input's loop (report["relax_slides"]); then the flips again, then the
+                 worst-triangle step: the new points of
                  faces below quality 0.4 move, on the surface, to where their worst face is
                  best (report["worst_moves"]; crease points slide along their crease line,
-                 report["slid"]); faces still below 0.3 get a second, wider round in which
+                 report["slid"], boundary points too); faces still below 0.3 get a second, wider round in which
                  the old vertices the removal left move too (report["old_moved"]) and a
                  sliver's free vertex may collapse into a neighbour
                  (report["sliver_collapses"]); then a last sliver flip pass (docs/retile.md)
