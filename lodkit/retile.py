@@ -804,12 +804,7 @@ def _improve_worst(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, round
     slides = np.zeros(n, dtype=bool)
     if slider is not None and slider.slots.size:
         slides[slider.slots] = True
-    alive = np.zeros(n, dtype=bool)
-    alive[F.reshape(-1)] = True
-    corners = F.reshape(-1)
-    order = np.argsort(corners, kind="stable")
-    start = np.searchsorted(corners[order], np.arange(n + 1))
-    vface = order // 3                                  # faces of v: vface[start[v]:start[v + 1]]
+    _, alive, start, vface, _ = _sweep_state(P2, F)        # faces of v: vface[start[v]:start[v + 1]]
     cos_turn = math.cos(math.radians(turn))
     ang = 2.0 * math.pi * np.arange(directions) / directions
     unit = np.stack([np.cos(ang), np.sin(ang)], axis=1)
@@ -918,6 +913,36 @@ _SLIDE_RELAX_ERR = 0.02
 _SLIDE_SWEEPS = 2
 
 
+def _sweep_state(P2, F):
+    """What a sweep over points reads: the faces (int64), which slots are live, each slot's
+    faces (``vface[start[v]:start[v + 1]]``) and the faces' unit normals."""
+    F = np.asarray(F, dtype=np.int64)
+    n = P2.shape[0]
+    corners = F.reshape(-1)
+    alive = np.zeros(n, dtype=bool)
+    alive[corners] = True
+    order = np.argsort(corners, kind="stable")
+    start = np.searchsorted(corners[order], np.arange(n + 1))
+    return F, alive, start, order // 3, face_normals(P2, F)[0]
+
+
+def _mean_edge(P2, star, v: int) -> float:
+    """The mean length of the edges from ``v`` to the other corners of its faces ``star``."""
+    link = np.unique(star.reshape(-1))
+    link = link[link != v]
+    return float(np.linalg.norm(P2[link] - P2[v], axis=1).mean())
+
+
+def _slide_to(P2, F, fs, normals, v: int, i: int, slider: LineSlider, y, face, w, s, all_face, all_w, n0: int):
+    """Move line point ``v`` (the ``i``-th of ``slider``) to ``y`` on its line, at arc length
+    ``s`` and barycentric ``w`` in input face ``face``; its faces ``fs``' normals follow."""
+    P2[v] = y
+    all_face[v - n0] = face
+    all_w[v - n0] = w
+    slider.s[i] = s
+    normals[fs] = face_normals(P2, F[fs])[0]
+
+
 def _slide_relax(P2, F, slider: LineSlider, surf, all_face, all_w, n0: int) -> int:
     """One sweep of the crease points' relaxation along their crease lines (lodkit's
     addition; interleaved with :func:`_relax`'s rounds): each crease point of ``slider``, in
@@ -931,15 +956,7 @@ def _slide_relax(P2, F, slider: LineSlider, surf, all_face, all_w, n0: int) -> i
     faces (the largest smallest quality when a face is below _WORST_QUALITY) if that beats
     the current one.  Connectivity is unchanged; ``all_face`` / ``all_w`` (rows slot - n0)
     and ``slider.s`` follow.  Returns the moves made."""
-    F = np.asarray(F, dtype=np.int64)
-    n = P2.shape[0]
-    alive = np.zeros(n, dtype=bool)
-    alive[F.reshape(-1)] = True
-    corners = F.reshape(-1)
-    order = np.argsort(corners, kind="stable")
-    start = np.searchsorted(corners[order], np.arange(n + 1))
-    vface = order // 3
-    normals, _ = face_normals(P2, F)
+    F, alive, start, vface, normals = _sweep_state(P2, F)
     cos_turn = math.cos(math.radians(_RELAX_TURN))
     along = np.concatenate([-np.asarray(_SLIDE_RELAX_STEPS), np.asarray(_SLIDE_RELAX_STEPS)])
     moves = 0
@@ -947,9 +964,7 @@ def _slide_relax(P2, F, slider: LineSlider, surf, all_face, all_w, n0: int) -> i
         if not alive[v] or slider.boundary[i]:
             continue
         fs = vface[start[v]:start[v + 1]]
-        link = np.unique(F[fs].reshape(-1))
-        link = link[link != v]
-        h = float(np.linalg.norm(P2[link] - P2[v], axis=1).mean())
+        h = _mean_edge(P2, F[fs], v)
         back, ahead = slider.room(v, alive)
         ds = np.concatenate([h * along, [0.5 * (ahead - back)]])
         ds = ds[(ds > -_SLIDE_ROOM * back) & (ds < _SLIDE_ROOM * ahead) & (ds != 0.0)]   # exact: 0 is no move
@@ -974,11 +989,7 @@ def _slide_relax(P2, F, slider: LineSlider, surf, all_face, all_w, n0: int) -> i
             cur = float(q0.mean())
         best = int(np.argmax(score))
         if score[best] > cur + 1e-6:
-            P2[v] = Y[best]
-            all_face[v - n0] = face[best]
-            all_w[v - n0] = w[best]
-            slider.s[i] = s_new[best]
-            normals[fs] = face_normals(P2, F[fs])[0]
+            _slide_to(P2, F, fs, normals, v, i, slider, Y[best], face[best], w[best], s_new[best], all_face, all_w, n0)
             moves += 1
     return moves
 
@@ -996,15 +1007,7 @@ def _slide_boundary(P2, F, slider: LineSlider, all_face, all_w, n0: int) -> int:
     that is less than now, no face turns by more than _RELAX_TURN degrees and its worst face
     gets no worse.  Connectivity is unchanged;
     ``all_face`` / ``all_w`` (rows slot - n0) and ``slider.s`` follow.  Returns the moves."""
-    F = np.asarray(F, dtype=np.int64)
-    n = P2.shape[0]
-    alive = np.zeros(n, dtype=bool)
-    alive[F.reshape(-1)] = True
-    corners = F.reshape(-1)
-    order = np.argsort(corners, kind="stable")
-    start = np.searchsorted(corners[order], np.arange(n + 1))
-    vface = order // 3
-    normals, _ = face_normals(P2, F)
+    F, alive, start, vface, normals = _sweep_state(P2, F)
     cos_turn = math.cos(math.radians(_RELAX_TURN))
     along = np.concatenate([-np.asarray(_SLIDE_RELAX_STEPS), np.asarray(_SLIDE_RELAX_STEPS)])
     moves = 0
@@ -1012,9 +1015,7 @@ def _slide_boundary(P2, F, slider: LineSlider, all_face, all_w, n0: int) -> int:
         if not alive[v] or not slider.boundary[i]:
             continue
         fs = vface[start[v]:start[v + 1]]
-        link = np.unique(F[fs].reshape(-1))
-        link = link[link != v]
-        h = float(np.linalg.norm(P2[link] - P2[v], axis=1).mean())
+        h = _mean_edge(P2, F[fs], v)
         back, ahead = slider.room(v, alive)
         ds = h * along
         ds = ds[(ds > -_SLIDE_ROOM * back) & (ds < _SLIDE_ROOM * ahead)]
@@ -1034,11 +1035,7 @@ def _slide_boundary(P2, F, slider: LineSlider, all_face, all_w, n0: int) -> int:
                         for d, good in zip(ds.tolist(), ok.tolist())])
         best = int(np.argmin(dev))
         if dev[best] < dev0 * (1.0 - 1e-3):
-            P2[v] = Y[best]
-            all_face[v - n0] = face[best]
-            all_w[v - n0] = w[best]
-            slider.s[i] = s_new[best]
-            normals[fs] = face_normals(P2, F[fs])[0]
+            _slide_to(P2, F, fs, normals, v, i, slider, Y[best], face[best], w[best], s_new[best], all_face, all_w, n0)
             moves += 1
     return moves
 

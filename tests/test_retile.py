@@ -16,7 +16,7 @@ from lodkit import MeshError, OptionError
 from lodkit._core import retile as kern
 from lodkit.evaluate import closest_points
 from lodkit.geometry import triangle_quality, weld_positions
-from lodkit.retile import face_twins, retile
+from lodkit.retile import _crease_lines, face_twins, retile
 
 # Bounds stated in docs/retile.md for smooth surfaces: mean quality (4 sqrt(3) A / sum l^2)
 # >= 0.88 and no triangle below 0.3
@@ -325,14 +325,11 @@ def roof(n: int = 9) -> lodkit.Mesh:
     return lodkit.Mesh(*weld_positions(np.concatenate([A, B]), F))
 
 
-def test_worst_triangle_step_slides_crease_points_along_their_crease():
-    """A crease point pushed next to its neighbour on the crease makes slivers on both sides
-    of it.  It may not leave the crease, so the 2-D candidates of the worst-triangle step
-    are not for it; with a LineSlider it slides along the crease line: the worst triangle
-    gets good, every crease point stays on the line (and in its order), the faces and the
-    other points stay."""
-    from lodkit.retile import LineSlider, SurfaceProjector, _crease_lines, _improve_worst
-
+def roof_strips(cx, width: float):
+    """The roof's input and, on it, a strip of four new points each side of the crease
+    (``width`` from it) and three new points ``cx`` on the crease, tessellated with the
+    crease's ends: (P0, F0, the crease line's half-edges, on_line(x) -> (half-edge, its
+    parameter), n0, X the new points, F the faces over slots 0 .. n0 + 10)."""
     src = roof()
     P0 = src.vertices.astype(np.float64)
     F0 = np.ascontiguousarray(src.faces, dtype=np.int32)
@@ -349,10 +346,8 @@ def test_worst_triangle_step_slides_crease_points_along_their_crease():
 
     n0 = P0.shape[0]
     xs = np.array([0.125, 0.375, 0.625, 0.875])
-    cx = np.array([0.25, 0.31, 0.75])                 # the middle one pushed next to the first
-    X = np.concatenate([np.c_[xs, np.full(4, 0.4), np.zeros(4)], np.c_[xs, np.zeros(4), np.full(4, 0.4)],
+    X = np.concatenate([np.c_[xs, np.full(4, width), np.zeros(4)], np.c_[xs, np.zeros(4), np.full(4, width)],
                         np.c_[cx, np.zeros(3), np.zeros(3)]])
-    P2 = np.ascontiguousarray(np.concatenate([P0, X]))
     ends = [int(np.argmin(np.linalg.norm(P0 - [x, 0.0, 0.0], axis=1))) for x in (0.0, 1.0)]
     row = [ends[0], n0 + 8, n0 + 9, n0 + 10, ends[1]]
     F = []
@@ -364,6 +359,20 @@ def test_worst_triangle_step_slides_crease_points_along_their_crease():
                 F.append([row[i + 1], S[i + 1], S[i]])
     F = np.array(F, dtype=np.int64)
     F[8:] = F[8:, ::-1]
+    return P0, F0, line, on_line, n0, X, F
+
+
+def test_worst_triangle_step_slides_crease_points_along_their_crease():
+    """A crease point pushed next to its neighbour on the crease makes slivers on both sides
+    of it.  It may not leave the crease, so the 2-D candidates of the worst-triangle step
+    are not for it; with a LineSlider it slides along the crease line: the worst triangle
+    gets good, every crease point stays on the line (and in its order), the faces and the
+    other points stay."""
+    from lodkit.retile import LineSlider, SurfaceProjector, _improve_worst
+
+    cx = np.array([0.25, 0.31, 0.75])                 # the middle one pushed next to the first
+    P0, F0, line, on_line, n0, X, F = roof_strips(cx, 0.4)
+    P2 = np.ascontiguousarray(np.concatenate([P0, X]))
     F_before = F.copy()
     surf = SurfaceProjector(P0, F0.astype(np.int64))
     face, w, _ = surf.closest(X)
@@ -400,37 +409,10 @@ def test_crease_relaxation_slides_points_along_their_line_and_raises_the_mean_qu
     0.4), every crease point stays on the line, in its order and between its ends, the other
     points and the faces stay, and the input faces and arc lengths follow.  Two runs give
     the same bytes."""
-    from lodkit.retile import LineSlider, SurfaceProjector, _crease_lines, _slide_relax
+    from lodkit.retile import LineSlider, SurfaceProjector, _slide_relax
 
-    src = roof()
-    P0 = src.vertices.astype(np.float64)
-    F0 = np.ascontiguousarray(src.faces, dtype=np.int32)
-    lines, _ = _crease_lines(P0, F0, face_twins(F0), np.cos(np.radians(40.0)))
-    line = lines[0]
-    Ff = F0.reshape(-1)
-    xa = P0[Ff[line], 0]
-    xb = P0[Ff[3 * (line // 3) + (line % 3 + 1) % 3], 0]
-
-    def on_line(x):
-        e = int(np.flatnonzero((np.minimum(xa, xb) <= x) & (x <= np.maximum(xa, xb)))[0])
-        return int(line[e]), (x - xa[e]) / (xb[e] - xa[e])
-
-    n0 = P0.shape[0]
-    xs = np.array([0.125, 0.375, 0.625, 0.875])
     cx = np.array([0.375, 0.5, 0.625])                # below strip points: right triangles
-    X = np.concatenate([np.c_[xs, np.full(4, 0.25), np.zeros(4)], np.c_[xs, np.zeros(4), np.full(4, 0.25)],
-                        np.c_[cx, np.zeros(3), np.zeros(3)]])
-    ends = [int(np.argmin(np.linalg.norm(P0 - [x, 0.0, 0.0], axis=1))) for x in (0.0, 1.0)]
-    row = [ends[0], n0 + 8, n0 + 9, n0 + 10, ends[1]]
-    F = []
-    for side in (0, 4):
-        S = [n0 + side + i for i in range(4)]
-        for i in range(4):
-            F.append([row[i], row[i + 1], S[i]])
-            if i < 3:
-                F.append([row[i + 1], S[i + 1], S[i]])
-    F = np.array(F, dtype=np.int64)
-    F[8:] = F[8:, ::-1]
+    P0, F0, line, on_line, n0, X, F = roof_strips(cx, 0.25)
     surf = SurfaceProjector(P0, F0.astype(np.int64))
 
     def run():
