@@ -172,7 +172,9 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
                  report["slid"], boundary points too); faces still below 0.3 get a second, wider round in which
                  the old vertices the removal left move too (report["old_moved"]) and a
                  sliver's free vertex may collapse into a neighbour
-                 (report["sliver_collapses"]); then a last sliver flip pass (docs/retile.md)
+                 (report["sliver_collapses"]); then a last sliver flip pass; on the
+                 pass kept, faces still below 0.3 get up to 8 rounds of those moves,
+                 collapses, sliver splits (report["sliver_splits"]) and flips (docs/retile.md)
     refine     : error-driven passes (lodkit's addition, 0: off): after each pass the
                  distance between the re-tiling and the input is measured both ways, the
                  density is multiplied by the local error over its mean (at most 4x
