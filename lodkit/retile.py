@@ -172,7 +172,9 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
                  report["slid"], boundary points too); faces still below 0.3 get a second, wider round in which
                  the old vertices the removal left move too (report["old_moved"]) and a
                  sliver's free vertex may collapse into a neighbour
-                 (report["sliver_collapses"]); then a last sliver flip pass (docs/retile.md)
+                 (report["sliver_collapses"]); then a last sliver flip pass; on the
+                 pass kept, faces still below 0.3 get up to 8 rounds of those moves,
+                 collapses, sliver splits (report["sliver_splits"]) and flips (docs/retile.md)
     refine     : error-driven passes (lodkit's addition, 0: off): after each pass the
                  distance between the re-tiling and the input is measured both ways, the
                  density is multiplied by the local error over its mean (at most 4x
@@ -421,6 +423,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
                                              group=group2))
         relaxed = worst_moves = slid = slid_relax = collapsed = 0
         old_at = (np.full(n0, -1, dtype=np.int64), np.zeros((n0, 3)))
+        free_old = None
         cos_crease = math.cos(math.radians(features)) if features is not None else 2.0
         if relax and F.shape[0] and nX:
             slider = None
@@ -497,14 +500,27 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
             if best is None or err < best[0]:
                 best = (err, pass_, P2.copy(), F, n_new, nX, all_face, all_w, B, kept, on, n_dropped,
                         removals, held, n_collapsed, flips, relaxed, worst_moves, slid, n_old_kept, collapsed,
-                        old_at, slid_relax)
+                        old_at, slid_relax, free_old, group2, crease_vertex)
             weight = new_weight
             times["refine"] = times.get("refine", 0.0) + time.perf_counter() - t
     if refine:
         # each pass draws new points: the one with the smallest largest error is kept
         (_, kept_pass, P2, F, n_new, nX, all_face, all_w, B, kept, on, n_dropped, removals, held,
-         n_collapsed, flips, relaxed, worst_moves, slid, n_old_kept, collapsed, old_at, slid_relax) = best
+         n_collapsed, flips, relaxed, worst_moves, slid, n_old_kept, collapsed, old_at, slid_relax, free_old, group2,
+         crease_vertex) = best
     t = time.perf_counter()
+    split = 0
+    if free_old is not None and F.shape[0] and float(triangle_quality(P2, F).min()) < _COLLAPSE_QUALITY:
+        # still below the target on the kept pass (after the choice, so that it stays):
+        # moves that no stuck vertex blocks, collapses, splits and flips
+        cos_flip = math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE))) if flip_angle > 0 else 2.0
+        P2, F, all_face, all_w, more, n_c, split, n_f = _untangle(
+            P2, F, n0, nX, surf, P0, F0, all_face, all_w, free_old, old_at, group2, crease_vertex, cos_flip,
+            math.cos(math.radians(features)) if features is not None else 2.0)
+        worst_moves += more
+        collapsed += n_c
+        flips += n_f
+        n_new = P2.shape[0] - n0
     fitted = _fit_normal(P2, F, n0, nX, surf, normals0, fit) if fit and nX else 0
     used = np.zeros(n0 + n_new, dtype=bool)
     used[F.reshape(-1)] = True
@@ -561,6 +577,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
             "slid": slid,
             "relax_slides": slid_relax,
             "sliver_collapses": collapsed,
+            "sliver_splits": split,
             "old_moved": int(np.count_nonzero(moved_old)),
             "refine_errors": errors,
             "refine_pass": kept_pass if refine else 0,
@@ -781,7 +798,7 @@ _SLIDE_STEPS = _WORST_STEPS + (0.5, 0.7)
 def _improve_worst(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, rounds: int,
                    slider: LineSlider | None = None, free_old=None, old_at=None, limit: float = _WORST_QUALITY,
                    steps=_WORST_STEPS, directions: int = _WORST_DIRECTIONS,
-                   turn: float = _RELAX_TURN) -> tuple[int, int]:
+                   turn: float = _RELAX_TURN, stuck: bool = False) -> tuple[int, int]:
     """The worst-triangle step (lodkit's addition, the last step of remeshers, Botsch and
     Kobbelt 2004): ``rounds`` rounds that each take the new interior points (slots n0 ..
     n0 + nX - 1 of ``P2``, in place) on faces of quality below _WORST_QUALITY, worst star
@@ -797,7 +814,9 @@ def _improve_worst(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, round
     moved points.  ``free_old`` ((n,) bool or None): old vertices the removal left that may
     move too, like new points (not copies of a split vertex, boundary corners or crease
     vertices); ``old_at`` = (faces (n0,), weights (n0, 3)) records where they went (face -1:
-    not moved).  Returns (moves made, of them crease points slid)."""
+    not moved).  ``stuck``: a vertex that found no better candidate is not taken again until
+    a neighbour moves (else it is taken first every round, and the neighbours it shares a
+    face with never are).  Returns (moves made, of them crease points slid)."""
     F = np.asarray(F, dtype=np.int64)
     n = P2.shape[0]
     movable, _ = _new_interior_points(F, n, n0, nX, free_old)
@@ -811,10 +830,11 @@ def _improve_worst(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, round
     ring = np.concatenate([unit * s for s in steps])                   # (K - 1, 2)
     along = np.concatenate([-np.asarray(_SLIDE_STEPS), np.asarray(_SLIDE_STEPS)])
     moves = slid = 0
+    held = np.zeros(n, dtype=bool)
     for _ in range(rounds):
         q = triangle_quality(P2, F)
         verts = np.unique(F[q < limit].reshape(-1))
-        verts = verts[movable[verts] | slides[verts]]
+        verts = verts[(movable[verts] | slides[verts]) & ~held[verts]]
         if verts.size == 0:
             break
         worst = np.array([q[vface[start[v]:start[v + 1]]].min() for v in verts])
@@ -862,6 +882,7 @@ def _improve_worst(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, round
             if slides[v]:
                 Yv, face_v, w_v, s_v = line_cands[v]
                 if Yv.shape[0] == 0:
+                    held[v] = stuck
                     continue
             else:
                 r += 1
@@ -869,7 +890,9 @@ def _improve_worst(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, round
             qs, ok = _star_candidates(P2, F[fs], v, Yv, normals[fs], cos_turn)
             score = np.where(ok, qs.min(axis=1), -1.0)
             best = int(np.argmax(score))
+            held[v] = stuck
             if score[best] > q[fs].min() + 1e-6:
+                held[F[fs].reshape(-1)] = False
                 P2[v] = Yv[best]
                 if v < n0:
                     old_at[0][v] = face_v[best]
@@ -1109,6 +1132,125 @@ def _collapse_slivers(P2, F, n0: int, nX: int, free_old, group, crease_vertex) -
         if not changed:
             break
     return np.ascontiguousarray(hm.faces(), dtype=np.int32), done
+
+
+#: the sliver splits: the longest edge of a face below _COLLAPSE_QUALITY is tried split at
+#: these fractions of its length (the point projected onto the input surface)
+_SPLIT_AT = (0.3, 0.4, 0.5, 0.6, 0.7)
+
+
+def _split_slivers(P2, F, surf, P0, F0, group):
+    """Faces still below _COLLAPSE_QUALITY (lodkit's addition): the longest edge a-b of each,
+    worst first, is split by a new vertex m on the input surface (the closest point to a
+    point of the edge, _SPLIT_AT) when the four new faces' smallest quality beats the two
+    old faces', none of them turns by more than _RELAX_TURN degrees from the face it
+    replaces and (``group``, :func:`_copy_groups`) m is not next to two copies of one input
+    vertex.  An edge split keeps the topology.  Returns (``P2`` with the new vertices
+    appended, the faces (int32), the new vertices' input faces (k,) and barycentric weights
+    (k, 3), splits made)."""
+    F = np.asarray(F, dtype=np.int64).copy()
+    cos_turn = math.cos(math.radians(_RELAX_TURN))
+    at = np.asarray(_SPLIT_AT)
+    sub = np.array([[0, 4, 2], [4, 1, 2], [1, 4, 3], [4, 0, 3]])      # of (a, b, c, d, m)
+    added_f, added_w = [], []
+    P = P2
+    tried = set()
+    while True:
+        q = triangle_quality(P, F)
+        order = np.argsort(q, kind="stable")
+        split = False
+        for f in order[q[order] < _COLLAPSE_QUALITY].tolist():
+            T = P[F[f]]
+            i = int(np.argmax(np.linalg.norm(T[[1, 2, 0]] - T, axis=1)))
+            a, b, c = int(F[f, i]), int(F[f, (i + 1) % 3]), int(F[f, (i + 2) % 3])
+            if (a, b) in tried:
+                continue
+            tried.add((a, b))
+            g = np.flatnonzero((F == a).any(axis=1) & (F == b).any(axis=1))
+            g = g[g != f]
+            if g.size != 1:
+                continue                      # a boundary edge (or a non-manifold one)
+            g = int(g[0])
+            d = int(F[g][(F[g] != a) & (F[g] != b)][0])
+            if group is not None and max(c, d) < group.size and group[c] >= 0 and group[c] == group[d]:
+                continue                      # m would join two copies (a vertex added here is none)
+            face, w, _ = surf.closest(P[a] + at[:, None] * (P[b] - P[a]))
+            Y = np.einsum("nk,nkj->nj", w, P0[F0[face]])
+            old = np.array([[a, b, c], [b, a, d]])
+            n_old = face_normals(P, old)[0][[0, 0, 1, 1]]
+            best, best_q = -1, float(triangle_quality(P, old).min()) + 1e-6
+            for k in range(Y.shape[0]):
+                Pm = np.concatenate([P[[a, b, c, d]], Y[k:k + 1]])
+                n_sub, area = face_normals(Pm, sub)
+                if not (area > 0).all() or (np.einsum("ij,ij->i", n_sub, n_old) < cos_turn).any():
+                    continue
+                qk = float(triangle_quality(Pm, sub).min())
+                if qk > best_q:
+                    best, best_q = k, qk
+            if best < 0:
+                continue
+            m = P.shape[0]
+            P = np.concatenate([P, Y[best:best + 1]])
+            F[f] = [a, m, c]
+            F[g] = [b, m, d]
+            F = np.concatenate([F, [[m, b, c], [m, a, d]]])
+            added_f.append(int(face[best]))
+            added_w.append(w[best])
+            split = True
+            break
+        if not split:
+            break
+    return (P, np.ascontiguousarray(F, dtype=np.int32), np.asarray(added_f, dtype=np.int64),
+            np.asarray(added_w, dtype=np.float64).reshape(-1, 3), len(added_f))
+
+
+#: the untangling of the kept pass: at most this many rounds of moves, collapses, splits and
+#: flips while a face is below _COLLAPSE_QUALITY
+_UNTANGLE_ROUNDS = 8
+
+
+def _untangle(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, free_old, old_at, group, crease_vertex,
+              cos_flip: float, cos_crease: float):
+    """What is left below _COLLAPSE_QUALITY on the pass ``refine`` keeps (lodkit's addition;
+    cow's pinch, docs/retile.md): rounds of the wide worst-triangle step (``stuck``: a vertex
+    that cannot improve no longer blocks its neighbours), the sliver collapses, the sliver
+    splits (:func:`_split_slivers`) and the sliver flips (faces within acos(``cos_flip``),
+    worse triangle below _WORST_QUALITY), until no face is below _COLLAPSE_QUALITY or
+    nothing changes.  Each operation raises the smallest quality of what it touches, so the
+    worst face never gets worse.  ``all_face`` / ``all_w`` hold one row per new vertex (slot
+    - n0); the split vertices are appended to ``P2`` and to them (and to ``free_old``,
+    ``group`` and ``crease_vertex``, which may be None).  Returns (P2, F, all_face, all_w,
+    moves, collapses, splits, flips)."""
+    moves = collapses = splits = flips = 0
+    n_rows = P2.shape[0] - n0
+    all_face, all_w = all_face[:n_rows], all_w[:n_rows]
+    for k in range(_UNTANGLE_ROUNDS):
+        more, _ = _improve_worst(P2, F, n0, nX, surf, P0, F0, all_face, all_w, _WORST_ROUNDS, None, free_old,
+                                 old_at, _COLLAPSE_QUALITY, _FAR_STEPS, _FAR_DIRECTIONS, _FAR_TURN, stuck=True)
+        moves += more
+        if k == _UNTANGLE_ROUNDS - 1 or float(triangle_quality(P2, F).min()) >= _COLLAPSE_QUALITY:
+            break
+        F_c, n_c = _collapse_slivers(P2, F, n0, nX, free_old, group, crease_vertex)
+        if n_c:
+            F = F_c
+        P2, F, s_face, s_w, n_s = _split_slivers(P2, F, surf, P0, F0, group)
+        if n_s:
+            all_face = np.concatenate([all_face, s_face])
+            all_w = np.concatenate([all_w, s_w])
+            free_old = np.concatenate([free_old, np.ones(n_s, dtype=bool)])
+            if group is not None:
+                group = np.ascontiguousarray(np.concatenate([group, np.full(n_s, -1)]), dtype=np.intc)
+            if crease_vertex is not None:
+                crease_vertex = np.concatenate([crease_vertex, np.zeros(n_s, dtype=np.uint8)])
+        F = np.ascontiguousarray(F, dtype=np.int32)
+        n_f = int(kern.flip_edges(P2, F, face_twins(F), cos_flip, 20, crease_vertex, _WORST_QUALITY, cos_crease,
+                                  group=group))
+        collapses += n_c
+        splits += n_s
+        flips += n_f
+        if not (n_c or n_s or n_f):
+            break
+    return P2, F, all_face, all_w, moves, collapses, splits, flips
 
 
 #: fit: a vertex moves by at most this fraction of its mean edge length in all
