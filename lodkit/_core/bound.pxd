@@ -77,6 +77,7 @@ cdef class Bound:
     cdef bint fits(self, int t, int code, const double* tris, const double* balls, int n,
                    int* hint) noexcept nogil
     cdef void place(self, int q, const double* tris, const double* balls, const int* fids, int n,
-                    int* hint, unsigned char* got) noexcept nogil
+                    int* hint) noexcept nogil
+    cdef void sphere_grow(self, int f, const double* x) noexcept nogil
     cdef void fit_sphere(self, int f) noexcept nogil
     cdef double face_fits(self, int f, const double* t) noexcept nogil

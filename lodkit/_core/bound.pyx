@@ -490,9 +490,11 @@ cdef class Bound:
         memo[:, 0] = -1                       # nothing refused yet
         self.memo = memo
         self.memo_p = np.zeros((max(hm.n_edges, 1), 3))
+        cdef int[::1] F = faces
         cdef int f
-        for f in faces:
-            self.fit_sphere(f)
+        with nogil:
+            for f in range(F.shape[0]):
+                self.fit_sphere(F[f])
 
     cdef int build(self, int* idx, const double* cent, const double* tb, int n) noexcept nogil:
         """Top-down BVH: split at the median centroid along the longest axis of the
@@ -1006,11 +1008,12 @@ cdef class Bound:
         cdef int n = 1, d, i, c, found
         cdef double worst2 = 0.0, b, hs, lim2, mx, v
         # (a) on the face itself first: most faces pass whole, and need nothing else (the
-        # triangle that covered it before the collapse; the search for any other waits
-        # until the flat patch has failed)
+        # triangle that covered it before the collapse, its value the certificate: no
+        # search for a nearer one; the search for any other waits until the flat patch
+        # has failed)
         hint[0] = cover[0]
         hint[1] = hint[2] = -1
-        b = self.cover2(t, hint, &found, True, False)
+        b = self.cover2(t, hint, &found, False, False)
         if b <= self.eps2:
             cover[0] = found
             return sqrt(b)
@@ -1335,7 +1338,6 @@ cdef class Bound:
         cdef double tris[9 * BOUND_MAX_FAN]
         cdef double balls[4 * BOUND_MAX_FAN]
         cdef int fids[BOUND_MAX_FAN]
-        cdef unsigned char got[BOUND_MAX_FAN]
         cdef int n, i, q, nq, hint = -1
         cdef double worst = 0.0
         n = self.collect(k, -1, -1, &self.P[self.stride * k], tris, fids, NULL, 0)
@@ -1347,16 +1349,20 @@ cdef class Bound:
             if self.pending[fids[i]] > self.cert[fids[i]]:
                 self.cert[fids[i]] = self.pending[fids[i]]
             self.ctri[fids[i]] = self.pending_tri[fids[i]]
-            got[i] = self.pending_keep[fids[i]] < 0.0        # no pieces kept: its ball is redone
+            if self.pending_keep[fids[i]] < 0.0:
+                # no pieces kept: a new ball around its pieces, about the face's centroid,
+                # grown by place as they come
+                self.sphere[fids[i], 0] = balls[4 * i]
+                self.sphere[fids[i], 1] = balls[4 * i + 1]
+                self.sphere[fids[i], 2] = balls[4 * i + 2]
+                self.sphere[fids[i], 3] = 0.0
         self.vd2[k] = -1.0                   # k moved
         q = chain
         while q >= 0:
             nq = self.nxt[q]
-            self.place(q, tris, balls, fids, n, &hint, got)
+            self.place(q, tris, balls, fids, n, &hint)
             q = nq
         for i in range(n):
-            if got[i]:
-                self.fit_sphere(fids[i])
             if self.cert[fids[i]] > worst:
                 worst = self.cert[fids[i]]
         self.last[k] = worst
@@ -1420,7 +1426,7 @@ cdef class Bound:
         return True
 
     cdef void place(self, int q, const double* tris, const double* balls, const int* fids, int n,
-                    int* hint, unsigned char* got) noexcept nogil:
+                    int* hint) noexcept nogil:
         """Attach piece q (its face is gone) to the new face nearest its three corners, if
         that holds them within eps; else split it as :meth:`fits` did (child 0 keeps slot
         q, the others take new slots) and place the children.  Each face's certificate
@@ -1467,7 +1473,7 @@ cdef class Bound:
                 self.overflow = True         # placed whole: the driver raises OptionError
             self.nxt[s] = self.head[fids[best]]
             self.head[fids[best]] = s
-            got[best] = 1
+            self.sphere_grow(fids[best], x)
             v = sqrt(bv)
             if v > self.cert[fids[best]]:
                 self.cert[fids[best]] = v
@@ -1494,6 +1500,20 @@ cdef class Bound:
             return -1.0
         v = sqrt(v) + pd
         return v if v < self.eps else self.eps
+
+    cdef void sphere_grow(self, int f, const double* x) noexcept nogil:
+        """Grow sphere[f] (its centre kept) to hold the three points x (a piece placed on f):
+        the ball still holds every piece on f, which is all the check asks of it."""
+        cdef double* b = &self.sphere[f, 0]
+        cdef double d, r2 = 0.0
+        cdef int c
+        for c in range(3):
+            d = sq(x[3 * c] - b[0]) + sq(x[3 * c + 1] - b[1]) + sq(x[3 * c + 2] - b[2])
+            if d > r2:
+                r2 = d
+        d = sqrt(r2) * (1.0 + 1e-12) + 1e-300   # a hair large: rounding never lets a corner out
+        if d > b[3]:
+            b[3] = d
 
     cdef void fit_sphere(self, int f) noexcept nogil:
         """sphere[f]: a ball around the pieces on f (the centroid of their corners, the
