@@ -39,6 +39,7 @@ cdef class Bound:
     cdef int capacity
     cdef bint overflow                # a piece found no slot to split into
     cdef double[::1] cert             # (n_faces,) certified distance of the face (both ways)
+    cdef double[::1] fval             # (n_faces,) certified distance of the face's points to the original
     cdef double[::1] pdist            # (n_faces,) the largest distance of its pieces' corners to it
     cdef double[::1] pending          # (n_faces,) the check's face-to-original value
     cdef int[::1] ctri                # (n_faces,) the original triangle that covers the face whole, else one near it

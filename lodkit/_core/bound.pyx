@@ -192,6 +192,7 @@ cdef inline double corners_sqdist(const double* x, const double* t, double lim2)
 # diagonal) is the margin of every test in that plane, far above the rounding of the
 # projected coordinates (about 1e-16).
 cdef double PATCH_MARGIN = 1e-10
+cdef double PLACE_NEAR = 1.0 / 4.0
 # where in t the patch's winding number is counted (barycentric weights): the centroid,
 # then two points no regular grid puts on its lines
 cdef double PATCH_AT[9]
@@ -356,6 +357,15 @@ cdef inline bint ball_beyond(const double* ball, const double* x, double r) noex
     return sq(x[0] - ball[0]) + sq(x[1] - ball[1]) + sq(x[2] - ball[2]) > sq(ball[3] + r)
 
 
+cdef inline bint ball_beyond3(const double* ball, const double* x, double r) noexcept nogil:
+    """Is one of the three points x (9 doubles) farther than r from the ball (so the
+    largest of their distances to its triangle more than r)?"""
+    cdef double lim = sq(ball[3] + r)
+    return (sq(x[0] - ball[0]) + sq(x[1] - ball[1]) + sq(x[2] - ball[2]) > lim
+            or sq(x[3] - ball[0]) + sq(x[4] - ball[1]) + sq(x[5] - ball[2]) > lim
+            or sq(x[6] - ball[0]) + sq(x[7] - ball[1]) + sq(x[8] - ball[2]) > lim)
+
+
 cdef extern from *:
     """
     /* slots for new pieces: taken by the pass driver's threads at once (relaxed: the
@@ -480,6 +490,7 @@ cdef class Bound:
         self.overflow = False
         self.sphere = np.zeros((max(n_faces, 1), 4))
         self.cert = np.zeros(max(n_faces, 1))
+        self.fval = np.zeros(max(n_faces, 1))
         self.pdist = np.zeros(max(n_faces, 1))
         self.pending = np.zeros(max(n_faces, 1))
         self.last = np.zeros(max(hm.n_vertices, 1))
@@ -1235,14 +1246,15 @@ cdef class Bound:
         cdef int vids[3 * BOUND_MAX_FAN]
         cdef int fa = h // 3
         cdef int fb = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
-        cdef int n, i, pass_, center, start, y, f, q, hint, cover, p_near = -1
-        cdef double lim, v, p2 = -1.0
+        cdef int n, n_r, i, pass_, center, start, y, f, q, hint, cover, p_near = -1
+        cdef double lim, v, move_r, move_k, p2 = -1.0
         cdef bint ok
         if not self.within(p, self.eps2):
             return False
         n = self.collect(r, fa, fb, p, tris, fids, vids, 0)
         if n < 0:
             return False
+        n_r = n
         n = self.collect(k, fa, fb, p, tris, fids, vids, n)
         if n < 0:
             return False
@@ -1283,8 +1295,21 @@ cdef class Bound:
                 y = he_ring_next(self.m, y)
                 if y < 0 or y == start:
                     break
-        # simplified -> original: every new face
+        # simplified -> original: every new face.  First its face before (in its slot, the
+        # moved end at its old place) and how far that end moves: each point of the new
+        # face is the point of the old one with the same barycentric weights moved by at
+        # most that much, so within the old face's certificate plus it of the original
+        # (taken a hair large for rounding)
+        move_r = sqrt(sq(p[0] - self.P[self.stride * r]) + sq(p[1] - self.P[self.stride * r + 1])
+                      + sq(p[2] - self.P[self.stride * r + 2]))
+        move_k = sqrt(sq(p[0] - self.P[self.stride * k]) + sq(p[1] - self.P[self.stride * k + 1])
+                      + sq(p[2] - self.P[self.stride * k + 2]))
         for i in range(n):
+            v = (self.fval[fids[i]] + (move_r if i < n_r else move_k)) * (1.0 + 1e-12)
+            if v <= self.eps:
+                self.pending[fids[i]] = v
+                self.pending_tri[fids[i]] = self.ctri[fids[i]]
+                continue
             cover = self.ctri[fids[i]]
             v = self.face_value(&tris[9 * i], &cover, &vids[3 * i], &p2, &p_near)
             if v < 0.0:
@@ -1346,6 +1371,7 @@ cdef class Bound:
         face_balls(tris, n, balls)
         for i in range(n):
             # (pieces kept on the face: their bound, commit_begin)
+            self.fval[fids[i]] = self.pending[fids[i]]
             if self.pending[fids[i]] > self.cert[fids[i]]:
                 self.cert[fids[i]] = self.pending[fids[i]]
             self.ctri[fids[i]] = self.pending_tri[fids[i]]
@@ -1447,7 +1473,7 @@ cdef class Bound:
             # others mostly stop at their first corner
             best = hint[0]
             bv = corners_sqdist(x, &tris[9 * best], INFINITY) if best >= 0 else INFINITY
-            for i in range(n):
+            for i in range(n if bv > PLACE_NEAR * self.eps2 else 0):
                 if i != hint[0]:
                     if bv < INFINITY and ball_beyond(&balls[4 * i], x, sqrt(bv)):
                         continue               # its first corner is farther than the best
