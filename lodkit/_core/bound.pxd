@@ -52,7 +52,7 @@ cdef class Bound:
     # refusals kept (check): a vertex's version counts the commits that changed a face
     # around it; an edge's refusal stands while both ends' versions do
     cdef int[::1] vver                # (n_vertices,)
-    cdef int[:, ::1] memo             # (n_edges, 4): removed, kept, their versions' sum, kinds refused
+    cdef int[:, ::1] memo             # (n_edges, 5): removed, kept, versions, kinds refused, piece refusing
     cdef double[:, ::1] memo_p        # (n_edges, 3): the planned point refused (kind 1)
 
     cdef object keep                  # the half-edge mesh and the rows the pointers see
@@ -71,7 +71,7 @@ cdef class Bound:
                      int* vids, int n) noexcept nogil
     cdef bint check(self, int h, int r, int k, const double* p) noexcept nogil
     cdef int memo_kind(self, int r, int k, const double* p) noexcept nogil
-    cdef bint check_uncached(self, int h, int r, int k, const double* p) noexcept nogil
+    cdef bint check_uncached(self, int h, int r, int k, const double* p, int* first) noexcept nogil
     cdef int commit_begin(self, int h, int r, int k) noexcept nogil
     cdef double commit_end(self, int k, int chain) noexcept nogil
     cdef void corners(self, int t, int code, double* x) noexcept nogil

@@ -497,7 +497,7 @@ cdef class Bound:
         self.vd2 = np.full(max(hm.n_vertices, 1), -1.0)
         self.vtri = np.full(max(hm.n_vertices, 1), -1, dtype=np.intc)
         self.vver = np.zeros(max(hm.n_vertices, 1), dtype=np.intc)
-        memo = np.empty((max(hm.n_edges, 1), 4), dtype=np.intc)
+        memo = np.empty((max(hm.n_edges, 1), 5), dtype=np.intc)
         memo[:, 0] = -1                       # nothing refused yet
         self.memo = memo
         self.memo_p = np.zeros((max(hm.n_edges, 1), 3))
@@ -1216,39 +1216,52 @@ cdef class Bound:
         face around r or k has changed since (their versions, ``vver``, which every commit
         that changes a face raises for the face's corners): the check reads nothing else
         -- those faces, their corners' positions, their pieces and covers -- so it would
-        refuse again."""
+        refuse again.  Meanwhile the piece that refused it (memo's last column) is fitted
+        first at the edge's other points: it is still on the same face of the fans, and
+        whether one piece fails does not depend on the order they are tried in."""
         cdef int e = self.m.edge[h]
+        cdef int q
         cdef int s = self.vver[r] + self.vver[k]
         cdef int kind = self.memo_kind(r, k, p)
         cdef int* mm = &self.memo[e, 0]
         if mm[0] == r and mm[1] == k and mm[2] == s and (mm[3] & kind):
             if kind != 1 or same_point(p, &self.memo_p[e, 0]):
                 return False
-        if self.check_uncached(h, r, k, p):
+        # the piece that refused the last check of this edge, while nothing changed since:
+        # tried first (it is still on the same face of the fans)
+        q = mm[4] if mm[0] == r and mm[1] == k and mm[2] == s else -1
+        if self.check_uncached(h, r, k, p, &q):
             return True
         if not (mm[0] == r and mm[1] == k and mm[2] == s):
             mm[0] = r
             mm[1] = k
             mm[2] = s
             mm[3] = 0
+            mm[4] = -1
         mm[3] |= kind
+        if q >= 0:
+            mm[4] = q
         if kind == 1:
             self.memo_p[e, 0] = p[0]
             self.memo_p[e, 1] = p[1]
             self.memo_p[e, 2] = p[2]
         return False
 
-    cdef bint check_uncached(self, int h, int r, int k, const double* p) noexcept nogil:
-        """check, always done."""
+    cdef bint check_uncached(self, int h, int r, int k, const double* p, int* first) noexcept nogil:
+        """check, always done.  ``first``: in, a piece on a face of the fans to fit first (-1
+        none: whether one piece fails does not depend on the order); out, the piece that
+        refused the collapse, else -1."""
         cdef double tris[9 * BOUND_MAX_FAN]
         cdef double balls[4 * BOUND_MAX_FAN]
         cdef int fids[BOUND_MAX_FAN]
         cdef int vids[3 * BOUND_MAX_FAN]
         cdef int fa = h // 3
         cdef int fb = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
+        cdef int first_ = first[0]
         cdef int n, n_r, i, pass_, center, start, y, f, q, hint, cover, p_near = -1
         cdef double lim, v, move_r, move_k, p2 = -1.0
         cdef bint ok
+        first[0] = -1
         if not self.within(p, self.eps2):
             return False
         n = self.collect(r, fa, fb, p, tris, fids, vids, 0)
@@ -1259,6 +1272,11 @@ cdef class Bound:
         if n < 0:
             return False
         face_balls(tris, n, balls)
+        if first_ >= 0:
+            hint = -1
+            if not self.fits(self.ptri[first_], self.pcode[first_], tris, balls, n, &hint):
+                first[0] = first_
+                return False
         # original -> simplified: the pieces on every face the collapse changes, each within
         # eps of one new face.  A face passes whole when its corners are near enough one new
         # face (face_fits), or when its ball of pieces lies so near one; when that face is
@@ -1290,6 +1308,7 @@ cdef class Bound:
                             ok = True
                     while q >= 0 and not ok:
                         if not self.fits(self.ptri[q], self.pcode[q], tris, balls, n, &hint):
+                            first[0] = q
                             return False
                         q = self.nxt[q]
                 y = he_ring_next(self.m, y)
@@ -1512,18 +1531,24 @@ cdef class Bound:
         of f (convexity: the distance to f is largest at the piece's corners), and y within
         the largest distance of f's corners to t (convexity again): the sum bounds it (the
         triangle inequality; pdist taken a hair large for rounding)."""
-        cdef double x[9]
+        cdef const double* y
         cdef double pd = self.pdist[f] * (1.0 + 1e-12)
-        cdef double lim = self.eps - pd, v
-        cdef int c, a
+        cdef double lim = self.eps - pd, v, d
+        cdef int c
         if not (lim >= 0.0):
             return -1.0
+        # a corner of f that is a corner of t is at 0 from it (the face in f's slot shares
+        # two): only the others are measured
+        v = 0.0
         for c in range(3):
-            for a in range(3):
-                x[3 * c + a] = self.P[self.stride * self.m.corner[3 * f + c] + a]
-        v = corners_sqdist(x, t, lim * lim)
-        if not (v <= lim * lim):
-            return -1.0
+            y = &self.P[self.stride * self.m.corner[3 * f + c]]
+            if same_point(y, t) or same_point(y, &t[3]) or same_point(y, &t[6]):
+                continue
+            d = tri_sqdist(y, t)
+            if not (d <= lim * lim):
+                return -1.0
+            if d > v:
+                v = d
         v = sqrt(v) + pd
         return v if v < self.eps else self.eps
 
