@@ -1639,6 +1639,20 @@ cdef class Bound:
         return (np.asarray(out_p).reshape(-1, 9), np.asarray(out_f, dtype=np.float64).reshape(-1, 9),
                 np.asarray(out_c), np.asarray(out_a, dtype=bool))
 
+    def face_certificates(self):
+        """(faces (k, 9), own (k,), cert (k,)) of the live faces: their corners, the distance
+        of their points to the original they are certified for, and their certificate both
+        ways (tests)."""
+        cdef int f, a, c
+        out_f, out_o, out_c = [], [], []
+        for f in range(self.head.shape[0]):
+            if self.m.face_alive[f]:
+                out_f.append([self.P[self.stride * self.m.corner[3 * f + c] + a] for c in range(3) for a in range(3)])
+                out_o.append(self.fval[f])
+                out_c.append(self.cert[f])
+        return (np.asarray(out_f, dtype=np.float64).reshape(-1, 9), np.asarray(out_o, dtype=np.float64),
+                np.asarray(out_c, dtype=np.float64))
+
     @property
     def n_nodes_bvh(self):
         return self.n_nodes
