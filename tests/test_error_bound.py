@@ -418,6 +418,27 @@ def test_pieces_tile_the_input_within_their_faces(monkeypatch, eps):
         assert np.all(d <= cert * (1 + REL_TOL) + 1e-15)
 
 
+@pytest.mark.parametrize("eps", [0.004, 0.02])
+def test_faces_within_their_certificate(monkeypatch, eps):
+    """After a run every live face's points are within the distance it is certified for
+    (mostly taken over from the face in its slot before a collapse plus how far the moved
+    end went, in chains of such steps): dense samples of each face, measured exactly."""
+    rng = np.random.default_rng(8)
+    mesh = grid(12, 0.04 * rng.uniform(size=(12, 12)))
+    made = keep_collapsers(monkeypatch)
+    res = lodkit.simplify(mesh, max_error=eps, error="hausdorff", threads=1)
+    assert res.mesh.n_faces < mesh.n_faces
+    b = made[-1].bound
+    faces, own, cert = b.face_certificates()
+    assert np.all(own <= cert) and cert.max() <= b.eps * (1 + REL_TOL)
+    assert np.any(own > 0.0)
+    n = 12
+    w = np.array([(i, j, n - i - j) for i in range(n + 1) for j in range(n + 1 - i)], dtype=float) / n
+    for t, c in zip(faces, own):
+        x = w @ t.reshape(3, 3)
+        assert np.all(b.distance(x) <= c * (1 + REL_TOL) + 1e-15)
+
+
 def test_too_many_pieces(monkeypatch):
     """More pieces than MAX_PIECES: an OptionError, before the run when the input's own
     triangles are too many, after it when splitting them needed more."""

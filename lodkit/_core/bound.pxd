@@ -39,6 +39,7 @@ cdef class Bound:
     cdef int capacity
     cdef bint overflow                # a piece found no slot to split into
     cdef double[::1] cert             # (n_faces,) certified distance of the face (both ways)
+    cdef double[::1] fval             # (n_faces,) certified distance of the face's points to the original
     cdef double[::1] pdist            # (n_faces,) the largest distance of its pieces' corners to it
     cdef double[::1] pending          # (n_faces,) the check's face-to-original value
     cdef int[::1] ctri                # (n_faces,) the original triangle that covers the face whole, else one near it
@@ -51,7 +52,7 @@ cdef class Bound:
     # refusals kept (check): a vertex's version counts the commits that changed a face
     # around it; an edge's refusal stands while both ends' versions do
     cdef int[::1] vver                # (n_vertices,)
-    cdef int[:, ::1] memo             # (n_edges, 4): removed, kept, their versions' sum, kinds refused
+    cdef int[:, ::1] memo             # (n_edges, 5): removed, kept, versions, kinds refused, piece refusing
     cdef double[:, ::1] memo_p        # (n_edges, 3): the planned point refused (kind 1)
 
     cdef object keep                  # the half-edge mesh and the rows the pointers see
@@ -70,13 +71,14 @@ cdef class Bound:
                      int* vids, int n) noexcept nogil
     cdef bint check(self, int h, int r, int k, const double* p) noexcept nogil
     cdef int memo_kind(self, int r, int k, const double* p) noexcept nogil
-    cdef bint check_uncached(self, int h, int r, int k, const double* p) noexcept nogil
+    cdef bint check_uncached(self, int h, int r, int k, const double* p, int* first) noexcept nogil
     cdef int commit_begin(self, int h, int r, int k) noexcept nogil
     cdef double commit_end(self, int k, int chain) noexcept nogil
     cdef void corners(self, int t, int code, double* x) noexcept nogil
     cdef bint fits(self, int t, int code, const double* tris, const double* balls, int n,
                    int* hint) noexcept nogil
     cdef void place(self, int q, const double* tris, const double* balls, const int* fids, int n,
-                    int* hint, unsigned char* got) noexcept nogil
+                    int* hint) noexcept nogil
+    cdef void sphere_grow(self, int f, const double* x) noexcept nogil
     cdef void fit_sphere(self, int f) noexcept nogil
     cdef double face_fits(self, int f, const double* t) noexcept nogil

@@ -30,6 +30,9 @@ class Bound:
         """The largest certificate of a live face."""
     def distance(self, x: np.ndarray) -> np.ndarray:
         """Distance from each point (k, 3) to the original."""
+    def face_certificates(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(faces (k, 9), own (k,), cert (k,)) of the live faces: corners, the certified
+        distance of their points to the original, and their certificate both ways."""
     def patch_distance(self, t: np.ndarray) -> float:
         """The flat-patch certificate of triangle ``t`` (9,) alone, or -1."""
     def face_distance(self, t: np.ndarray) -> float:

@@ -192,6 +192,7 @@ cdef inline double corners_sqdist(const double* x, const double* t, double lim2)
 # diagonal) is the margin of every test in that plane, far above the rounding of the
 # projected coordinates (about 1e-16).
 cdef double PATCH_MARGIN = 1e-10
+cdef double PLACE_NEAR = 1.0 / 4.0
 # where in t the patch's winding number is counted (barycentric weights): the centroid,
 # then two points no regular grid puts on its lines
 cdef double PATCH_AT[9]
@@ -356,6 +357,15 @@ cdef inline bint ball_beyond(const double* ball, const double* x, double r) noex
     return sq(x[0] - ball[0]) + sq(x[1] - ball[1]) + sq(x[2] - ball[2]) > sq(ball[3] + r)
 
 
+cdef inline bint ball_beyond3(const double* ball, const double* x, double r) noexcept nogil:
+    """Is one of the three points x (9 doubles) farther than r from the ball (so the
+    largest of their distances to its triangle more than r)?"""
+    cdef double lim = sq(ball[3] + r)
+    return (sq(x[0] - ball[0]) + sq(x[1] - ball[1]) + sq(x[2] - ball[2]) > lim
+            or sq(x[3] - ball[0]) + sq(x[4] - ball[1]) + sq(x[5] - ball[2]) > lim
+            or sq(x[6] - ball[0]) + sq(x[7] - ball[1]) + sq(x[8] - ball[2]) > lim)
+
+
 cdef extern from *:
     """
     /* slots for new pieces: taken by the pass driver's threads at once (relaxed: the
@@ -480,19 +490,22 @@ cdef class Bound:
         self.overflow = False
         self.sphere = np.zeros((max(n_faces, 1), 4))
         self.cert = np.zeros(max(n_faces, 1))
+        self.fval = np.zeros(max(n_faces, 1))
         self.pdist = np.zeros(max(n_faces, 1))
         self.pending = np.zeros(max(n_faces, 1))
         self.last = np.zeros(max(hm.n_vertices, 1))
         self.vd2 = np.full(max(hm.n_vertices, 1), -1.0)
         self.vtri = np.full(max(hm.n_vertices, 1), -1, dtype=np.intc)
         self.vver = np.zeros(max(hm.n_vertices, 1), dtype=np.intc)
-        memo = np.empty((max(hm.n_edges, 1), 4), dtype=np.intc)
+        memo = np.empty((max(hm.n_edges, 1), 5), dtype=np.intc)
         memo[:, 0] = -1                       # nothing refused yet
         self.memo = memo
         self.memo_p = np.zeros((max(hm.n_edges, 1), 3))
+        cdef int[::1] F = faces
         cdef int f
-        for f in faces:
-            self.fit_sphere(f)
+        with nogil:
+            for f in range(F.shape[0]):
+                self.fit_sphere(F[f])
 
     cdef int build(self, int* idx, const double* cent, const double* tb, int n) noexcept nogil:
         """Top-down BVH: split at the median centroid along the longest axis of the
@@ -1006,11 +1019,12 @@ cdef class Bound:
         cdef int n = 1, d, i, c, found
         cdef double worst2 = 0.0, b, hs, lim2, mx, v
         # (a) on the face itself first: most faces pass whole, and need nothing else (the
-        # triangle that covered it before the collapse; the search for any other waits
-        # until the flat patch has failed)
+        # triangle that covered it before the collapse, its value the certificate: no
+        # search for a nearer one; the search for any other waits until the flat patch
+        # has failed)
         hint[0] = cover[0]
         hint[1] = hint[2] = -1
-        b = self.cover2(t, hint, &found, True, False)
+        b = self.cover2(t, hint, &found, False, False)
         if b <= self.eps2:
             cover[0] = found
             return sqrt(b)
@@ -1202,48 +1216,67 @@ cdef class Bound:
         face around r or k has changed since (their versions, ``vver``, which every commit
         that changes a face raises for the face's corners): the check reads nothing else
         -- those faces, their corners' positions, their pieces and covers -- so it would
-        refuse again."""
+        refuse again.  Meanwhile the piece that refused it (memo's last column) is fitted
+        first at the edge's other points: it is still on the same face of the fans, and
+        whether one piece fails does not depend on the order they are tried in."""
         cdef int e = self.m.edge[h]
+        cdef int q
         cdef int s = self.vver[r] + self.vver[k]
         cdef int kind = self.memo_kind(r, k, p)
         cdef int* mm = &self.memo[e, 0]
         if mm[0] == r and mm[1] == k and mm[2] == s and (mm[3] & kind):
             if kind != 1 or same_point(p, &self.memo_p[e, 0]):
                 return False
-        if self.check_uncached(h, r, k, p):
+        # the piece that refused the last check of this edge, while nothing changed since:
+        # tried first (it is still on the same face of the fans)
+        q = mm[4] if mm[0] == r and mm[1] == k and mm[2] == s else -1
+        if self.check_uncached(h, r, k, p, &q):
             return True
         if not (mm[0] == r and mm[1] == k and mm[2] == s):
             mm[0] = r
             mm[1] = k
             mm[2] = s
             mm[3] = 0
+            mm[4] = -1
         mm[3] |= kind
+        if q >= 0:
+            mm[4] = q
         if kind == 1:
             self.memo_p[e, 0] = p[0]
             self.memo_p[e, 1] = p[1]
             self.memo_p[e, 2] = p[2]
         return False
 
-    cdef bint check_uncached(self, int h, int r, int k, const double* p) noexcept nogil:
-        """check, always done."""
+    cdef bint check_uncached(self, int h, int r, int k, const double* p, int* first) noexcept nogil:
+        """check, always done.  ``first``: in, a piece on a face of the fans to fit first (-1
+        none: whether one piece fails does not depend on the order); out, the piece that
+        refused the collapse, else -1."""
         cdef double tris[9 * BOUND_MAX_FAN]
         cdef double balls[4 * BOUND_MAX_FAN]
         cdef int fids[BOUND_MAX_FAN]
         cdef int vids[3 * BOUND_MAX_FAN]
         cdef int fa = h // 3
         cdef int fb = self.m.twin[h] // 3 if self.m.twin[h] >= 0 else -1
-        cdef int n, i, pass_, center, start, y, f, q, hint, cover, p_near = -1
-        cdef double lim, v, p2 = -1.0
+        cdef int first_ = first[0]
+        cdef int n, n_r, i, pass_, center, start, y, f, q, hint, cover, p_near = -1
+        cdef double lim, v, move_r, move_k, p2 = -1.0
         cdef bint ok
+        first[0] = -1
         if not self.within(p, self.eps2):
             return False
         n = self.collect(r, fa, fb, p, tris, fids, vids, 0)
         if n < 0:
             return False
+        n_r = n
         n = self.collect(k, fa, fb, p, tris, fids, vids, n)
         if n < 0:
             return False
         face_balls(tris, n, balls)
+        if first_ >= 0:
+            hint = -1
+            if not self.fits(self.ptri[first_], self.pcode[first_], tris, balls, n, &hint):
+                first[0] = first_
+                return False
         # original -> simplified: the pieces on every face the collapse changes, each within
         # eps of one new face.  A face passes whole when its corners are near enough one new
         # face (face_fits), or when its ball of pieces lies so near one; when that face is
@@ -1275,13 +1308,27 @@ cdef class Bound:
                             ok = True
                     while q >= 0 and not ok:
                         if not self.fits(self.ptri[q], self.pcode[q], tris, balls, n, &hint):
+                            first[0] = q
                             return False
                         q = self.nxt[q]
                 y = he_ring_next(self.m, y)
                 if y < 0 or y == start:
                     break
-        # simplified -> original: every new face
+        # simplified -> original: every new face.  First its face before (in its slot, the
+        # moved end at its old place) and how far that end moves: each point of the new
+        # face is the point of the old one with the same barycentric weights moved by at
+        # most that much, so within the old face's certificate plus it of the original
+        # (taken a hair large for rounding)
+        move_r = sqrt(sq(p[0] - self.P[self.stride * r]) + sq(p[1] - self.P[self.stride * r + 1])
+                      + sq(p[2] - self.P[self.stride * r + 2]))
+        move_k = sqrt(sq(p[0] - self.P[self.stride * k]) + sq(p[1] - self.P[self.stride * k + 1])
+                      + sq(p[2] - self.P[self.stride * k + 2]))
         for i in range(n):
+            v = (self.fval[fids[i]] + (move_r if i < n_r else move_k)) * (1.0 + 1e-12)
+            if v <= self.eps:
+                self.pending[fids[i]] = v
+                self.pending_tri[fids[i]] = self.ctri[fids[i]]
+                continue
             cover = self.ctri[fids[i]]
             v = self.face_value(&tris[9 * i], &cover, &vids[3 * i], &p2, &p_near)
             if v < 0.0:
@@ -1335,7 +1382,6 @@ cdef class Bound:
         cdef double tris[9 * BOUND_MAX_FAN]
         cdef double balls[4 * BOUND_MAX_FAN]
         cdef int fids[BOUND_MAX_FAN]
-        cdef unsigned char got[BOUND_MAX_FAN]
         cdef int n, i, q, nq, hint = -1
         cdef double worst = 0.0
         n = self.collect(k, -1, -1, &self.P[self.stride * k], tris, fids, NULL, 0)
@@ -1344,19 +1390,24 @@ cdef class Bound:
         face_balls(tris, n, balls)
         for i in range(n):
             # (pieces kept on the face: their bound, commit_begin)
+            self.fval[fids[i]] = self.pending[fids[i]]
             if self.pending[fids[i]] > self.cert[fids[i]]:
                 self.cert[fids[i]] = self.pending[fids[i]]
             self.ctri[fids[i]] = self.pending_tri[fids[i]]
-            got[i] = self.pending_keep[fids[i]] < 0.0        # no pieces kept: its ball is redone
+            if self.pending_keep[fids[i]] < 0.0:
+                # no pieces kept: a new ball around its pieces, about the face's centroid,
+                # grown by place as they come
+                self.sphere[fids[i], 0] = balls[4 * i]
+                self.sphere[fids[i], 1] = balls[4 * i + 1]
+                self.sphere[fids[i], 2] = balls[4 * i + 2]
+                self.sphere[fids[i], 3] = 0.0
         self.vd2[k] = -1.0                   # k moved
         q = chain
         while q >= 0:
             nq = self.nxt[q]
-            self.place(q, tris, balls, fids, n, &hint, got)
+            self.place(q, tris, balls, fids, n, &hint)
             q = nq
         for i in range(n):
-            if got[i]:
-                self.fit_sphere(fids[i])
             if self.cert[fids[i]] > worst:
                 worst = self.cert[fids[i]]
         self.last[k] = worst
@@ -1420,7 +1471,7 @@ cdef class Bound:
         return True
 
     cdef void place(self, int q, const double* tris, const double* balls, const int* fids, int n,
-                    int* hint, unsigned char* got) noexcept nogil:
+                    int* hint) noexcept nogil:
         """Attach piece q (its face is gone) to the new face nearest its three corners, if
         that holds them within eps; else split it as :meth:`fits` did (child 0 keeps slot
         q, the others take new slots) and place the children.  Each face's certificate
@@ -1441,7 +1492,7 @@ cdef class Bound:
             # others mostly stop at their first corner
             best = hint[0]
             bv = corners_sqdist(x, &tris[9 * best], INFINITY) if best >= 0 else INFINITY
-            for i in range(n):
+            for i in range(n if bv > PLACE_NEAR * self.eps2 else 0):
                 if i != hint[0]:
                     if bv < INFINITY and ball_beyond(&balls[4 * i], x, sqrt(bv)):
                         continue               # its first corner is farther than the best
@@ -1467,7 +1518,7 @@ cdef class Bound:
                 self.overflow = True         # placed whole: the driver raises OptionError
             self.nxt[s] = self.head[fids[best]]
             self.head[fids[best]] = s
-            got[best] = 1
+            self.sphere_grow(fids[best], x)
             v = sqrt(bv)
             if v > self.cert[fids[best]]:
                 self.cert[fids[best]] = v
@@ -1480,20 +1531,40 @@ cdef class Bound:
         of f (convexity: the distance to f is largest at the piece's corners), and y within
         the largest distance of f's corners to t (convexity again): the sum bounds it (the
         triangle inequality; pdist taken a hair large for rounding)."""
-        cdef double x[9]
+        cdef const double* y
         cdef double pd = self.pdist[f] * (1.0 + 1e-12)
-        cdef double lim = self.eps - pd, v
-        cdef int c, a
+        cdef double lim = self.eps - pd, v, d
+        cdef int c
         if not (lim >= 0.0):
             return -1.0
+        # a corner of f that is a corner of t is at 0 from it (the face in f's slot shares
+        # two): only the others are measured
+        v = 0.0
         for c in range(3):
-            for a in range(3):
-                x[3 * c + a] = self.P[self.stride * self.m.corner[3 * f + c] + a]
-        v = corners_sqdist(x, t, lim * lim)
-        if not (v <= lim * lim):
-            return -1.0
+            y = &self.P[self.stride * self.m.corner[3 * f + c]]
+            if same_point(y, t) or same_point(y, &t[3]) or same_point(y, &t[6]):
+                continue
+            d = tri_sqdist(y, t)
+            if not (d <= lim * lim):
+                return -1.0
+            if d > v:
+                v = d
         v = sqrt(v) + pd
         return v if v < self.eps else self.eps
+
+    cdef void sphere_grow(self, int f, const double* x) noexcept nogil:
+        """Grow sphere[f] (its centre kept) to hold the three points x (a piece placed on f):
+        the ball still holds every piece on f, which is all the check asks of it."""
+        cdef double* b = &self.sphere[f, 0]
+        cdef double d, r2 = 0.0
+        cdef int c
+        for c in range(3):
+            d = sq(x[3 * c] - b[0]) + sq(x[3 * c + 1] - b[1]) + sq(x[3 * c + 2] - b[2])
+            if d > r2:
+                r2 = d
+        d = sqrt(r2) * (1.0 + 1e-12) + 1e-300   # a hair large: rounding never lets a corner out
+        if d > b[3]:
+            b[3] = d
 
     cdef void fit_sphere(self, int f) noexcept nogil:
         """sphere[f]: a ball around the pieces on f (the centroid of their corners, the
@@ -1567,6 +1638,20 @@ cdef class Bound:
                 q = self.nxt[q]
         return (np.asarray(out_p).reshape(-1, 9), np.asarray(out_f, dtype=np.float64).reshape(-1, 9),
                 np.asarray(out_c), np.asarray(out_a, dtype=bool))
+
+    def face_certificates(self):
+        """(faces (k, 9), own (k,), cert (k,)) of the live faces: their corners, the distance
+        of their points to the original they are certified for, and their certificate both
+        ways (tests)."""
+        cdef int f, a, c
+        out_f, out_o, out_c = [], [], []
+        for f in range(self.head.shape[0]):
+            if self.m.face_alive[f]:
+                out_f.append([self.P[self.stride * self.m.corner[3 * f + c] + a] for c in range(3) for a in range(3)])
+                out_o.append(self.fval[f])
+                out_c.append(self.cert[f])
+        return (np.asarray(out_f, dtype=np.float64).reshape(-1, 9), np.asarray(out_o, dtype=np.float64),
+                np.asarray(out_c, dtype=np.float64))
 
     @property
     def n_nodes_bvh(self):
