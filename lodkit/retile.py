@@ -1139,20 +1139,23 @@ def _collapse_slivers(P2, F, n0: int, nX: int, free_old, group, crease_vertex) -
 _SPLIT_AT = (0.3, 0.4, 0.5, 0.6, 0.7)
 
 
-def _split_slivers(P2, F, surf, P0, F0, group):
+def _split_slivers(P2, F, surf, P0, F0, group, crease_vertex=None):
     """Faces still below _COLLAPSE_QUALITY (lodkit's addition): the longest edge a-b of each,
     worst first, is split by a new vertex m on the input surface (the closest point to a
     point of the edge, _SPLIT_AT) when the four new faces' smallest quality beats the two
     old faces', none of them turns by more than _RELAX_TURN degrees from the face it
     replaces and (``group``, :func:`_copy_groups`) m is not next to two copies of one input
-    vertex.  An edge split keeps the topology.  Returns (``P2`` with the new vertices
+    vertex.  An edge split keeps the topology.  When a and b are both ``crease_vertex``
+    vertices (None: none are) m is one too (else the moves, collapses and flips after
+    would take the crease edges a-m and m-b apart).  Returns (``P2`` with the new vertices
     appended, the faces (int32), the new vertices' input faces (k,) and barycentric weights
-    (k, 3), splits made)."""
+    (k, 3), whether each is a crease vertex (k,) bool, splits made)."""
     F = np.asarray(F, dtype=np.int64).copy()
     cos_turn = math.cos(math.radians(_RELAX_TURN))
     at = np.asarray(_SPLIT_AT)
     sub = np.array([[0, 4, 2], [4, 1, 2], [1, 4, 3], [4, 0, 3]])      # of (a, b, c, d, m)
-    added_f, added_w = [], []
+    added_f, added_w, added_crease = [], [], []
+    n_in = P2.shape[0]
     P = P2
     tried = set()
     while True:
@@ -1196,12 +1199,14 @@ def _split_slivers(P2, F, surf, P0, F0, group):
             F = np.concatenate([F, [[m, b, c], [m, a, d]]])
             added_f.append(int(face[best]))
             added_w.append(w[best])
+            added_crease.append(crease_vertex is not None
+                                and all(crease_vertex[x] if x < n_in else added_crease[x - n_in] for x in (a, b)))
             split = True
             break
         if not split:
             break
     return (P, np.ascontiguousarray(F, dtype=np.int32), np.asarray(added_f, dtype=np.int64),
-            np.asarray(added_w, dtype=np.float64).reshape(-1, 3), len(added_f))
+            np.asarray(added_w, dtype=np.float64).reshape(-1, 3), np.asarray(added_crease, dtype=bool), len(added_f))
 
 
 #: the untangling of the kept pass: at most this many rounds of moves, collapses, splits and
@@ -1233,15 +1238,15 @@ def _untangle(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, free_old, 
         F_c, n_c = _collapse_slivers(P2, F, n0, nX, free_old, group, crease_vertex)
         if n_c:
             F = F_c
-        P2, F, s_face, s_w, n_s = _split_slivers(P2, F, surf, P0, F0, group)
+        P2, F, s_face, s_w, s_crease, n_s = _split_slivers(P2, F, surf, P0, F0, group, crease_vertex)
         if n_s:
             all_face = np.concatenate([all_face, s_face])
             all_w = np.concatenate([all_w, s_w])
-            free_old = np.concatenate([free_old, np.ones(n_s, dtype=bool)])
+            free_old = np.concatenate([free_old, ~s_crease])           # a crease vertex stays
             if group is not None:
                 group = np.ascontiguousarray(np.concatenate([group, np.full(n_s, -1)]), dtype=np.intc)
             if crease_vertex is not None:
-                crease_vertex = np.concatenate([crease_vertex, np.zeros(n_s, dtype=np.uint8)])
+                crease_vertex = np.concatenate([crease_vertex, s_crease.astype(np.uint8)])
         F = np.ascontiguousarray(F, dtype=np.int32)
         n_f = int(kern.flip_edges(P2, F, face_twins(F), cos_flip, 20, crease_vertex, _WORST_QUALITY, cos_crease,
                                   group=group))

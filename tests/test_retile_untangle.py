@@ -27,8 +27,9 @@ def test_split_lifts_two_needles_and_keeps_the_topology():
     F = np.array([[0, 1, 2], [1, 0, 3]], dtype=np.int32)
     q0 = float(triangle_quality(P, F).min())
     assert q0 < 0.3
-    P2, F2, face, w, n = _split_slivers(P, F, surf, P0, F0, None)
+    P2, F2, face, w, crease, n = _split_slivers(P, F, surf, P0, F0, None)
     assert n == 1 and P2.shape[0] == 5 and F2.shape[0] == 4
+    assert crease.tolist() == [False]                       # no crease vertices given
     assert float(triangle_quality(P2, F2).min()) > q0 + 0.05
     assert _euler(F2) == _euler(F) == 1
     # the new vertex is on the input surface, at its recorded face and weights
@@ -45,6 +46,22 @@ def test_split_refuses_to_join_two_copies():
     P = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 0.12, 0.0], [0.5, -0.12, 0.0]])
     F = np.array([[0, 1, 2], [1, 0, 3]], dtype=np.int32)
     group = np.array([-1, -1, 7, 7], dtype=np.intc)        # c and d: copies of one input vertex
-    P2, F2, _, _, n = _split_slivers(P, F, surf, P0, F0, group)
+    P2, F2, _, _, _, n = _split_slivers(P, F, surf, P0, F0, group)
     assert n == 0 and P2.shape[0] == 4
     np.testing.assert_array_equal(F2, F)
+
+
+def test_split_of_a_crease_edge_makes_a_crease_vertex():
+    """A split of the edge between two crease vertices marks the new vertex a crease vertex
+    (so the moves, collapses and flips after leave the crease edges a-m, m-b alone); a split
+    of an edge with one crease end does not."""
+    P0, F0 = _plane()
+    surf = SurfaceProjector(P0, F0)
+    P = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 0.12, 0.0], [0.5, -0.12, 0.0]])
+    F = np.array([[0, 1, 2], [1, 0, 3]], dtype=np.int32)
+    for marked, want in (([0, 1], True), ([0], False), ([2, 3], False)):
+        crease_vertex = np.zeros(4, dtype=np.uint8)
+        crease_vertex[marked] = 1
+        P2, _, _, _, crease, n = _split_slivers(P, F, surf, P0, F0, None, crease_vertex)
+        assert n == 1 and P2.shape[0] == 5
+        assert crease.tolist() == [want]

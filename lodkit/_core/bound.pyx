@@ -357,15 +357,6 @@ cdef inline bint ball_beyond(const double* ball, const double* x, double r) noex
     return sq(x[0] - ball[0]) + sq(x[1] - ball[1]) + sq(x[2] - ball[2]) > sq(ball[3] + r)
 
 
-cdef inline bint ball_beyond3(const double* ball, const double* x, double r) noexcept nogil:
-    """Is one of the three points x (9 doubles) farther than r from the ball (so the
-    largest of their distances to its triangle more than r)?"""
-    cdef double lim = sq(ball[3] + r)
-    return (sq(x[0] - ball[0]) + sq(x[1] - ball[1]) + sq(x[2] - ball[2]) > lim
-            or sq(x[3] - ball[0]) + sq(x[4] - ball[1]) + sq(x[5] - ball[2]) > lim
-            or sq(x[6] - ball[0]) + sq(x[7] - ball[1]) + sq(x[8] - ball[2]) > lim)
-
-
 cdef extern from *:
     """
     /* slots for new pieces: taken by the pass driver's threads at once (relaxed: the
