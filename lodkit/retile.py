@@ -516,7 +516,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
         cos_flip = math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE))) if flip_angle > 0 else 2.0
         P2, F, all_face, all_w, more, n_c, split, n_f = _untangle(
             P2, F, n0, nX, surf, P0, F0, all_face, all_w, free_old, old_at, group2, crease_vertex, cos_flip,
-            math.cos(math.radians(features)) if features is not None else 2.0)
+            math.cos(math.radians(features)) if features is not None else 2.0, on_edge=fit > 0)
         worst_moves += more
         collapsed += n_c
         flips += n_f
@@ -1139,7 +1139,7 @@ def _collapse_slivers(P2, F, n0: int, nX: int, free_old, group, crease_vertex) -
 _SPLIT_AT = (0.3, 0.4, 0.5, 0.6, 0.7)
 
 
-def _split_slivers(P2, F, surf, P0, F0, group, crease_vertex=None):
+def _split_slivers(P2, F, surf, P0, F0, group, crease_vertex=None, on_edge: bool = False):
     """Faces still below _COLLAPSE_QUALITY (lodkit's addition): the longest edge a-b of each,
     worst first, is split by a new vertex m on the input surface (the closest point to a
     point of the edge, _SPLIT_AT) when the four new faces' smallest quality beats the two
@@ -1147,9 +1147,15 @@ def _split_slivers(P2, F, surf, P0, F0, group, crease_vertex=None):
     replaces and (``group``, :func:`_copy_groups`) m is not next to two copies of one input
     vertex.  An edge split keeps the topology.  When a and b are both ``crease_vertex``
     vertices (None: none are) m is one too (else the moves, collapses and flips after
-    would take the crease edges a-m and m-b apart).  Returns (``P2`` with the new vertices
-    appended, the faces (int32), the new vertices' input faces (k,) and barycentric weights
-    (k, 3), whether each is a crease vertex (k,) bool, splits made)."""
+    would take the crease edges a-m and m-b apart).  ``on_edge``: where no point of the
+    input surface makes the four faces better (an edge across the rim of a sheet thinner
+    than it: the surface points near its middle lie on one side of the sheet), m may be a
+    point of the edge itself; the four faces then cover the two old ones exactly, so the
+    re-tiling's surface and its distances to the input do not change, but m lies off the
+    input surface (by at most the two faces' distance to it).  The new vertices' input faces
+    and weights are those of the surface points nearest them.  Returns (``P2`` with the new
+    vertices appended, the faces (int32), the new vertices' input faces (k,) and
+    barycentric weights (k, 3), whether each is a crease vertex (k,) bool, splits made)."""
     F = np.asarray(F, dtype=np.int64).copy()
     cos_turn = math.cos(math.radians(_RELAX_TURN))
     at = np.asarray(_SPLIT_AT)
@@ -1177,19 +1183,20 @@ def _split_slivers(P2, F, surf, P0, F0, group, crease_vertex=None):
             d = int(F[g][(F[g] != a) & (F[g] != b)][0])
             if group is not None and max(c, d) < group.size and group[c] >= 0 and group[c] == group[d]:
                 continue                      # m would join two copies (a vertex added here is none)
-            face, w, _ = surf.closest(P[a] + at[:, None] * (P[b] - P[a]))
-            Y = np.einsum("nk,nkj->nj", w, P0[F0[face]])
+            chord = P[a] + at[:, None] * (P[b] - P[a])
+            face, w, _ = surf.closest(chord)
             old = np.array([[a, b, c], [b, a, d]])
             n_old = face_normals(P, old)[0][[0, 0, 1, 1]]
-            best, best_q = -1, float(triangle_quality(P, old).min()) + 1e-6
-            for k in range(Y.shape[0]):
-                Pm = np.concatenate([P[[a, b, c, d]], Y[k:k + 1]])
-                n_sub, area = face_normals(Pm, sub)
-                if not (area > 0).all() or (np.einsum("ij,ij->i", n_sub, n_old) < cos_turn).any():
-                    continue
-                qk = float(triangle_quality(Pm, sub).min())
-                if qk > best_q:
-                    best, best_q = k, qk
+            q_old = float(triangle_quality(P, old).min()) + 1e-6
+            # the points of the input surface nearest the edge's; where none makes the four
+            # faces better (the edge spans the rim of a sheet thinner than it: the nearest
+            # surface point lies on one side) and ``on_edge``, the edge's own points, which
+            # subdivide the two faces without changing the surface
+            Y = np.einsum("nk,nkj->nj", w, P0[F0[face]])
+            best = _best_split(P, a, b, c, d, Y, sub, n_old, cos_turn, q_old)
+            if best < 0 and on_edge:
+                Y = chord
+                best = _best_split(P, a, b, c, d, Y, sub, n_old, cos_turn, q_old)
             if best < 0:
                 continue
             m = P.shape[0]
@@ -1209,13 +1216,30 @@ def _split_slivers(P2, F, surf, P0, F0, group, crease_vertex=None):
             np.asarray(added_w, dtype=np.float64).reshape(-1, 3), np.asarray(added_crease, dtype=bool), len(added_f))
 
 
+def _best_split(P, a: int, b: int, c: int, d: int, Y, sub, n_old, cos_turn: float, q_old: float) -> int:
+    """Of the points ``Y`` for splitting edge a-b (faces a b c and b a d), the one whose four
+    faces ``sub`` have the largest smallest quality above ``q_old``, none degenerate nor
+    turned from its old face's normal (``n_old``, one row per new face) by more than
+    acos(``cos_turn``); -1 if none."""
+    best, best_q = -1, q_old
+    for k in range(Y.shape[0]):
+        Pm = np.concatenate([P[[a, b, c, d]], Y[k:k + 1]])
+        n_sub, area = face_normals(Pm, sub)
+        if not (area > 0).all() or (np.einsum("ij,ij->i", n_sub, n_old) < cos_turn).any():
+            continue
+        qk = float(triangle_quality(Pm, sub).min())
+        if qk > best_q:
+            best, best_q = k, qk
+    return best
+
+
 #: the untangling of the kept pass: at most this many rounds of moves, collapses, splits and
 #: flips while a face is below _COLLAPSE_QUALITY
 _UNTANGLE_ROUNDS = 8
 
 
 def _untangle(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, free_old, old_at, group, crease_vertex,
-              cos_flip: float, cos_crease: float):
+              cos_flip: float, cos_crease: float, on_edge: bool = False):
     """What is left below _COLLAPSE_QUALITY on the pass ``refine`` keeps (lodkit's addition;
     cow's pinch, docs/retile.md): rounds of the wide worst-triangle step (``stuck``: a vertex
     that cannot improve no longer blocks its neighbours), the sliver collapses, the sliver
@@ -1224,8 +1248,9 @@ def _untangle(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, free_old, 
     nothing changes.  Each operation raises the smallest quality of what it touches, so the
     worst face never gets worse.  ``all_face`` / ``all_w`` hold one row per new vertex (slot
     - n0); the split vertices are appended to ``P2`` and to them (and to ``free_old``,
-    ``group`` and ``crease_vertex``, which may be None).  Returns (P2, F, all_face, all_w,
-    moves, collapses, splits, flips)."""
+    ``group`` and ``crease_vertex``, which may be None); ``on_edge``: a split may keep its
+    vertex on the split edge (:func:`_split_slivers`; with ``fit``, whose vertices leave the
+    surface anyway).  Returns (P2, F, all_face, all_w, moves, collapses, splits, flips)."""
     moves = collapses = splits = flips = 0
     n_rows = P2.shape[0] - n0
     all_face, all_w = all_face[:n_rows], all_w[:n_rows]
@@ -1238,7 +1263,7 @@ def _untangle(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, free_old, 
         F_c, n_c = _collapse_slivers(P2, F, n0, nX, free_old, group, crease_vertex)
         if n_c:
             F = F_c
-        P2, F, s_face, s_w, s_crease, n_s = _split_slivers(P2, F, surf, P0, F0, group, crease_vertex)
+        P2, F, s_face, s_w, s_crease, n_s = _split_slivers(P2, F, surf, P0, F0, group, crease_vertex, on_edge)
         if n_s:
             all_face = np.concatenate([all_face, s_face])
             all_w = np.concatenate([all_w, s_w])

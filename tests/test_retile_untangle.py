@@ -65,3 +65,30 @@ def test_split_of_a_crease_edge_makes_a_crease_vertex():
         P2, _, _, _, crease, n = _split_slivers(P, F, surf, P0, F0, None, crease_vertex)
         assert n == 1 and P2.shape[0] == 5
         assert crease.tolist() == [want]
+
+
+def test_split_on_the_edge_where_no_surface_point_helps():
+    """An edge across the rim of a sheet thinner than it (cow's tail): the input surface
+    near the edge's middle lies off to one side (here a plane 0.3 above the two faces), so
+    every point of it turns the new faces by more than the limit and the split is refused.
+    With ``on_edge`` (``fit`` runs) the vertex may stay on the edge: the four faces cover the
+    two old ones exactly, no face turns, and the smallest quality rises."""
+    P0, F0 = _plane()
+    P0 = P0 + [0.0, 0.0, 0.3]
+    surf = SurfaceProjector(P0, F0)
+    P = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 0.12, 0.0], [0.5, -0.12, 0.0]])
+    F = np.array([[0, 1, 2], [1, 0, 3]], dtype=np.int32)
+    q0 = float(triangle_quality(P, F).min())
+    _, _, _, _, _, n = _split_slivers(P, F, surf, P0, F0, None)
+    assert n == 0
+    P2, F2, face, w, _, n = _split_slivers(P, F, surf, P0, F0, None, on_edge=True)
+    assert n == 1 and F2.shape[0] == 4 and _euler(F2) == 1
+    assert float(triangle_quality(P2, F2).min()) > q0 + 0.05
+    m = P2[4]
+    assert abs(float(m[1])) < 1e-12 and abs(float(m[2])) < 1e-12 and 0.0 < m[0] < 1.0   # on the edge a-b
+    cr = np.cross(P2[F2[:, 1]] - P2[F2[:, 0]], P2[F2[:, 2]] - P2[F2[:, 0]])
+    assert (np.abs(cr[:, :2]) < 1e-12).all() and (cr[:, 2] != 0).all()                  # flat: nothing turned
+    area = 0.5 * np.abs(cr[:, 2]).sum()
+    cr0 = np.cross(P[F[:, 1]] - P[F[:, 0]], P[F[:, 2]] - P[F[:, 0]])
+    assert abs(area - 0.5 * np.abs(cr0[:, 2]).sum()) < 1e-12                              # the same surface
+    np.testing.assert_allclose(np.einsum("k,kj->j", w[0], P0[F0[face[0]]]), m + [0.0, 0.0, 0.3], atol=1e-12)
