@@ -256,6 +256,11 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
     # the boundary and crease lines, densely sampled (the same for every pass)
     dense_tree = (cKDTree(_boundary_samples(P0, F0, loops + creases + lines, edge_len / 32.0))
                   if loops or creases or lines else None)
+    # the flips' limits: between faces within flip_angle, and for slivers within the wider
+    # _SLIVER_FLIP_ANGLE; edges between two crease points may flip where no crease is
+    cos_flip = math.cos(math.radians(flip_angle))
+    cos_sliver = math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE)))
+    cos_crease = math.cos(math.radians(features)) if features is not None else 2.0
     errors = []
     best = None
     for pass_ in range(refine + 1):
@@ -414,17 +419,13 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
         flips = 0
         if flip_angle > 0 and F.shape[0]:
             twin = face_twins(F)
-            flips = int(kern.flip_edges(P2, F, twin, math.cos(math.radians(flip_angle)), 50, crease_vertex,
-                                             group=group2))
+            flips = int(kern.flip_edges(P2, F, twin, cos_flip, 50, crease_vertex, group=group2))
             # slivers (often across a crease the new points straddle): flips between faces
             # further apart, only where the worse triangle is a sliver
-            flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE))),
-                                         20, crease_vertex, _SLIVER_QUALITY,
-                                             group=group2))
+            flips += int(kern.flip_edges(P2, F, twin, cos_sliver, 20, crease_vertex, _SLIVER_QUALITY, group=group2))
         relaxed = worst_moves = slid = slid_relax = collapsed = 0
         old_at = (np.full(n0, -1, dtype=np.int64), np.zeros((n0, 3)))
         free_old = None
-        cos_crease = math.cos(math.radians(features)) if features is not None else 2.0
         if relax and F.shape[0] and nX:
             slider = None
             if on.size:
@@ -448,14 +449,14 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
                     slid_relax += relaxed_slid
                 if flip_angle > 0 and np.any(on):
                     twin = face_twins(F)
-                    flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(flip_angle)), 50, crease_vertex,
+                    flips += int(kern.flip_edges(P2, F, twin, cos_flip, 50, crease_vertex,
                                                  2.0, cos_crease, group=group2))
             if flip_angle > 0:
                 # (cos_crease is 2, no edge between crease points flips, without crease points)
                 twin = face_twins(F)
-                flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(flip_angle)), 50, crease_vertex,
+                flips += int(kern.flip_edges(P2, F, twin, cos_flip, 50, crease_vertex,
                                              2.0, cos_crease if slider is not None else 2.0, group=group2))
-                flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE))),
+                flips += int(kern.flip_edges(P2, F, twin, cos_sliver,
                                              20, crease_vertex, _SLIVER_QUALITY,
                                              cos_crease if slider is not None else 2.0, group=group2))
             # old vertices the removal left (not copies, boundary corners or crease vertices)
@@ -488,7 +489,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
                 twin = face_twins(F)
             if flip_angle > 0:
                 # slivers again, now also between two crease points where the edge is no crease
-                flips += int(kern.flip_edges(P2, F, twin, math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE))),
+                flips += int(kern.flip_edges(P2, F, twin, cos_sliver,
                                              20, crease_vertex, _WORST_QUALITY, cos_crease,
                                              group=group2))
         times["finish"] = times.get("finish", 0.0) + time.perf_counter() - t
@@ -513,10 +514,9 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
     if free_old is not None and F.shape[0] and float(triangle_quality(P2, F).min()) < _COLLAPSE_QUALITY:
         # still below the target on the kept pass (after the choice, so that it stays):
         # moves that no stuck vertex blocks, collapses, splits and flips
-        cos_flip = math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE))) if flip_angle > 0 else 2.0
         P2, F, all_face, all_w, more, n_c, split, n_f = _untangle(
-            P2, F, n0, nX, surf, P0, F0, all_face, all_w, free_old, old_at, group2, crease_vertex, cos_flip,
-            math.cos(math.radians(features)) if features is not None else 2.0, on_edge=fit > 0)
+            P2, F, n0, nX, surf, P0, F0, all_face, all_w, free_old, old_at, group2, crease_vertex,
+            cos_sliver if flip_angle > 0 else 2.0, cos_crease, on_edge=fit > 0)
         worst_moves += more
         collapsed += n_c
         flips += n_f
@@ -823,7 +823,7 @@ def _improve_worst(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, round
     slides = np.zeros(n, dtype=bool)
     if slider is not None and slider.slots.size:
         slides[slider.slots] = True
-    _, alive, start, vface, _ = _sweep_state(P2, F)        # faces of v: vface[start[v]:start[v + 1]]
+    _, alive, start, vface = _sweep_state(P2, F)           # faces of v: vface[start[v]:start[v + 1]]
     cos_turn = math.cos(math.radians(turn))
     ang = 2.0 * math.pi * np.arange(directions) / directions
     unit = np.stack([np.cos(ang), np.sin(ang)], axis=1)
@@ -907,12 +907,19 @@ def _improve_worst(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, round
     return moves, slid
 
 
+def _moved_star(P2, faces, v: int, Y):
+    """The corners of the faces ``faces`` ((f, 3) slots of ``P2``) with vertex ``v`` at each
+    of the positions ``Y`` (k, 3): (k, f, 3, 3)."""
+    T = np.broadcast_to(P2[faces], (Y.shape[0], faces.shape[0], 3, 3)).copy()
+    T[:, faces == v] = Y[:, None]
+    return T
+
+
 def _star_candidates(P2, faces, v: int, Y, normals, cos_turn: float):
     """Vertex ``v`` of the faces ``faces`` ((f, 3) slots of ``P2``) tried at each of the
     positions ``Y`` (k, 3): (the faces' qualities (k, f), whether no face turns from its
     unit normal ``normals`` (f, 3) by more than acos(cos_turn) nor degenerates (k,))."""
-    T = np.broadcast_to(P2[faces], (Y.shape[0], faces.shape[0], 3, 3)).copy()
-    T[:, faces == v] = Y[:, None]
+    T = _moved_star(P2, faces, v, Y)
     cr = np.cross(T[:, :, 1] - T[:, :, 0], T[:, :, 2] - T[:, :, 0])
     sq = ((T[:, :, 1] - T[:, :, 0]) ** 2 + (T[:, :, 2] - T[:, :, 1]) ** 2
           + (T[:, :, 0] - T[:, :, 2]) ** 2).sum(axis=2)
@@ -937,8 +944,8 @@ _SLIDE_SWEEPS = 2
 
 
 def _sweep_state(P2, F):
-    """What a sweep over points reads: the faces (int64), which slots are live, each slot's
-    faces (``vface[start[v]:start[v + 1]]``) and the faces' unit normals."""
+    """What a sweep over points reads: the faces (int64), which slots are live and each
+    slot's faces (``vface[start[v]:start[v + 1]]``)."""
     F = np.asarray(F, dtype=np.int64)
     n = P2.shape[0]
     corners = F.reshape(-1)
@@ -946,7 +953,7 @@ def _sweep_state(P2, F):
     alive[corners] = True
     order = np.argsort(corners, kind="stable")
     start = np.searchsorted(corners[order], np.arange(n + 1))
-    return F, alive, start, order // 3, face_normals(P2, F)[0]
+    return F, alive, start, order // 3
 
 
 def _mean_edge(P2, star, v: int) -> float:
@@ -979,7 +986,8 @@ def _slide_relax(P2, F, slider: LineSlider, surf, all_face, all_w, n0: int) -> i
     faces (the largest smallest quality when a face is below _WORST_QUALITY) if that beats
     the current one.  Connectivity is unchanged; ``all_face`` / ``all_w`` (rows slot - n0)
     and ``slider.s`` follow.  Returns the moves made."""
-    F, alive, start, vface, normals = _sweep_state(P2, F)
+    F, alive, start, vface = _sweep_state(P2, F)
+    normals = face_normals(P2, F)[0]
     cos_turn = math.cos(math.radians(_RELAX_TURN))
     along = np.concatenate([-np.asarray(_SLIDE_RELAX_STEPS), np.asarray(_SLIDE_RELAX_STEPS)])
     moves = 0
@@ -998,8 +1006,7 @@ def _slide_relax(P2, F, slider: LineSlider, surf, all_face, all_w, n0: int) -> i
         qs, ok = _star_candidates(P2, F[fs], v, Y, normals[fs], cos_turn)
         # the star's faces may not leave the input surface further than before: their
         # centroids and edge midpoints, now and at each candidate
-        T = np.broadcast_to(P2[F[fs]], (Y.shape[0] + 1, fs.size, 3, 3)).copy()
-        T[1:, F[fs] == v] = Y[:, None]
+        T = _moved_star(P2, F[fs], v, np.concatenate([P2[v][None], Y]))
         S = np.concatenate([T.mean(axis=2)[:, :, None], 0.5 * (T + T[:, :, [1, 2, 0]])], axis=2)
         err = surf.distance(S.reshape(-1, 3)).reshape(Y.shape[0] + 1, -1).max(axis=1)
         ok &= err[1:] <= max(float(err[0]), _SLIDE_RELAX_ERR * h) + 1e-9 * h
@@ -1030,7 +1037,8 @@ def _slide_boundary(P2, F, slider: LineSlider, all_face, all_w, n0: int) -> int:
     that is less than now, no face turns by more than _RELAX_TURN degrees and its worst face
     gets no worse.  Connectivity is unchanged;
     ``all_face`` / ``all_w`` (rows slot - n0) and ``slider.s`` follow.  Returns the moves."""
-    F, alive, start, vface, normals = _sweep_state(P2, F)
+    F, alive, start, vface = _sweep_state(P2, F)
+    normals = face_normals(P2, F)[0]
     cos_turn = math.cos(math.radians(_RELAX_TURN))
     along = np.concatenate([-np.asarray(_SLIDE_RELAX_STEPS), np.asarray(_SLIDE_RELAX_STEPS)])
     moves = 0
