@@ -54,6 +54,11 @@ cdef inline double sq(double x) noexcept nogil:
     return x * x
 
 
+cdef inline double point_sqdist(const double* a, const double* b) noexcept nogil:
+    """Squared distance between points a and b."""
+    return sq(a[0] - b[0]) + sq(a[1] - b[1]) + sq(a[2] - b[2])
+
+
 cdef inline double tri_sqdist(const double* x, const double* t) noexcept nogil:
     """Squared distance from x to the triangle t (9 doubles): vec3.point_triangle_sqdist."""
     return point_triangle_sqdist(x, t, &t[3], &t[6])
@@ -354,7 +359,7 @@ cdef void face_balls(const double* tris, int n, double* balls) noexcept nogil:
 
 cdef inline bint ball_beyond(const double* ball, const double* x, double r) noexcept nogil:
     """Is x farther than r from the ball (so from its triangle)?"""
-    return sq(x[0] - ball[0]) + sq(x[1] - ball[1]) + sq(x[2] - ball[2]) > sq(ball[3] + r)
+    return point_sqdist(x, ball) > sq(ball[3] + r)
 
 
 cdef extern from *:
@@ -641,8 +646,8 @@ cdef class Bound:
         answer too (INFINITY, without searching)."""
         cdef int stack[BOUND_STACK]
         cdef double sval[BOUND_STACK]         # corners_box_sqdist of the node, when pushed
-        cdef int sp = 1, node, i, c, a
-        cdef double found = INFINITY, bound = self.eps2, v, va, vb, da, db
+        cdef int sp = 1, node, i, c, a, near, far
+        cdef double found = INFINITY, bound = self.eps2, v, va, vb, vn, vf, da, db
         cover[0] = -1
         for c in range(3):
             if hints[c] >= 0:
@@ -676,25 +681,19 @@ cdef class Bound:
             a = self.left[node]
             va = corners_box_sqdist0(&self.box[a, 0], t, bound, &da)
             vb = corners_box_sqdist0(&self.box[a + 1, 0], t, bound, &db)
-            # the child nearer the first corner on top
+            # the child nearer the first corner on top (pushed last)
             if da <= db:
-                if vb <= bound:
-                    stack[sp] = a + 1
-                    sval[sp] = vb
-                    sp += 1
-                if va <= bound:
-                    stack[sp] = a
-                    sval[sp] = va
-                    sp += 1
+                near, vn, far, vf = a, va, a + 1, vb
             else:
-                if va <= bound:
-                    stack[sp] = a
-                    sval[sp] = va
-                    sp += 1
-                if vb <= bound:
-                    stack[sp] = a + 1
-                    sval[sp] = vb
-                    sp += 1
+                near, vn, far, vf = a + 1, vb, a, va
+            if vf <= bound:
+                stack[sp] = far
+                sval[sp] = vf
+                sp += 1
+            if vn <= bound:
+                stack[sp] = near
+                sval[sp] = vn
+                sp += 1
         return found
 
     cdef double vertex_dist2(self, int v, const double* x, int* near) noexcept nogil:
@@ -1215,15 +1214,16 @@ cdef class Bound:
         cdef int s = self.vver[r] + self.vver[k]
         cdef int kind = self.memo_kind(r, k, p)
         cdef int* mm = &self.memo[e, 0]
-        if mm[0] == r and mm[1] == k and mm[2] == s and (mm[3] & kind):
+        cdef bint same = mm[0] == r and mm[1] == k and mm[2] == s     # nothing changed since
+        if same and (mm[3] & kind):
             if kind != 1 or same_point(p, &self.memo_p[e, 0]):
                 return False
         # the piece that refused the last check of this edge, while nothing changed since:
         # tried first (it is still on the same face of the fans)
-        q = mm[4] if mm[0] == r and mm[1] == k and mm[2] == s else -1
+        q = mm[4] if same else -1
         if self.check_uncached(h, r, k, p, &q):
             return True
-        if not (mm[0] == r and mm[1] == k and mm[2] == s):
+        if not same:
             mm[0] = r
             mm[1] = k
             mm[2] = s
@@ -1310,10 +1310,8 @@ cdef class Bound:
         # face is the point of the old one with the same barycentric weights moved by at
         # most that much, so within the old face's certificate plus it of the original
         # (taken a hair large for rounding)
-        move_r = sqrt(sq(p[0] - self.P[self.stride * r]) + sq(p[1] - self.P[self.stride * r + 1])
-                      + sq(p[2] - self.P[self.stride * r + 2]))
-        move_k = sqrt(sq(p[0] - self.P[self.stride * k]) + sq(p[1] - self.P[self.stride * k + 1])
-                      + sq(p[2] - self.P[self.stride * k + 2]))
+        move_r = sqrt(point_sqdist(p, &self.P[self.stride * r]))
+        move_k = sqrt(point_sqdist(p, &self.P[self.stride * k]))
         for i in range(n):
             v = (self.fval[fids[i]] + (move_r if i < n_r else move_k)) * (1.0 + 1e-12)
             if v <= self.eps:
@@ -1550,7 +1548,7 @@ cdef class Bound:
         cdef double d, r2 = 0.0
         cdef int c
         for c in range(3):
-            d = sq(x[3 * c] - b[0]) + sq(x[3 * c + 1] - b[1]) + sq(x[3 * c + 2] - b[2])
+            d = point_sqdist(&x[3 * c], b)
             if d > r2:
                 r2 = d
         d = sqrt(r2) * (1.0 + 1e-12) + 1e-300   # a hair large: rounding never lets a corner out
