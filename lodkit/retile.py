@@ -591,6 +591,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
 #: a relaxation move is undone when a face of the moved point would turn by more than this
 #: many degrees, or end below this quality while it was better before
 _RELAX_TURN = 30.0
+_COS_RELAX_TURN = math.cos(math.radians(_RELAX_TURN))
 _RELAX_QUALITY = 0.3
 
 
@@ -624,7 +625,7 @@ def _relax(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, rounds: int) 
     if not movable.any():
         return 0
     corners = F.reshape(-1)
-    cos_turn = math.cos(math.radians(_RELAX_TURN))
+    cos_turn = _COS_RELAX_TURN
     kept_moves = 0
     for _ in range(rounds):
         normals, area = face_normals(P2, F)
@@ -933,6 +934,7 @@ def _star_candidates(P2, faces, v: int, Y, normals, cos_turn: float):
 #: fractions of the point's mean edge length either way, and the arc-length midpoint of its
 #: line neighbours
 _SLIDE_RELAX_STEPS = (0.05, 0.1, 0.2, 0.35)
+_SLIDE_RELAX_ALONG = np.concatenate([-np.asarray(_SLIDE_RELAX_STEPS), np.asarray(_SLIDE_RELAX_STEPS)])
 #: a slide may leave the point's worst face no worse than min(before, this)
 _SLIDE_RELAX_FLOOR = _WORST_QUALITY
 #: ... nor its faces further from the input than max(before, this fraction of its mean
@@ -988,8 +990,6 @@ def _slide_relax(P2, F, slider: LineSlider, surf, all_face, all_w, n0: int) -> i
     and ``slider.s`` follow.  Returns the moves made."""
     F, alive, start, vface = _sweep_state(P2, F)
     normals = face_normals(P2, F)[0]
-    cos_turn = math.cos(math.radians(_RELAX_TURN))
-    along = np.concatenate([-np.asarray(_SLIDE_RELAX_STEPS), np.asarray(_SLIDE_RELAX_STEPS)])
     moves = 0
     for i, v in enumerate(slider.slots.tolist()):
         if not alive[v] or slider.boundary[i]:
@@ -997,13 +997,13 @@ def _slide_relax(P2, F, slider: LineSlider, surf, all_face, all_w, n0: int) -> i
         fs = vface[start[v]:start[v + 1]]
         h = _mean_edge(P2, F[fs], v)
         back, ahead = slider.room(v, alive)
-        ds = np.concatenate([h * along, [0.5 * (ahead - back)]])
+        ds = np.concatenate([h * _SLIDE_RELAX_ALONG, [0.5 * (ahead - back)]])
         ds = ds[(ds > -_SLIDE_ROOM * back) & (ds < _SLIDE_ROOM * ahead) & (ds != 0.0)]   # exact: 0 is no move
         if ds.size == 0:
             continue
         Y, face, w, s_new = slider.locate(int(slider.line[i]), slider.s[i] + ds)
         q0 = triangle_quality(P2, F[fs])
-        qs, ok = _star_candidates(P2, F[fs], v, Y, normals[fs], cos_turn)
+        qs, ok = _star_candidates(P2, F[fs], v, Y, normals[fs], _COS_RELAX_TURN)
         # the star's faces may not leave the input surface further than before: their
         # centroids and edge midpoints, now and at each candidate
         T = _moved_star(P2, F[fs], v, np.concatenate([P2[v][None], Y]))
@@ -1039,8 +1039,6 @@ def _slide_boundary(P2, F, slider: LineSlider, all_face, all_w, n0: int) -> int:
     ``all_face`` / ``all_w`` (rows slot - n0) and ``slider.s`` follow.  Returns the moves."""
     F, alive, start, vface = _sweep_state(P2, F)
     normals = face_normals(P2, F)[0]
-    cos_turn = math.cos(math.radians(_RELAX_TURN))
-    along = np.concatenate([-np.asarray(_SLIDE_RELAX_STEPS), np.asarray(_SLIDE_RELAX_STEPS)])
     moves = 0
     for i, v in enumerate(slider.slots.tolist()):
         if not alive[v] or not slider.boundary[i]:
@@ -1048,7 +1046,7 @@ def _slide_boundary(P2, F, slider: LineSlider, all_face, all_w, n0: int) -> int:
         fs = vface[start[v]:start[v + 1]]
         h = _mean_edge(P2, F[fs], v)
         back, ahead = slider.room(v, alive)
-        ds = h * along
+        ds = h * _SLIDE_RELAX_ALONG
         ds = ds[(ds > -_SLIDE_ROOM * back) & (ds < _SLIDE_ROOM * ahead)]
         if ds.size == 0:
             continue
@@ -1056,7 +1054,7 @@ def _slide_boundary(P2, F, slider: LineSlider, all_face, all_w, n0: int) -> int:
         s0 = float(slider.s[i])
         Y, face, w, s_new = slider.locate(li, s0 + ds)
         q0 = triangle_quality(P2, F[fs])
-        qs, ok = _star_candidates(P2, F[fs], v, Y, normals[fs], cos_turn)
+        qs, ok = _star_candidates(P2, F[fs], v, Y, normals[fs], _COS_RELAX_TURN)
         ok &= qs.min(axis=1) >= float(q0.min())
         if not ok.any():
             continue
@@ -1095,7 +1093,7 @@ def _collapse_slivers(P2, F, n0: int, nX: int, free_old, group, crease_vertex) -
     if not (q < _COLLAPSE_QUALITY).any():
         return F, 0
     hm = build(np.ascontiguousarray(F, dtype=np.int32), n)
-    cos_turn = math.cos(math.radians(_RELAX_TURN))
+    cos_turn = _COS_RELAX_TURN
     corners_all = np.asarray(hm.corners)
     done = 0
     for _ in range(_COLLAPSE_ROUNDS):
@@ -1165,7 +1163,7 @@ def _split_slivers(P2, F, surf, P0, F0, group, crease_vertex=None, on_edge: bool
     vertices appended, the faces (int32), the new vertices' input faces (k,) and
     barycentric weights (k, 3), whether each is a crease vertex (k,) bool, splits made)."""
     F = np.asarray(F, dtype=np.int64).copy()
-    cos_turn = math.cos(math.radians(_RELAX_TURN))
+    cos_turn = _COS_RELAX_TURN
     at = np.asarray(_SPLIT_AT)
     sub = np.array([[0, 4, 2], [4, 1, 2], [1, 4, 3], [4, 0, 3]])      # of (a, b, c, d, m)
     added_f, added_w, added_crease = [], [], []
@@ -1319,7 +1317,7 @@ def _fit_normal(P2, F, n0: int, nX: int, surf, normals0, rounds: int) -> int:
     mean_edge = np.bincount(e.reshape(-1), weights=np.repeat(el, 2), minlength=n) / np.maximum(deg, 1)
     origin = P2[idx].copy()
     V0 = surf.V
-    cos_turn = math.cos(math.radians(_RELAX_TURN))
+    cos_turn = _COS_RELAX_TURN
     for _ in range(rounds):
         normals, area = face_normals(P2, F)
         q_before = triangle_quality(P2, F)
