@@ -38,7 +38,7 @@ from cython.parallel cimport prange, threadid
 from libc.math cimport isnan, INFINITY
 from libc.stdlib cimport qsort, malloc, free
 from libc.string cimport memcpy, memset
-from cpython.mem cimport PyMem_RawCalloc, PyMem_RawFree, PyMem_RawRealloc
+from cpython.mem cimport PyMem_RawCalloc, PyMem_RawFree, PyMem_RawMalloc, PyMem_RawRealloc
 from posix.time cimport clock_gettime, timespec, CLOCK_MONOTONIC
 import numpy as np
 cimport numpy as cnp
@@ -326,6 +326,7 @@ cdef enum:
 cdef enum:
     RANK_CHUNK = 2048   # edges a thread ranks at a time
     RANK_RUN = 64       # rank_range's runs: dirty edges gathered, their rows prefetched, then planned
+    LIVE_SHARE = 4      # the sweeps walk a list of the live edges once the faces are 1/LIVE_SHARE of the start's
 
 cdef enum:
     SERIAL_TAIL = 256   # a pass that may reach the target takes its last few candidates one by one
@@ -472,6 +473,12 @@ cdef class PassDriver:
     cdef float[::1] cost            # (n_edges,) ranked cost, float32: orders the pass only
     cdef unsigned char[::1] state   # (n_edges,) ST_*
     cdef int ne                     # edge slots (dead ones are skipped where they come up)
+    # late in a run most edge slots are dead: the sweeps of a pass (rank, select) then walk
+    # ``live`` (the ids of the edges alive when it was last made, ascending; edges only
+    # die) instead of every slot.  NULL: every slot.  (update_live)
+    cdef int* live
+    cdef int n_live
+    cdef int live_faces             # live faces when ``live`` is to be made (again)
     cdef Keyed[::1] keyed_buf       # (kmax,) the candidates of a pass, in (cost, edge) order
     cdef double fallback_limit      # the pass's dearest candidate's cost (EdgeCollapser.place_ok)
     cdef int[::1] hist
@@ -522,6 +529,9 @@ cdef class PassDriver:
         self.cost = np.zeros(max(ne, 1), dtype=np.float32)
         self.state = np.zeros(max(ne, 1), dtype=np.uint8)
         self.ne = ne
+        self.live = NULL
+        self.n_live = 0
+        self.live_faces = collapser.hm.n_alive_faces // LIVE_SHARE
         cdef int n_alive = int(np.count_nonzero(np.asarray(collapser.hm.edge_alive, dtype=bool)))
         self.hist = np.zeros(N_BUCKETS, dtype=np.intc)
         self.hist_low = np.zeros(N_BUCKETS, dtype=np.intc)
@@ -582,15 +592,57 @@ cdef class PassDriver:
                 PyMem_RawFree(self.staging[t])
         PyMem_RawFree(self.staging)
         PyMem_RawFree(self.stage_cap)
+        PyMem_RawFree(self.live)
 
     # ------------------------------------------------------------- named steps
+    cdef void update_live(self) noexcept nogil:
+        """Before a pass: once the live faces have fallen to ``live_faces`` (a quarter of
+        the start's, then half of those at the last making), make ``live`` again from the
+        edges still alive -- from every slot the first time, then from the last list (edges
+        only die).  Each making halves the list at least, so the making costs O(edges) in
+        all, and a pass's sweeps cost what is alive, not every slot: late in a run (to 1 %,
+        or a bounded run's many short passes) most slots are dead.  Ascending ids, so every
+        sweep visits the live edges in the same order as before: the same output.  Without
+        the memory for it (a byte a slot at most), the sweeps go on over every slot."""
+        cdef const unsigned char* alive = self.m.edge_alive
+        cdef int n = 0, i, e
+        cdef int* made
+        if self.c.hm.n_alive_faces > self.live_faces:
+            return
+        self.live_faces = self.c.hm.n_alive_faces // 2
+        if self.live == NULL:
+            for e in range(self.ne):
+                n += alive[e] != 0
+            made = <int*>PyMem_RawMalloc((n + 1) * sizeof(int))   # (a row past the last: the loop below writes it)
+            if made == NULL:
+                return
+            n = 0
+            for e in range(self.ne):
+                made[n] = e
+                n += alive[e] != 0
+            self.live = made
+        else:
+            for i in range(self.n_live):
+                e = self.live[i]
+                self.live[n] = e
+                n += alive[e] != 0
+            made = <int*>PyMem_RawRealloc(self.live, max(n, 1) * sizeof(int))
+            if made != NULL:
+                self.live = made
+        self.n_live = n
+
+    cdef inline int n_sweep(self) noexcept nogil:
+        """How many entries a pass's sweeps walk: the live list's, else every edge slot."""
+        return self.n_live if self.live != NULL else self.ne
+
     cdef void rank(self) noexcept nogil:
         """Plan every dirty live edge: its cost, or why it may not go; and count the valid
         candidates into a cost histogram per thread (``compact`` sums them).  Each edge
         writes its own slots only, and the histograms are integer counts, so the result
         does not depend on the number of threads."""
         cdef int c, t, lo, hi
-        cdef int n_chunks = (self.ne + RANK_CHUNK - 1) // RANK_CHUNK
+        cdef int n_items = self.n_sweep()
+        cdef int n_chunks = (n_items + RANK_CHUNK - 1) // RANK_CHUNK
         memset(&self.hist_t[0, 0], 0, self.hist_t.shape[0] * N_BUCKETS * sizeof(int))
         if self.threads > 1:
             # one parallel region a pass, in dynamic chunks: a thread the system holds back
@@ -604,14 +656,14 @@ cdef class PassDriver:
                     self.interrupted = True
                     continue
                 lo = c * RANK_CHUNK
-                hi = min(lo + RANK_CHUNK, self.ne)
+                hi = min(lo + RANK_CHUNK, n_items)
                 self.rank_range(lo, hi, &self.hist_t[t, 0])
             if not self.interrupted and signal_pending():
                 self.interrupted = True
             return
         for c in range(n_chunks):
             lo = c * RANK_CHUNK
-            hi = min(lo + RANK_CHUNK, self.ne)
+            hi = min(lo + RANK_CHUNK, n_items)
             self.rank_range(lo, hi, &self.hist_t[0, 0])
             if self.c.failed:
                 return
@@ -620,7 +672,8 @@ cdef class PassDriver:
                 return
 
     cdef void rank_range(self, int lo, int hi, int* hist) noexcept nogil:
-        """rank() for edges lo .. hi - 1, counting into ``hist`` (the arrays are read through
+        """rank() for the sweep's entries lo .. hi - 1 (edges, or entries of ``live``),
+        counting into ``hist`` (the arrays are read through
         locals: the histogram's stores would otherwise reload them for every edge).  In runs
         of RANK_RUN edges: the run's dirty live edges are gathered and their ends' rows
         prefetched (and the valid ones counted), then planned (their rows lie anywhere near
@@ -631,6 +684,7 @@ cdef class PassDriver:
         cdef const int* edge_he = self.m.edge_he
         cdef const int* corner = self.m.corner
         cdef const double* Q = self.c.Q
+        cdef const int* live = self.live
         cdef int dirty[RANK_RUN]
         cdef int i, j, e, h, n, sub, sub_end
         cdef unsigned char st
@@ -639,15 +693,16 @@ cdef class PassDriver:
             sub_end = min(sub + <int>RANK_RUN, hi)
             n = 0
             for i in range(sub, sub_end):
-                if not alive[i]:
+                e = live[i] if live != NULL else i
+                if not alive[e]:
                     continue
-                st = state[i]
+                st = state[e]
                 if st == ST_VALID:
-                    hist[bucket_of(cost[i])] += 1
+                    hist[bucket_of(cost[e])] += 1
                 elif st == ST_DIRTY:
-                    dirty[n] = i
+                    dirty[n] = e
                     n += 1
-                    h = edge_he[i]
+                    h = edge_he[e]
                     prefetch_row(&Q[VSTRIDE * corner[h]])
                     prefetch_row(&Q[VSTRIDE * corner[he_next(h)]])
             for j in range(n):
@@ -685,13 +740,18 @@ cdef class PassDriver:
     cdef int compact(self) noexcept nogil:
         """The number of valid candidates (live edges ranked within the limit), and the
         histogram of their costs: the sum of rank()'s histograms."""
-        cdef int b, t, c, valid = 0
+        cdef int* hist = &self.hist[0]
+        cdef const int* row
+        cdef int b, t, valid = 0
+        # (through pointers, a row at a time: the loops vectorise; integer sums, so the
+        # order does not matter.  It runs every pass, over all N_BUCKETS.)
+        memcpy(hist, &self.hist_t[0, 0], N_BUCKETS * sizeof(int))
+        for t in range(1, self.hist_t.shape[0]):
+            row = &self.hist_t[t, 0]
+            for b in range(N_BUCKETS):
+                hist[b] += row[b]
         for b in range(N_BUCKETS):
-            c = 0
-            for t in range(self.hist_t.shape[0]):
-                c += self.hist_t[t, b]
-            self.hist[b] = c
-            valid += c
+            valid += hist[b]
         return valid
 
     cdef int select(self, int k) noexcept nogil:
@@ -788,13 +848,14 @@ cdef class PassDriver:
         buffer of its own cannot grow, the candidates are counted and then written from the
         edges.)"""
         cdef int T = self.threads
-        cdef int per = (self.ne + T - 1) // T
+        cdef int n_items = self.n_sweep()
+        cdef int per = (n_items + T - 1) // T
         cdef int t, b, lo, hi, pos, c, start, end
         cdef bint staged = True
         for t in prange(T, num_threads=T, schedule="static", chunksize=1):
             memset(&self.hist_t[t, 0], 0, (last + 1) * sizeof(int))
             lo = t * per
-            hi = min(lo + per, self.ne)
+            hi = min(lo + per, n_items)
             self.stage_n[t] = self.stage_range(t, lo, hi, last)
         for t in range(T):
             if self.stage_n[t] < 0:
@@ -803,7 +864,7 @@ cdef class PassDriver:
             for t in prange(T, num_threads=T, schedule="static", chunksize=1):
                 memset(&self.hist_t[t, 0], 0, (last + 1) * sizeof(int))
                 lo = t * per
-                hi = min(lo + per, self.ne)
+                hi = min(lo + per, n_items)
                 self.bucket_range(lo, hi, last, &self.hist_t[t, 0], False)
         pos = 0
         for b in range(last + 1):             # hist: bucket starts; hist_t: each range's
@@ -817,7 +878,7 @@ cdef class PassDriver:
                 self.unstage(t, &self.hist_t[t, 0])
             else:
                 lo = t * per
-                hi = min(lo + per, self.ne)
+                hi = min(lo + per, n_items)
                 self.bucket_range(lo, hi, last, &self.hist_t[t, 0], True)
         for b in prange(last + 1, num_threads=T, schedule="dynamic", chunksize=256):
             start = self.hist[b]
@@ -826,8 +887,8 @@ cdef class PassDriver:
         return n
 
     cdef int stage_range(self, int t, int lo, int hi, int last) noexcept nogil:
-        """select_staged's first step for thread ``t``: the valid candidates of edges
-        lo .. hi - 1 in buckets up to ``last``, their edges in edge order, into its staging
+        """select_staged's first step for thread ``t``: the valid candidates of the sweep's
+        entries lo .. hi - 1 in buckets up to ``last``, their edges in edge order, into its staging
         buffer (one of its own grown as needed), counted by bucket into its row of hist_t.
         Returns how many, or -1 when the buffer could not grow."""
         cdef const unsigned char* state = &self.state[0]
@@ -835,9 +896,10 @@ cdef class PassDriver:
         cdef const float* cost = &self.cost[0]
         cdef int* hist = &self.hist_t[t, 0]
         cdef int* buf = self.staging[t]
+        cdef const int* live = self.live
         cdef int* grown
         cdef int cap = self.stage_cap[t]
-        cdef int e, j = 0, sub, sub_end
+        cdef int e, i, j = 0, sub, sub_end
         cdef unsigned int bk, take
         # without branches on the edge's state (dead and valid edges mix at random late in
         # a run): every edge is written to the next row and counted, and kept (the row
@@ -853,7 +915,8 @@ cdef class PassDriver:
                 buf = grown
                 self.staging[t] = buf
                 self.stage_cap[t] = cap
-            for e in range(sub, sub_end):
+            for i in range(sub, sub_end):
+                e = live[i] if live != NULL else i
                 bk = bucket_of(cost[e])
                 take = (state[e] == ST_VALID) & (alive[e] != 0) & (bk <= <unsigned int>last)
                 buf[j] = e
@@ -878,17 +941,19 @@ cdef class PassDriver:
             pos[bk] += 1
 
     cdef void bucket_range(self, int lo, int hi, int last, int* pos, bint write) noexcept nogil:
-        """The valid candidates of edges lo .. hi - 1 in buckets up to ``last``, in edge
-        order: counted into ``pos`` (``write`` False), or written to their buckets' next
+        """The valid candidates of the sweep's entries lo .. hi - 1 in buckets up to
+        ``last``, in edge order: counted into ``pos`` (``write`` False), or written to their buckets' next
         rows ``pos`` (advanced).  Through locals: the stores would otherwise reload the
         arrays for every edge."""
         cdef const unsigned char* state = &self.state[0]
         cdef const unsigned char* alive = self.m.edge_alive
         cdef const float* cost = &self.cost[0]
         cdef Keyed* out = &self.keyed_buf[0]
+        cdef const int* live = self.live
         cdef unsigned int bk
-        cdef int e
-        for e in range(lo, hi):
+        cdef int e, i
+        for i in range(lo, hi):
+            e = live[i] if live != NULL else i
             if state[e] == ST_VALID and alive[e]:
                 bk = bucket_of(cost[e])
                 if bk <= <unsigned int>last:
@@ -1544,6 +1609,7 @@ cdef class PassDriver:
             if steps >= max_steps:
                 return RUN_CHUNK
             t0 = now()
+            self.update_live()
             self.rank()
             self.phase_t[PH_RANK] += now() - t0
             if self.interrupted:
