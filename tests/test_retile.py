@@ -174,7 +174,9 @@ def test_refine_lowers_the_hausdorff_error_of_a_sharp_bump():
     assert h_ref < 0.8 * h_plain
     errs = ref.report["refine_errors"]
     assert len(errs) == 3 and 0 <= ref.report["refine_pass"] <= 2
-    assert errs[ref.report["refine_pass"]] <= min(errs) * (1 + 1e-12)
+    assert len(ref.report["refine_quality"]) == 3
+    # the pass kept is within the keep rule's slack of the smallest error (_keep_pass)
+    assert errs[ref.report["refine_pass"]] <= min(errs) * 1.2 * (1 + 1e-12)
     assert off_surface(src, ref.mesh) < 1e-9
     t = lodkit.topology(ref.mesh)
     assert t.is_manifold and t.genus == 0 and t.n_boundary_loops == 1
@@ -183,6 +185,24 @@ def test_refine_lowers_the_hausdorff_error_of_a_sharp_bump():
     np.testing.assert_array_equal(again.mesh.faces, ref.mesh.faces)
     with pytest.raises(OptionError, match="refine"):
         retile(src, 150, refine=-1)
+
+
+def test_refine_keeps_a_well_shaped_pass_of_nearly_the_smallest_error():
+    """The keep rule of ``refine`` (issue 16): of the passes within 1.2x of the smallest
+    error, one meeting the shape targets (smallest quality >= 0.3, then mean >= 0.85), the
+    smallest error among equals; a pass further off in error is never kept for its shape."""
+    from lodkit.retile import _keep_pass
+
+    # the smallest-error pass meets both targets: it stays
+    assert _keep_pass([1.0, 1.1, 3.0], [(0.86, 0.31), (0.95, 0.6), (0.99, 0.9)]) == 0
+    # it misses the smallest-quality target: the next within 1.2x that meets it
+    assert _keep_pass([1.0, 1.1, 1.15], [(0.90, 0.24), (0.80, 0.31), (0.86, 0.35)]) == 2
+    # only the mean target missed: the pass meeting both, not the one with the best minimum
+    assert _keep_pass([1.1, 1.0, 1.05], [(0.86, 0.32), (0.83, 0.60), (0.82, 0.70)]) == 0
+    # nothing within 1.2x is better shaped: the smallest error
+    assert _keep_pass([1.0, 1.3, 2.0], [(0.80, 0.20), (0.95, 0.6), (0.99, 0.9)]) == 0
+    # equal shape classes: the smallest error, whatever the order
+    assert _keep_pass([1.1, 1.0, 1.05], [(0.90, 0.5), (0.90, 0.5), (0.95, 0.5)]) == 1
 
 
 def test_attributes_interpolated():
