@@ -79,6 +79,13 @@ _REFINE_POWER = 1.0
 #: diagonal are not creases (retile's ``features``, optimize's crease samples)
 CREASE_MIN_LENGTH = 0.1
 _REFINE_CLAMP = 4.0
+# refine keeps, of the finished passes whose largest error is within this factor of the
+# smallest, one that meets the shape targets (smallest quality >= _COLLAPSE_QUALITY, mean
+# >= _KEEP_MEAN_QUALITY, issue 16's), the smallest error first among equals: on cow@2% the
+# passes' mean qualities scatter by 0.05-0.08 while their errors are often within 20%
+# (docs/retile.md)
+_KEEP_ERROR_SLACK = 1.2
+_KEEP_MEAN_QUALITY = 0.85
 
 
 class SurfaceProjector:
@@ -162,25 +169,30 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
     relax      : rounds of tangential relaxation after the final flips (lodkit's addition,
                  0: Turk's steps only): each new interior point moves half-way to the
                  area-weighted centroid of its faces within its tangent plane, back onto
-                 the input surface; a move that would turn or spoil a face is undone;
+                 the input surface (so do the old vertices the removal left, but for
+                 boundary corners, crease vertices and non-manifold copies: report["old_moved"]);
+                 a move that would turn or spoil a face is undone;
                  each round, crease points then slide along their crease lines to better
                  triangles and boundary points along their loops to chords closer to the
                  input's loop (report["relax_slides"]); then the flips again, then the
                  worst-triangle step: the new points of
                  faces below quality 0.4 move, on the surface, to where their worst face is
-                 best (report["worst_moves"]; crease points slide along their crease line,
-                 report["slid"], boundary points too); faces still below 0.3 get a second, wider round in which
-                 the old vertices the removal left move too (report["old_moved"]) and a
-                 sliver's free vertex may collapse into a neighbour
-                 (report["sliver_collapses"]); then a last sliver flip pass; on the
-                 pass kept, faces still below 0.3 get up to 8 rounds of those moves,
+                 best (report["worst_moves"]; those old vertices too; crease points slide
+                 along their crease line, report["slid"], boundary points too); faces still
+                 below 0.3 get a second, wider round and a sliver's free vertex may
+                 collapse into a neighbour
+                 (report["sliver_collapses"]); then a last sliver flip pass; on every
+                 pass, faces still below 0.3 get up to 8 rounds of those moves,
                  collapses, sliver splits (report["sliver_splits"]) and flips (docs/retile.md)
     refine     : error-driven passes (lodkit's addition, 0: off): after each pass the
                  distance between the re-tiling and the input is measured both ways, the
                  density is multiplied by the local error over its mean (at most 4x
                  either way) and the surface is re-tiled again from the input with as many
-                 points; of the ``refine + 1`` passes, the one with the smallest largest
-                 error (a Hausdorff estimate) is returned (report["refine_errors"],
+                 points; every pass is finished (the untangling and ``fit``) and
+                 measured again, and of the ``refine + 1`` passes those within 1.2x of the
+                 smallest largest error (a Hausdorff estimate) compete on shape: smallest
+                 quality >= 0.3 first, then mean >= 0.85, then the smallest error
+                 (report["refine_errors"], report["refine_quality"]: (mean, min) per pass,
                  report["refine_pass"])
     fit        : rounds (lodkit's addition, NOT Turk's method; 0: off) that move the new
                  interior vertices along their normals so that the result straddles the
@@ -261,8 +273,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
     cos_flip = math.cos(math.radians(flip_angle))
     cos_sliver = math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE)))
     cos_crease = math.cos(math.radians(features)) if features is not None else 2.0
-    errors = []
-    best = None
+    errors, qualities, passes = [], [], []
     for pass_ in range(refine + 1):
         if pass_:
             t = time.perf_counter()
@@ -427,6 +438,14 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
         old_at = (np.full(n0, -1, dtype=np.int64), np.zeros((n0, 3)))
         free_old = None
         if relax and F.shape[0] and nX:
+            # old vertices the removal left (not copies, boundary corners or crease vertices)
+            # may move like new points; where they went is in old_at
+            free_old = np.zeros(P2.shape[0], dtype=bool)
+            free_old[np.unique(F.reshape(-1))] = True
+            free_old[n0:] = False
+            free_old &= fixed == 0
+            if crease_vertex is not None:
+                free_old &= crease_vertex == 0
             slider = None
             if on.size:
                 # crease points slide along their line, in the relaxation and in the
@@ -434,11 +453,11 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
                 slider = LineSlider(P0, F0, [(x, True) for x in loops + creases] + [(x, False) for x in lines],
                                     n0 + nX + np.arange(on.size), bh, bt, ~on)
             if slider is None:
-                relaxed = _relax(P2, F, n0, nX, surf, P0, F0, all_face, all_w, relax)
+                relaxed = _relax(P2, F, n0, nX, surf, P0, F0, all_face, all_w, relax, free_old, old_at)
             for _ in range(relax if slider is not None else 0):
                 # interior points in their tangent planes, then the crease points along their
                 # lines, then the flips (edges between two crease points too, where no crease)
-                relaxed += _relax(P2, F, n0, nX, surf, P0, F0, all_face, all_w, 1)
+                relaxed += _relax(P2, F, n0, nX, surf, P0, F0, all_face, all_w, 1, free_old, old_at)
                 for _sweep in range(_SLIDE_SWEEPS if np.any(on) else 0):
                     relaxed_slid = _slide_relax(P2, F, slider, surf, all_face, all_w, n0)
                     relaxed += relaxed_slid
@@ -459,16 +478,8 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
                 flips += int(kern.flip_edges(P2, F, twin, cos_sliver,
                                              20, crease_vertex, _SLIVER_QUALITY,
                                              cos_crease if slider is not None else 2.0, group=group2))
-            # old vertices the removal left (not copies, boundary corners or crease vertices)
-            # may move like new points; where they went is in old_at
-            free_old = np.zeros(P2.shape[0], dtype=bool)
-            free_old[np.unique(F.reshape(-1))] = True
-            free_old[n0:] = False
-            free_old &= fixed == 0
-            if crease_vertex is not None:
-                free_old &= crease_vertex == 0
             worst_moves, n_slid = _improve_worst(P2, F, n0, nX, surf, P0, F0, all_face, all_w, _WORST_ROUNDS,
-                                                 slider)
+                                                 slider, free_old, old_at)
             slid += n_slid
             if F.shape[0] and float(triangle_quality(P2, F).min()) < _COLLAPSE_QUALITY:
                 # still below the target: the old vertices the removal left move too, further,
@@ -493,35 +504,46 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
                                              20, crease_vertex, _WORST_QUALITY, cos_crease,
                                              group=group2))
         times["finish"] = times.get("finish", 0.0) + time.perf_counter() - t
+        new_weight = None
         if refine:
             # error-driven density: measure this pass, reweight the next by its local error
             t = time.perf_counter()
-            new_weight, err = _error_density(weight, area0, P0, F0, P2, F, surf)
+            new_weight, _ = _error_density(weight, area0, P0, F0, P2, F, surf)
+            times["refine"] = times.get("refine", 0.0) + time.perf_counter() - t
+        # -- the last quality steps and the fit, on every pass: refine compares finished passes
+        t = time.perf_counter()
+        split = 0
+        if free_old is not None and F.shape[0] and float(triangle_quality(P2, F).min()) < _COLLAPSE_QUALITY:
+            # still below the target: moves that no stuck vertex blocks, collapses, splits
+            # and flips
+            P2, F, all_face, all_w, more, n_c, split, n_f = _untangle(
+                P2, F, n0, nX, surf, P0, F0, all_face, all_w, free_old, old_at, group2, crease_vertex,
+                cos_sliver if flip_angle > 0 else 2.0, cos_crease, on_edge=fit > 0)
+            worst_moves += more
+            collapsed += n_c
+            flips += n_f
+            n_new = P2.shape[0] - n0
+        fitted = _fit_normal(P2, F, n0, nX, surf, normals0, fit) if fit and nX else 0
+        times["finish"] += time.perf_counter() - t
+        if refine:
+            t = time.perf_counter()
+            # the finished pass's largest error (its density is the one above, measured
+            # before the last quality steps and the fit, so that the passes stay as they were)
+            err = _error_density(weight, area0, P0, F0, P2, F, surf)[1]
+            q_pass = triangle_quality(P2, F) if F.shape[0] else np.zeros(1)
             errors.append(err * prep.scale)
-            if best is None or err < best[0]:
-                best = (err, pass_, P2.copy(), F, n_new, nX, all_face, all_w, B, kept, on, n_dropped,
-                        removals, held, n_collapsed, flips, relaxed, worst_moves, slid, n_old_kept, collapsed,
-                        old_at, slid_relax, free_old, group2, crease_vertex)
+            qualities.append((float(q_pass.mean()), float(q_pass.min())))
+            passes.append((P2, F, n_new, nX, all_face, all_w, B, kept, on, n_dropped,
+                           removals, held, n_collapsed, flips, relaxed, worst_moves, slid, n_old_kept, collapsed,
+                           old_at, slid_relax, split, fitted))
             weight = new_weight
             times["refine"] = times.get("refine", 0.0) + time.perf_counter() - t
+    kept_pass = 0
     if refine:
-        # each pass draws new points: the one with the smallest largest error is kept
-        (_, kept_pass, P2, F, n_new, nX, all_face, all_w, B, kept, on, n_dropped, removals, held,
-         n_collapsed, flips, relaxed, worst_moves, slid, n_old_kept, collapsed, old_at, slid_relax, free_old, group2,
-         crease_vertex) = best
+        kept_pass = _keep_pass(errors, qualities)
+        (P2, F, n_new, nX, all_face, all_w, B, kept, on, n_dropped, removals, held, n_collapsed, flips, relaxed,
+         worst_moves, slid, n_old_kept, collapsed, old_at, slid_relax, split, fitted) = passes[kept_pass]
     t = time.perf_counter()
-    split = 0
-    if free_old is not None and F.shape[0] and float(triangle_quality(P2, F).min()) < _COLLAPSE_QUALITY:
-        # still below the target on the kept pass (after the choice, so that it stays):
-        # moves that no stuck vertex blocks, collapses, splits and flips
-        P2, F, all_face, all_w, more, n_c, split, n_f = _untangle(
-            P2, F, n0, nX, surf, P0, F0, all_face, all_w, free_old, old_at, group2, crease_vertex,
-            cos_sliver if flip_angle > 0 else 2.0, cos_crease, on_edge=fit > 0)
-        worst_moves += more
-        collapsed += n_c
-        flips += n_f
-        n_new = P2.shape[0] - n0
-    fitted = _fit_normal(P2, F, n0, nX, surf, normals0, fit) if fit and nX else 0
     used = np.zeros(n0 + n_new, dtype=bool)
     used[F.reshape(-1)] = True
     # old vertices: one output vertex per input vertex (split copies weld back); an old
@@ -580,11 +602,26 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
             "sliver_splits": split,
             "old_moved": int(np.count_nonzero(moved_old)),
             "refine_errors": errors,
-            "refine_pass": kept_pass if refine else 0,
+            "refine_quality": qualities,
+            "refine_pass": kept_pass,
             "fitted": fitted,
             "times": times,
         },
     )
+
+
+def _keep_pass(errors, qualities) -> int:
+    """The pass ``refine`` keeps, given each finished pass's largest error (a Hausdorff
+    estimate, both ways) and its (mean, smallest) triangle quality: of the passes whose
+    error is within _KEEP_ERROR_SLACK of the smallest, those whose smallest quality is at
+    least _COLLAPSE_QUALITY first, of them those whose mean is at least _KEEP_MEAN_QUALITY,
+    and of those the one with the smallest error.  Where the smallest-error pass meets both
+    shape targets, it is kept."""
+    e = np.asarray(errors, dtype=np.float64)
+    near = np.flatnonzero(e <= _KEEP_ERROR_SLACK * e.min())
+    good_min = np.array([qualities[i][1] >= _COLLAPSE_QUALITY for i in near])
+    good_mean = np.array([qualities[i][0] >= _KEEP_MEAN_QUALITY for i in near])
+    return int(near[np.lexsort((e[near], ~good_mean, ~good_min))[0]])
 
 
 # ----------------------------------------------------------------------------- steps
@@ -610,18 +647,23 @@ def _new_interior_points(F: np.ndarray, n: int, n0: int, nX: int, extra=None):
     return movable, e
 
 
-def _relax(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, rounds: int) -> int:
+def _relax(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, rounds: int, free_old=None, old_at=None) -> int:
     """Tangential relaxation of the new interior points (slots n0 .. n0 + nX - 1) of the
     re-tiled faces ``F``, in place in ``P2``; their closest input faces and barycentric
     weights (``all_face`` / ``all_w``, rows 0 .. nX - 1) follow.  Each round moves every
     such point half-way to the area-weighted centroid of its faces, minus the move along
     its normal, and back onto the input surface; then the moves that turn one of their
     faces by more than _RELAX_TURN degrees, or leave one below _RELAX_QUALITY that was
-    above it, are undone (with their neighbours', until none is left).  Boundary, crease
-    and old vertices stay.  Returns the moves kept."""
+    above it, are undone (with their neighbours', until none is left).  Boundary and
+    crease points stay; so do old vertices, but those ``free_old`` marks ((n,) bool or
+    None; the ones the removal left, which sit where the input had them and make the worst
+    shaped faces, docs/retile.md), whose moves go to ``old_at`` (see :func:`_improve_worst`).
+    Returns the moves kept."""
+    if free_old is not None and old_at is None:
+        raise ValueError("free_old needs old_at, where the moved old vertices go")
     F = np.asarray(F, dtype=np.int64)
     n = P2.shape[0]
-    movable, _ = _new_interior_points(F, n, n0, nX)
+    movable, _ = _new_interior_points(F, n, n0, nX, free_old)
     if not movable.any():
         return 0
     corners = F.reshape(-1)
@@ -668,9 +710,14 @@ def _relax(P2, F, n0: int, nX: int, surf, P0, F0, all_face, all_w, rounds: int) 
             P2[idx[pos]] = old[pos]
             moved[idx[pos]] = False
         keep = moved[idx]
-        rows = idx[keep] - n0
-        all_face[rows] = face[keep]
-        all_w[rows] = w[keep]
+        new_row = idx >= n0
+        rows = idx[keep & new_row] - n0
+        all_face[rows] = face[keep & new_row]
+        all_w[rows] = w[keep & new_row]
+        if old_at is not None:
+            o = keep & ~new_row
+            old_at[0][idx[o]] = face[o]
+            old_at[1][idx[o]] = w[o]
         kept_moves += int(np.count_nonzero(keep))
     return kept_moves
 
