@@ -69,7 +69,7 @@ cdef class Bound:
                            int* p_near) noexcept nogil
     cdef int collect(self, int center, int fa, int fb, const double* p, double* tris, int* fids,
                      int* vids, int n) noexcept nogil
-    cdef bint check(self, int h, int r, int k, const double* p) noexcept nogil
+    cdef bint check(self, int h, int r, int k, const double* p, int kind=*) noexcept nogil
     cdef int memo_kind(self, int r, int k, const double* p) noexcept nogil
     cdef bint check_uncached(self, int h, int r, int k, const double* p, int* first) noexcept nogil
     cdef int commit_begin(self, int h, int r, int k) noexcept nogil

@@ -1198,9 +1198,11 @@ cdef class Bound:
             mid[i] = 0.5 * (a[i] + b[i])
         return 8 if same_point(p, mid) else 1
 
-    cdef bint check(self, int h, int r, int k, const double* p) noexcept nogil:
+    cdef bint check(self, int h, int r, int k, const double* p, int kind=0) noexcept nogil:
         """May half-edge h collapse (``r`` goes, ``k`` moves to ``p``) and the mesh stay
         within eps of the original both ways?  Writes ``pending`` of the new faces.
+        ``kind``: which of the collapse's points ``p`` is, as a bit of ``memo``'s kinds
+        (EdgeCollapser.end_points' placements name theirs); 0: work it out (memo_kind).
 
         A refusal is kept (``memo``, per edge) and given again without the work while no
         face around r or k has changed since (their versions, ``vver``, which every commit
@@ -1212,9 +1214,10 @@ cdef class Bound:
         cdef int e = self.m.edge[h]
         cdef int q
         cdef int s = self.vver[r] + self.vver[k]
-        cdef int kind = self.memo_kind(r, k, p)
         cdef int* mm = &self.memo[e, 0]
         cdef bint same = mm[0] == r and mm[1] == k and mm[2] == s     # nothing changed since
+        if kind == 0:
+            kind = self.memo_kind(r, k, p)
         if same and (mm[3] & kind):
             if kind != 1 or same_point(p, &self.memo_p[e, 0]):
                 return False

@@ -114,10 +114,11 @@ cdef class EdgeCollapser:
     cdef void normal_signs(self)
     cdef int fan_faces(self, int center, int fa, int fb, int* out) noexcept nogil
     cdef bint geometry_ok(self, int h, int r, int k, const double* p, int skip_c, int skip_d,
-                          double* dvol_out) noexcept nogil
+                          double* dvol_out, int kind=*) noexcept nogil
     cdef bint place_ok(self, int h, int r, int k, double* p, double* cost_err, double limit,
                        double* dvol_out) noexcept nogil
-    cdef int end_points(self, int r, int k, const double* p, double* alt, double* ca, double* q) noexcept nogil
+    cdef int end_points(self, int r, int k, const double* p, double* alt, double* ca, double* q,
+                        int* kinds) noexcept nogil
     cdef double face_volume6(self, int f) noexcept nogil
     cdef bint ring_has(self, int v, int a, int b) noexcept nogil
     cdef bint pair_ok(self, int h, int r, int k, int hs, int rs, int ks, const double* p,

@@ -42,6 +42,7 @@ cdef enum:
     FALLBACK_FRACTION = 2  # greedy: a fallback out of order costs no more than the median candidate (run_c)
     KNIFE_FAN = 64      # faces of a fan the knife test reads (more: the rest is not looked at)
     KNIFE_SIGN_SLACK = 512  # int16 units (1/64): exactly opposite normals' components sum to within 574
+    MAX_PLACES = 8      # place_ok's other placements under an error bound (end_points; 3 without)
 
 from .common cimport RUN_INTERRUPTED, PARALLEL_MIN_VERTICES
 from .interrupt cimport signal_pending, raise_pending, INTERRUPT_EVERY
@@ -861,15 +862,16 @@ cdef class EdgeCollapser:
         updated.  Without it, a refusal sends the driver to a costlier collapse elsewhere
         (issue 17: the thin-CAD set stopped above its targets; docs/algorithms.md)."""
         cdef double q[QSIZE]
-        cdef double alt[9]
-        cdef double ca[3]
+        cdef double alt[3 * MAX_PLACES]
+        cdef double ca[MAX_PLACES]
+        cdef int kinds[MAX_PLACES]
         cdef double c, err
         cdef int j, n
         if self.geometry_ok(h, r, k, p, -1, -1, dvol_out):
             return True
         if not self.end_fallback or limit < 0.0:
             return False
-        n = self.end_points(r, k, p, alt, ca, q)
+        n = self.end_points(r, k, p, alt, ca, q, kinds)
         for j in range(n):
             c = ca[j]
             if self.opt.quadric_weight * c > limit and self.bound is None:
@@ -879,7 +881,7 @@ cdef class EdgeCollapser:
             err = collapse_error(c, q[10], self.opt.error_scale)
             if err > self.opt.max_error:
                 return False
-            if self.geometry_ok(h, r, k, &alt[3 * j], -1, -1, dvol_out):
+            if self.geometry_ok(h, r, k, &alt[3 * j], -1, -1, dvol_out, kinds[j]):
                 p[0] = alt[3 * j]
                 p[1] = alt[3 * j + 1]
                 p[2] = alt[3 * j + 2]
@@ -888,17 +890,24 @@ cdef class EdgeCollapser:
                 return True
         return False
 
-    cdef int end_points(self, int r, int k, const double* p, double* alt, double* ca, double* q) noexcept nogil:
+    cdef int end_points(self, int r, int k, const double* p, double* alt, double* ca, double* q,
+                        int* kinds) noexcept nogil:
         """``place_ok``'s other placements for collapsing ``r`` into ``k`` (planned at ``p``):
-        the edge's two ends and its midpoint, in rising quadric cost -- ``alt`` (3 x 3) the
-        points, ``ca`` their costs (clamped at 0), ``q`` the summed quadric.  Returns 3, or 0
-        where there is no other placement: only where plan() chose a free optimal placement
+        the edge's two ends and its midpoint -- and, under an error bound, its quarter
+        points and three points from ``p`` to the midpoint (a quarter, half and three
+        quarters of the way) -- in rising quadric cost: ``alt`` (3 x n) the points, ``ca``
+        their costs (clamped at 0), ``kinds`` the bound's memo kind of each (Bound.check),
+        ``q`` the summed quadric.  Returns n (3, or MAX_PLACES under a bound), or 0 where
+        there is no other placement: only where plan() chose a free optimal placement
         (neither end fixed, on the border or a seam, no fields, kernels or attribute
-        quadrics in the cost) and did not plan an end already."""
-        cdef double pts[3][3]
-        cdef double cost[3]
-        cdef int order[3]
+        quadrics in the cost) and did not plan an end already.  (The optimal point minimises
+        the squared distance to the planes, not the largest distance to the input: under a
+        bound a point nearer the edge often stays within it where that one does not.)"""
+        cdef double pts[MAX_PLACES][3]
+        cdef double cost[MAX_PLACES]
+        cdef int order[MAX_PLACES]
         cdef int i, j, t
+        cdef int n = MAX_PLACES if self.bound is not None else 3
         if self.opt.placement != PLACE_OPTIMAL or self.opt.has_extras or self.aq.dim > 0:
             return 0
         if (self.vflags[k] | self.vflags[r]) & (VERTEX_FIXED | VERTEX_BOUNDARY):
@@ -912,25 +921,31 @@ cdef class EdgeCollapser:
             pts[0][i] = self.P[VSTRIDE * k + i]
             pts[1][i] = self.P[VSTRIDE * r + i]
             pts[2][i] = 0.5 * (pts[0][i] + pts[1][i])
-        for i in range(3):
+            pts[3][i] = 0.75 * pts[0][i] + 0.25 * pts[1][i]
+            pts[4][i] = 0.25 * pts[0][i] + 0.75 * pts[1][i]
+            pts[5][i] = 0.75 * p[i] + 0.25 * pts[2][i]
+            pts[6][i] = 0.5 * (p[i] + pts[2][i])
+            pts[7][i] = 0.25 * p[i] + 0.75 * pts[2][i]
+        for i in range(n):
             cost[i] = quadric_eval(q, pts[i])
             order[i] = i
-        for i in range(3):
-            for j in range(i + 1, 3):
+        for i in range(n):
+            for j in range(i + 1, n):
                 if cost[order[j]] < cost[order[i]]:
                     t = order[i]
                     order[i] = order[j]
                     order[j] = t
-        for j in range(3):
+        for j in range(n):
             i = order[j]
             ca[j] = cost[i] if cost[i] > 0.0 else 0.0
             alt[3 * j] = pts[i][0]
             alt[3 * j + 1] = pts[i][1]
             alt[3 * j + 2] = pts[i][2]
-        return 3
+            kinds[j] = 2 << i          # k's end 2, r's 4, the midpoint 8 (as Bound.memo_kind), then 16 ...
+        return n
 
     cdef bint geometry_ok(self, int h, int r, int k, const double* p, int skip_c, int skip_d,
-                          double* dvol_out) noexcept nogil:
+                          double* dvol_out, int kind=0) noexcept nogil:
         """The moved faces' checks for collapsing half-edge ``h`` (``r`` goes, ``k`` moves to
         ``p``), faces ``skip_c`` / ``skip_d`` judged for their volume only (-1: none); on
         success ``dvol_out`` gets six times the change of the enclosed volume."""
@@ -958,7 +973,7 @@ cdef class EdgeCollapser:
                 dvol -= self.face_volume6(fb)
             if turns_inside_out(self.closed_volume, dvol):
                 return False
-        if self.bound is not None and not self.bound.check(h, r, k, p):
+        if self.bound is not None and not self.bound.check(h, r, k, p, kind):
             return False                     # would leave the error bound (last: the costliest check)
         dvol_out[0] = dvol
         return True
