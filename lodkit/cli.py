@@ -272,6 +272,9 @@ def _build_parser() -> argparse.ArgumentParser:
                    help="error-driven passes: re-tile K more times with the density raised where the "
                         "last pass was far from the input; the pass with the smallest largest error "
                         "is kept (default: 0)")
+    p.add_argument("--draws", type=_count, default=1, metavar="K",
+                   help="re-tilings per pass at the same density; the choice among passes sees all of "
+                        "them (default: 1)")
     p.add_argument("--fit", type=_seed, default=0, metavar="K",
                    help="lodkit's addition, not Turk's: K rounds moving the new vertices along their normals "
                         "so that the result straddles the input (vertices leave the surface; default: 0)")
@@ -612,7 +615,7 @@ def _run_retile(args) -> int:
     _check_output(args.output)
     mesh = load(args.input)
     result = retile(mesh, args.vertices, adapt=args.adapt, equalize=args.equalize, iterations=args.iterations,
-                    seed=args.seed, refine=args.refine, fit=args.fit,
+                    seed=args.seed, refine=args.refine, draws=args.draws, fit=args.fit,
                     features=args.features, relax=args.relax,
                     progress=not args.quiet and _is_tty(sys.stderr))
     save(result.mesh, args.output)

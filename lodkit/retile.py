@@ -146,7 +146,7 @@ class RetileResult:
 
 def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False, iterations: int = 30,
            flip_angle: float = 25.0, corner_angle: float = 30.0, features: float | None = None, relax: int = 3,
-           refine: int = 0, fit: int = 0, seed: int = 0, progress: bool = False) -> RetileResult:
+           refine: int = 0, draws: int = 1, fit: int = 0, seed: int = 0, progress: bool = False) -> RetileResult:
     """Re-tile ``mesh`` with about ``n_vertices`` new, evenly spread vertices (Turk 1992).
 
     n_vertices : number of new vertices (>= 4); boundary loops take a share proportional
@@ -194,6 +194,12 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
                  quality >= 0.3 first, then mean >= 0.85, then the smallest error
                  (report["refine_errors"], report["refine_quality"]: (mean, min) per pass,
                  report["refine_pass"])
+    draws      : re-tilings per pass (lodkit's addition, >= 1; 1: one): each pass draws its
+                 points this many times at the same density (the first from ``seed``'s
+                 generator, as with 1, the others from generators spawned from it), finishes
+                 every draw, and the choice above sees all of them; the next pass's density
+                 comes from the first draw.  report["refine_errors"] and ["refine_quality"]
+                 then hold pass p's draw d at index p * draws + d
     fit        : rounds (lodkit's addition, NOT Turk's method; 0: off) that move the new
                  interior vertices along their normals so that the result straddles the
                  input instead of lying on one side of it (at most a quarter of the mean edge
@@ -211,6 +217,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
     iterations = _count("iterations", iterations, 0)
     relax = _count("relax", relax, 0)
     refine = _count("refine", refine, 0)
+    draws = _count("draws", draws, 1)
     fit = _count("fit", fit, 0)
     adapt = finite_number("adapt", adapt)
     if adapt < 0:
@@ -274,272 +281,279 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
     cos_sliver = math.cos(math.radians(max(flip_angle, _SLIVER_FLIP_ANGLE)))
     cos_crease = math.cos(math.radians(features)) if features is not None else 2.0
     errors, qualities, passes = [], [], []
+    choose = refine > 0 or draws > 1              # several finished candidates: _keep_pass
     for pass_ in range(refine + 1):
-        if pass_:
-            t = time.perf_counter()
-        # the lines get the local target spacing, edge_len / sqrt(weight), of the denser side
-        hscale = np.sqrt(np.maximum(weight[np.arange(twins0.size) // 3],
-                                    np.where(twins0 >= 0, weight[np.maximum(twins0, 0) // 3], 0.0)))
-        B, bface, bw, kept, bh, bt = _boundary_points(P0, F0, loops + creases, edge_len, rng, corner_angle, lines,
-                                                      hscale)
-        if group0 is not None and bh.size:
-            # a crease point joins the far corners of both faces of its edge: not two copies
-            keep = ~_joins_copies(F0, twins0, bh, group0)
-            B, bface, bw, bh, bt = B[keep], bface[keep], bw[keep], bh[keep], bt[keep]
-        n_inner = n_vertices - B.shape[0] - kept.size
-        if n_inner < 1:
-            raise OptionError(f"n_vertices={n_vertices} is too few: the boundary loops"
-                              f"{' and crease lines' if features is not None else ''} alone take "
-                              f"{B.shape[0] + kept.size} points; ask for more vertices")
-        face, w = _sample(area0 * weight, n_inner, rng)
-        w = _off_edges(w)
-        X = np.einsum("nk,nkj->nj", w, P0[F0[face]])
-        # local radius: density rho = n * weight / wsum points per unit area; a point's disc
-        # pi (r/2)^2 = 1 / rho (Turk's radius from the area per point)
-        times["sample"] = times.get("sample", 0.0) + time.perf_counter() - t
-
-        # -- 2. repulsion
-        t = time.perf_counter()
-
-        r_face = _RADIUS * 2.0 * np.sqrt(wsum / (math.pi * n_vertices * weight))
-        rb = edge_len / hscale[bh] if B.shape[0] else np.zeros(0)      # the local spacing
-        nb = normals0[bface] if B.shape[0] else np.zeros((0, 3))
-        bar = Progress(iterations, enabled=progress)
-        for it in range(iterations):
-            r = r_face[face]
-            Q = np.concatenate([X, B])
-            R = np.concatenate([r, rb])
-            N = np.concatenate([normals0[face], nb])
-            pairs = cKDTree(Q).query_pairs(float(R.max()), output_type="ndarray")
-            force = np.zeros_like(Q)
-            if pairs.size:
-                i, j = pairs[:, 0], pairs[:, 1]
-                d = Q[i] - Q[j]
-                dist = np.linalg.norm(d, axis=1)
-                rij = 0.5 * (R[i] + R[j])
-                keep = (dist < rij) & (dist > 0) & (np.einsum("ij,ij->i", N[i], N[j]) > _NEIGHBOUR_DOT)
-                i, j, d, dist, rij = i[keep], j[keep], d[keep], dist[keep], rij[keep]
-                f = ((1.0 - dist / rij) / dist)[:, None] * d
-                for k in range(3):
-                    force[:, k] += np.bincount(i, weights=f[:, k], minlength=Q.shape[0])
-                    force[:, k] -= np.bincount(j, weights=f[:, k], minlength=Q.shape[0])
-            fx = force[:n_inner]
-            nx = normals0[face]
-            fx -= np.einsum("ij,ij->i", fx, nx)[:, None] * nx          # tangent plane
-            step = 0.2 * r[:, None] * fx
-            ln = np.linalg.norm(step, axis=1)
-            cap = 0.25 * r
-            big = ln > cap
-            step[big] *= (cap[big] / ln[big])[:, None]
-            face, w, _ = surf.closest(X + step)
+        # draw 0 takes the points from rng (the passes of draws=1); the others from generators
+        # spawned from it (spawning leaves rng's stream as it was)
+        subs = rng.spawn(draws - 1) if draws > 1 else []
+        for draw in range(draws):
+            gen = subs[draw - 1] if draw else rng
+            if pass_ or draw:
+                t = time.perf_counter()
+            # the lines get the local target spacing, edge_len / sqrt(weight), of the denser side
+            hscale = np.sqrt(np.maximum(weight[np.arange(twins0.size) // 3],
+                                        np.where(twins0 >= 0, weight[np.maximum(twins0, 0) // 3], 0.0)))
+            B, bface, bw, kept, bh, bt = _boundary_points(P0, F0, loops + creases, edge_len, gen, corner_angle, lines,
+                                                          hscale)
+            if group0 is not None and bh.size:
+                # a crease point joins the far corners of both faces of its edge: not two copies
+                keep = ~_joins_copies(F0, twins0, bh, group0)
+                B, bface, bw, bh, bt = B[keep], bface[keep], bw[keep], bh[keep], bt[keep]
+            n_inner = n_vertices - B.shape[0] - kept.size
+            if n_inner < 1:
+                raise OptionError(f"n_vertices={n_vertices} is too few: the boundary loops"
+                                  f"{' and crease lines' if features is not None else ''} alone take "
+                                  f"{B.shape[0] + kept.size} points; ask for more vertices")
+            face, w = _sample(area0 * weight, n_inner, gen)
             w = _off_edges(w)
             X = np.einsum("nk,nkj->nj", w, P0[F0[face]])
-            bar.update(it + 1)
-        bar.close()
-        # an interior point the repulsion pushed over a boundary was projected back onto it:
-        # it would make slivers with the boundary points, so it goes
-        n_dropped = 0
-        if dense_tree is not None and n_inner:
-            near = dense_tree.query(X)[0] < _BOUNDARY_GAP * edge_len / np.sqrt(weight[face])
-            n_dropped = int(np.count_nonzero(near))
-            if n_dropped:
-                X, face, w = X[~near], face[~near], w[~near]
-                n_inner = X.shape[0]
-        # two points left almost on top of each other (across a fold the repulsion did not see)
-        if n_inner > 1:
-            Q = np.concatenate([X, B])
-            gap = _MIN_GAP * edge_len / np.sqrt(np.concatenate([weight[face], weight[bface]]))
-            pairs = cKDTree(Q).query_pairs(float(gap.max()), output_type="ndarray")
-            if pairs.size:
-                pairs = pairs[np.linalg.norm(Q[pairs[:, 0]] - Q[pairs[:, 1]], axis=1)
-                              < np.minimum(gap[pairs[:, 0]], gap[pairs[:, 1]])]
-            drop = np.zeros(Q.shape[0], dtype=bool)
-            for i, j in pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))] if pairs.size else ():
-                if not drop[i] and not drop[j]:
-                    drop[max(i, j) if max(i, j) < n_inner else min(i, j)] = True   # boundary points stay
-            drop = drop[:n_inner]
-            if drop.any() and np.count_nonzero(~drop) >= 1:
-                n_dropped += int(np.count_nonzero(drop))
-                X, face, w = X[~drop], face[~drop], w[~drop]
-                n_inner = X.shape[0]
-        times["repulsion"] = times.get("repulsion", 0.0) + time.perf_counter() - t
+            # local radius: density rho = n * weight / wsum points per unit area; a point's disc
+            # pi (r/2)^2 = 1 / rho (Turk's radius from the area per point)
+            times["sample"] = times.get("sample", 0.0) + time.perf_counter() - t
 
-        # -- 3. mutual tessellation
-        t = time.perf_counter()
-        # a crease point lies on an edge with a face on each side: it splits both
-        on = twins0[bh] >= 0 if bh.size else np.zeros(0, dtype=bool)
-        tw = twins0[bh[on]]
-        w2 = np.zeros((tw.size, 3))
-        w2[np.arange(tw.size), tw % 3] = bt[on]
-        w2[np.arange(tw.size), (tw % 3 + 1) % 3] = 1.0 - bt[on]
-        nX = X.shape[0]
-        all_face = np.concatenate([face, bface, tw // 3]).astype(np.int64)
-        all_w = np.concatenate([w, bw, w2])
-        all_pid = np.concatenate([np.arange(nX + B.shape[0]), nX + np.flatnonzero(on)]).astype(np.int64)
-        faces2 = _tessellate(F0, n0, all_face, all_w, all_pid)
-        new_pos = np.concatenate([X, B])
-        P2 = np.ascontiguousarray(np.concatenate([P0, new_pos]))
-        times["tessellate"] = times.get("tessellate", 0.0) + time.perf_counter() - t
+            # -- 2. repulsion
+            t = time.perf_counter()
 
-        # -- 4. remove the old vertices
-        t = time.perf_counter()
-        n_new = new_pos.shape[0]
-        hm2 = build(faces2, n0 + n_new)
-        fixed = np.zeros(n0 + n_new, dtype=np.uint8)
-        fixed[n0:] = 1
-        fixed[kept] = 1                                                    # boundary corners stay
-        fixed[:n0][np.asarray(hm.locked_vertices, dtype=bool)[:n0]] = 1     # non-manifold copies stay
-        # (no crease network long enough: no creases for the kernel and the flips either)
-        group2 = weld = None
-        if group0 is not None:
-            # the removal's manifold rules then see the copies welded (vremove's ``weld``), and
-            # the kernel avoids the chords those rules would refuse
-            group2 = np.ascontiguousarray(np.concatenate([group0, np.full(n_new, -1)]), dtype=np.intc)
-            weld = weld_cycles(group2)
-        kernel = kern.RetileKernel(math.cos(math.radians(features)) if lines or creases else -2.0, group2)
-        crease_vertex = None
-        if lines or creases:
-            crease_vertex = np.zeros(n0 + n_new, dtype=np.uint8)
-            crease_vertex[n0 + nX + np.flatnonzero(on)] = 1
-            crease_vertex[np.unique(F0.reshape(-1)[np.concatenate(lines + creases)])
-                          if lines or creases else np.zeros(0, dtype=np.int64)] = 1
-        removals = 0
-        held = {}
-        # later rounds (fresh removal state) for the vertices the first one held back: new faces
-        # may then turn further from the old ones (a held-back vertex sits in a fold of old
-        # faces that the new points do not resolve)
-        for angle in _REMOVAL_ANGLES:
-            remover = vremove.VertexRemover(hm2, P2, kernel, fixed, boundary=BOUNDARY_FREE,
-                                            max_normal_angle=angle, min_quality=0.0, weld=weld)
-            while remover.run(0, 1 << 30) == RUN_CHUNK:
-                pass
-            if remover.failed:
-                raise MeshError(f"re-tiling failed while removing the old vertices: {remover.error_message}")
-            removals += int(remover.n_collapses)
-            held = remover.held_back
-            if not np.asarray(hm2.alive_vertices, dtype=bool)[:n0][fixed[:n0] == 0].any():
-                break
-        n_collapsed = _collapse_leftovers(hm2, P2, n0, fixed, group2)
-        alive_v = np.asarray(hm2.alive_vertices, dtype=bool)
-        n_old_kept = int(np.count_nonzero(alive_v[:n0])) - int(kept.size)
-        times["remove"] = times.get("remove", 0.0) + time.perf_counter() - t
+            r_face = _RADIUS * 2.0 * np.sqrt(wsum / (math.pi * n_vertices * weight))
+            rb = edge_len / hscale[bh] if B.shape[0] else np.zeros(0)      # the local spacing
+            nb = normals0[bface] if B.shape[0] else np.zeros((0, 3))
+            bar = Progress(iterations, enabled=progress)
+            for it in range(iterations):
+                r = r_face[face]
+                Q = np.concatenate([X, B])
+                R = np.concatenate([r, rb])
+                N = np.concatenate([normals0[face], nb])
+                pairs = cKDTree(Q).query_pairs(float(R.max()), output_type="ndarray")
+                force = np.zeros_like(Q)
+                if pairs.size:
+                    i, j = pairs[:, 0], pairs[:, 1]
+                    d = Q[i] - Q[j]
+                    dist = np.linalg.norm(d, axis=1)
+                    rij = 0.5 * (R[i] + R[j])
+                    keep = (dist < rij) & (dist > 0) & (np.einsum("ij,ij->i", N[i], N[j]) > _NEIGHBOUR_DOT)
+                    i, j, d, dist, rij = i[keep], j[keep], d[keep], dist[keep], rij[keep]
+                    f = ((1.0 - dist / rij) / dist)[:, None] * d
+                    for k in range(3):
+                        force[:, k] += np.bincount(i, weights=f[:, k], minlength=Q.shape[0])
+                        force[:, k] -= np.bincount(j, weights=f[:, k], minlength=Q.shape[0])
+                fx = force[:n_inner]
+                nx = normals0[face]
+                fx -= np.einsum("ij,ij->i", fx, nx)[:, None] * nx          # tangent plane
+                step = 0.2 * r[:, None] * fx
+                ln = np.linalg.norm(step, axis=1)
+                cap = 0.25 * r
+                big = ln > cap
+                step[big] *= (cap[big] / ln[big])[:, None]
+                face, w, _ = surf.closest(X + step)
+                w = _off_edges(w)
+                X = np.einsum("nk,nkj->nj", w, P0[F0[face]])
+                bar.update(it + 1)
+            bar.close()
+            # an interior point the repulsion pushed over a boundary was projected back onto it:
+            # it would make slivers with the boundary points, so it goes
+            n_dropped = 0
+            if dense_tree is not None and n_inner:
+                near = dense_tree.query(X)[0] < _BOUNDARY_GAP * edge_len / np.sqrt(weight[face])
+                n_dropped = int(np.count_nonzero(near))
+                if n_dropped:
+                    X, face, w = X[~near], face[~near], w[~near]
+                    n_inner = X.shape[0]
+            # two points left almost on top of each other (across a fold the repulsion did not see)
+            if n_inner > 1:
+                Q = np.concatenate([X, B])
+                gap = _MIN_GAP * edge_len / np.sqrt(np.concatenate([weight[face], weight[bface]]))
+                pairs = cKDTree(Q).query_pairs(float(gap.max()), output_type="ndarray")
+                if pairs.size:
+                    pairs = pairs[np.linalg.norm(Q[pairs[:, 0]] - Q[pairs[:, 1]], axis=1)
+                                  < np.minimum(gap[pairs[:, 0]], gap[pairs[:, 1]])]
+                drop = np.zeros(Q.shape[0], dtype=bool)
+                for i, j in pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))] if pairs.size else ():
+                    if not drop[i] and not drop[j]:
+                        drop[max(i, j) if max(i, j) < n_inner else min(i, j)] = True   # boundary points stay
+                drop = drop[:n_inner]
+                if drop.any() and np.count_nonzero(~drop) >= 1:
+                    n_dropped += int(np.count_nonzero(drop))
+                    X, face, w = X[~drop], face[~drop], w[~drop]
+                    n_inner = X.shape[0]
+            times["repulsion"] = times.get("repulsion", 0.0) + time.perf_counter() - t
 
-        # -- clean-up flips, compaction, attributes
-        t = time.perf_counter()
-        F = np.ascontiguousarray(hm2.faces(), dtype=np.int32)
-        flips = 0
-        if flip_angle > 0 and F.shape[0]:
-            twin = face_twins(F)
-            flips = int(kern.flip_edges(P2, F, twin, cos_flip, 50, crease_vertex, group=group2))
-            # slivers (often across a crease the new points straddle): flips between faces
-            # further apart, only where the worse triangle is a sliver
-            flips += int(kern.flip_edges(P2, F, twin, cos_sliver, 20, crease_vertex, _SLIVER_QUALITY, group=group2))
-        relaxed = worst_moves = slid = slid_relax = collapsed = 0
-        old_at = (np.full(n0, -1, dtype=np.int64), np.zeros((n0, 3)))
-        free_old = None
-        if relax and F.shape[0] and nX:
-            # old vertices the removal left (not copies, boundary corners or crease vertices)
-            # may move like new points; where they went is in old_at
-            free_old = np.zeros(P2.shape[0], dtype=bool)
-            free_old[np.unique(F.reshape(-1))] = True
-            free_old[n0:] = False
-            free_old &= fixed == 0
-            if crease_vertex is not None:
-                free_old &= crease_vertex == 0
-            slider = None
-            if on.size:
-                # crease points slide along their line, in the relaxation and in the
-                # worst-triangle step; boundary points along their loop
-                slider = LineSlider(P0, F0, [(x, True) for x in loops + creases] + [(x, False) for x in lines],
-                                    n0 + nX + np.arange(on.size), bh, bt, ~on)
-            if slider is None:
-                relaxed = _relax(P2, F, n0, nX, surf, P0, F0, all_face, all_w, relax, free_old, old_at)
-            for _ in range(relax if slider is not None else 0):
-                # interior points in their tangent planes, then the crease points along their
-                # lines, then the flips (edges between two crease points too, where no crease)
-                relaxed += _relax(P2, F, n0, nX, surf, P0, F0, all_face, all_w, 1, free_old, old_at)
-                for _sweep in range(_SLIDE_SWEEPS if np.any(on) else 0):
-                    relaxed_slid = _slide_relax(P2, F, slider, surf, all_face, all_w, n0)
-                    relaxed += relaxed_slid
-                    slid_relax += relaxed_slid
-                for _sweep in range(_BOUNDARY_SWEEPS if slider.boundary.any() else 0):
-                    relaxed_slid = _slide_boundary(P2, F, slider, all_face, all_w, n0)
-                    relaxed += relaxed_slid
-                    slid_relax += relaxed_slid
-                if flip_angle > 0 and np.any(on):
+            # -- 3. mutual tessellation
+            t = time.perf_counter()
+            # a crease point lies on an edge with a face on each side: it splits both
+            on = twins0[bh] >= 0 if bh.size else np.zeros(0, dtype=bool)
+            tw = twins0[bh[on]]
+            w2 = np.zeros((tw.size, 3))
+            w2[np.arange(tw.size), tw % 3] = bt[on]
+            w2[np.arange(tw.size), (tw % 3 + 1) % 3] = 1.0 - bt[on]
+            nX = X.shape[0]
+            all_face = np.concatenate([face, bface, tw // 3]).astype(np.int64)
+            all_w = np.concatenate([w, bw, w2])
+            all_pid = np.concatenate([np.arange(nX + B.shape[0]), nX + np.flatnonzero(on)]).astype(np.int64)
+            faces2 = _tessellate(F0, n0, all_face, all_w, all_pid)
+            new_pos = np.concatenate([X, B])
+            P2 = np.ascontiguousarray(np.concatenate([P0, new_pos]))
+            times["tessellate"] = times.get("tessellate", 0.0) + time.perf_counter() - t
+
+            # -- 4. remove the old vertices
+            t = time.perf_counter()
+            n_new = new_pos.shape[0]
+            hm2 = build(faces2, n0 + n_new)
+            fixed = np.zeros(n0 + n_new, dtype=np.uint8)
+            fixed[n0:] = 1
+            fixed[kept] = 1                                                    # boundary corners stay
+            fixed[:n0][np.asarray(hm.locked_vertices, dtype=bool)[:n0]] = 1     # non-manifold copies stay
+            # (no crease network long enough: no creases for the kernel and the flips either)
+            group2 = weld = None
+            if group0 is not None:
+                # the removal's manifold rules then see the copies welded (vremove's ``weld``), and
+                # the kernel avoids the chords those rules would refuse
+                group2 = np.ascontiguousarray(np.concatenate([group0, np.full(n_new, -1)]), dtype=np.intc)
+                weld = weld_cycles(group2)
+            kernel = kern.RetileKernel(math.cos(math.radians(features)) if lines or creases else -2.0, group2)
+            crease_vertex = None
+            if lines or creases:
+                crease_vertex = np.zeros(n0 + n_new, dtype=np.uint8)
+                crease_vertex[n0 + nX + np.flatnonzero(on)] = 1
+                crease_vertex[np.unique(F0.reshape(-1)[np.concatenate(lines + creases)])
+                              if lines or creases else np.zeros(0, dtype=np.int64)] = 1
+            removals = 0
+            held = {}
+            # later rounds (fresh removal state) for the vertices the first one held back: new faces
+            # may then turn further from the old ones (a held-back vertex sits in a fold of old
+            # faces that the new points do not resolve)
+            for angle in _REMOVAL_ANGLES:
+                remover = vremove.VertexRemover(hm2, P2, kernel, fixed, boundary=BOUNDARY_FREE,
+                                                max_normal_angle=angle, min_quality=0.0, weld=weld)
+                while remover.run(0, 1 << 30) == RUN_CHUNK:
+                    pass
+                if remover.failed:
+                    raise MeshError(f"re-tiling failed while removing the old vertices: {remover.error_message}")
+                removals += int(remover.n_collapses)
+                held = remover.held_back
+                if not np.asarray(hm2.alive_vertices, dtype=bool)[:n0][fixed[:n0] == 0].any():
+                    break
+            n_collapsed = _collapse_leftovers(hm2, P2, n0, fixed, group2)
+            alive_v = np.asarray(hm2.alive_vertices, dtype=bool)
+            n_old_kept = int(np.count_nonzero(alive_v[:n0])) - int(kept.size)
+            times["remove"] = times.get("remove", 0.0) + time.perf_counter() - t
+
+            # -- clean-up flips, compaction, attributes
+            t = time.perf_counter()
+            F = np.ascontiguousarray(hm2.faces(), dtype=np.int32)
+            flips = 0
+            if flip_angle > 0 and F.shape[0]:
+                twin = face_twins(F)
+                flips = int(kern.flip_edges(P2, F, twin, cos_flip, 50, crease_vertex, group=group2))
+                # slivers (often across a crease the new points straddle): flips between faces
+                # further apart, only where the worse triangle is a sliver
+                flips += int(kern.flip_edges(P2, F, twin, cos_sliver, 20, crease_vertex, _SLIVER_QUALITY, group=group2))
+            relaxed = worst_moves = slid = slid_relax = collapsed = 0
+            old_at = (np.full(n0, -1, dtype=np.int64), np.zeros((n0, 3)))
+            free_old = None
+            if relax and F.shape[0] and nX:
+                # old vertices the removal left (not copies, boundary corners or crease vertices)
+                # may move like new points; where they went is in old_at
+                free_old = np.zeros(P2.shape[0], dtype=bool)
+                free_old[np.unique(F.reshape(-1))] = True
+                free_old[n0:] = False
+                free_old &= fixed == 0
+                if crease_vertex is not None:
+                    free_old &= crease_vertex == 0
+                slider = None
+                if on.size:
+                    # crease points slide along their line, in the relaxation and in the
+                    # worst-triangle step; boundary points along their loop
+                    slider = LineSlider(P0, F0, [(x, True) for x in loops + creases] + [(x, False) for x in lines],
+                                        n0 + nX + np.arange(on.size), bh, bt, ~on)
+                if slider is None:
+                    relaxed = _relax(P2, F, n0, nX, surf, P0, F0, all_face, all_w, relax, free_old, old_at)
+                for _ in range(relax if slider is not None else 0):
+                    # interior points in their tangent planes, then the crease points along their
+                    # lines, then the flips (edges between two crease points too, where no crease)
+                    relaxed += _relax(P2, F, n0, nX, surf, P0, F0, all_face, all_w, 1, free_old, old_at)
+                    for _sweep in range(_SLIDE_SWEEPS if np.any(on) else 0):
+                        relaxed_slid = _slide_relax(P2, F, slider, surf, all_face, all_w, n0)
+                        relaxed += relaxed_slid
+                        slid_relax += relaxed_slid
+                    for _sweep in range(_BOUNDARY_SWEEPS if slider.boundary.any() else 0):
+                        relaxed_slid = _slide_boundary(P2, F, slider, all_face, all_w, n0)
+                        relaxed += relaxed_slid
+                        slid_relax += relaxed_slid
+                    if flip_angle > 0 and np.any(on):
+                        twin = face_twins(F)
+                        flips += int(kern.flip_edges(P2, F, twin, cos_flip, 50, crease_vertex,
+                                                     2.0, cos_crease, group=group2))
+                if flip_angle > 0:
+                    # (cos_crease is 2, no edge between crease points flips, without crease points)
                     twin = face_twins(F)
                     flips += int(kern.flip_edges(P2, F, twin, cos_flip, 50, crease_vertex,
-                                                 2.0, cos_crease, group=group2))
-            if flip_angle > 0:
-                # (cos_crease is 2, no edge between crease points flips, without crease points)
-                twin = face_twins(F)
-                flips += int(kern.flip_edges(P2, F, twin, cos_flip, 50, crease_vertex,
-                                             2.0, cos_crease if slider is not None else 2.0, group=group2))
-                flips += int(kern.flip_edges(P2, F, twin, cos_sliver,
-                                             20, crease_vertex, _SLIVER_QUALITY,
-                                             cos_crease if slider is not None else 2.0, group=group2))
-            worst_moves, n_slid = _improve_worst(P2, F, n0, nX, surf, P0, F0, all_face, all_w, _WORST_ROUNDS,
-                                                 slider, free_old, old_at)
-            slid += n_slid
-            if F.shape[0] and float(triangle_quality(P2, F).min()) < _COLLAPSE_QUALITY:
-                # still below the target: the old vertices the removal left move too, further,
-                # then a free vertex of a sliver may go, then the points around move again
-                for k in range(2):
-                    more, n_slid = _improve_worst(P2, F, n0, nX, surf, P0, F0, all_face, all_w, _WORST_ROUNDS,
-                                                  slider, free_old, old_at, _COLLAPSE_QUALITY, _FAR_STEPS,
-                                                  _FAR_DIRECTIONS, _FAR_TURN)
-                    worst_moves += more
-                    slid += n_slid
-                    if k:
-                        break
-                    F_c, n_sliver = _collapse_slivers(P2, F, n0, nX, free_old, group2, crease_vertex)
-                    if not n_sliver:
-                        break
-                    F = F_c
-                    collapsed += n_sliver
-                twin = face_twins(F)
-            if flip_angle > 0:
-                # slivers again, now also between two crease points where the edge is no crease
-                flips += int(kern.flip_edges(P2, F, twin, cos_sliver,
-                                             20, crease_vertex, _WORST_QUALITY, cos_crease,
-                                             group=group2))
-        times["finish"] = times.get("finish", 0.0) + time.perf_counter() - t
-        new_weight = None
-        if refine:
-            # error-driven density: measure this pass, reweight the next by its local error
+                                                 2.0, cos_crease if slider is not None else 2.0, group=group2))
+                    flips += int(kern.flip_edges(P2, F, twin, cos_sliver,
+                                                 20, crease_vertex, _SLIVER_QUALITY,
+                                                 cos_crease if slider is not None else 2.0, group=group2))
+                worst_moves, n_slid = _improve_worst(P2, F, n0, nX, surf, P0, F0, all_face, all_w, _WORST_ROUNDS,
+                                                     slider, free_old, old_at)
+                slid += n_slid
+                if F.shape[0] and float(triangle_quality(P2, F).min()) < _COLLAPSE_QUALITY:
+                    # still below the target: the old vertices the removal left move too, further,
+                    # then a free vertex of a sliver may go, then the points around move again
+                    for k in range(2):
+                        more, n_slid = _improve_worst(P2, F, n0, nX, surf, P0, F0, all_face, all_w, _WORST_ROUNDS,
+                                                      slider, free_old, old_at, _COLLAPSE_QUALITY, _FAR_STEPS,
+                                                      _FAR_DIRECTIONS, _FAR_TURN)
+                        worst_moves += more
+                        slid += n_slid
+                        if k:
+                            break
+                        F_c, n_sliver = _collapse_slivers(P2, F, n0, nX, free_old, group2, crease_vertex)
+                        if not n_sliver:
+                            break
+                        F = F_c
+                        collapsed += n_sliver
+                    twin = face_twins(F)
+                if flip_angle > 0:
+                    # slivers again, now also between two crease points where the edge is no crease
+                    flips += int(kern.flip_edges(P2, F, twin, cos_sliver,
+                                                 20, crease_vertex, _WORST_QUALITY, cos_crease,
+                                                 group=group2))
+            times["finish"] = times.get("finish", 0.0) + time.perf_counter() - t
+            if refine and not draw:
+                # error-driven density: measure this pass (its first draw), reweight the next by
+                # its local error
+                t = time.perf_counter()
+                new_weight, _ = _error_density(weight, area0, P0, F0, P2, F, surf)
+                times["refine"] = times.get("refine", 0.0) + time.perf_counter() - t
+            # -- the last quality steps and the fit, on every pass: refine compares finished passes
             t = time.perf_counter()
-            new_weight, _ = _error_density(weight, area0, P0, F0, P2, F, surf)
-            times["refine"] = times.get("refine", 0.0) + time.perf_counter() - t
-        # -- the last quality steps and the fit, on every pass: refine compares finished passes
-        t = time.perf_counter()
-        split = 0
-        if free_old is not None and F.shape[0] and float(triangle_quality(P2, F).min()) < _COLLAPSE_QUALITY:
-            # still below the target: moves that no stuck vertex blocks, collapses, splits
-            # and flips
-            P2, F, all_face, all_w, more, n_c, split, n_f = _untangle(
-                P2, F, n0, nX, surf, P0, F0, all_face, all_w, free_old, old_at, group2, crease_vertex,
-                cos_sliver if flip_angle > 0 else 2.0, cos_crease, on_edge=fit > 0)
-            worst_moves += more
-            collapsed += n_c
-            flips += n_f
-            n_new = P2.shape[0] - n0
-        fitted = _fit_normal(P2, F, n0, nX, surf, normals0, fit) if fit and nX else 0
-        times["finish"] += time.perf_counter() - t
+            split = 0
+            if free_old is not None and F.shape[0] and float(triangle_quality(P2, F).min()) < _COLLAPSE_QUALITY:
+                # still below the target: moves that no stuck vertex blocks, collapses, splits
+                # and flips
+                P2, F, all_face, all_w, more, n_c, split, n_f = _untangle(
+                    P2, F, n0, nX, surf, P0, F0, all_face, all_w, free_old, old_at, group2, crease_vertex,
+                    cos_sliver if flip_angle > 0 else 2.0, cos_crease, on_edge=fit > 0)
+                worst_moves += more
+                collapsed += n_c
+                flips += n_f
+                n_new = P2.shape[0] - n0
+            fitted = _fit_normal(P2, F, n0, nX, surf, normals0, fit) if fit and nX else 0
+            times["finish"] += time.perf_counter() - t
+            if choose:
+                t = time.perf_counter()
+                # the finished pass's largest error (its density is the one above, measured
+                # before the last quality steps and the fit, so that the passes stay as they were)
+                err = _error_density(weight, area0, P0, F0, P2, F, surf)[1]
+                q_pass = triangle_quality(P2, F) if F.shape[0] else np.zeros(1)
+                errors.append(err * prep.scale)
+                qualities.append((float(q_pass.mean()), float(q_pass.min())))
+                passes.append((P2, F, n_new, nX, all_face, all_w, B, kept, on, n_dropped,
+                               removals, held, n_collapsed, flips, relaxed, worst_moves, slid, n_old_kept, collapsed,
+                               old_at, slid_relax, split, fitted))
+                times["refine"] = times.get("refine", 0.0) + time.perf_counter() - t
         if refine:
-            t = time.perf_counter()
-            # the finished pass's largest error (its density is the one above, measured
-            # before the last quality steps and the fit, so that the passes stay as they were)
-            err = _error_density(weight, area0, P0, F0, P2, F, surf)[1]
-            q_pass = triangle_quality(P2, F) if F.shape[0] else np.zeros(1)
-            errors.append(err * prep.scale)
-            qualities.append((float(q_pass.mean()), float(q_pass.min())))
-            passes.append((P2, F, n_new, nX, all_face, all_w, B, kept, on, n_dropped,
-                           removals, held, n_collapsed, flips, relaxed, worst_moves, slid, n_old_kept, collapsed,
-                           old_at, slid_relax, split, fitted))
             weight = new_weight
-            times["refine"] = times.get("refine", 0.0) + time.perf_counter() - t
     kept_pass = 0
-    if refine:
+    if choose:
         kept_pass = _keep_pass(errors, qualities)
         (P2, F, n_new, nX, all_face, all_w, B, kept, on, n_dropped, removals, held, n_collapsed, flips, relaxed,
          worst_moves, slid, n_old_kept, collapsed, old_at, slid_relax, split, fitted) = passes[kept_pass]
@@ -604,6 +618,7 @@ def retile(mesh, n_vertices: int, *, adapt: float = 0.0, equalize: bool = False,
             "refine_errors": errors,
             "refine_quality": qualities,
             "refine_pass": kept_pass,
+            "refine_draws": draws,
             "fitted": fitted,
             "times": times,
         },

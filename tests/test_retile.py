@@ -187,6 +187,30 @@ def test_refine_lowers_the_hausdorff_error_of_a_sharp_bump():
         retile(src, 150, refine=-1)
 
 
+def test_draws_add_candidates_and_keep_the_first_draws_passes():
+    """``draws=2`` (issue 16): each pass is re-tiled twice at the same density; the first
+    draw of every pass is the pass of ``draws=1`` (same errors, same density for the next
+    pass), the second a different draw, and the choice sees all of them."""
+    src = gaussian_bump(40, 0.2, 0.004)
+    one = retile(src, 120, refine=1)
+    two = retile(src, 120, refine=1, draws=2)
+    e1, e2 = one.report["refine_errors"], two.report["refine_errors"]
+    assert len(e1) == 2 and len(e2) == 4 and len(two.report["refine_quality"]) == 4
+    assert two.report["refine_draws"] == 2
+    np.testing.assert_allclose([e2[0], e2[2]], e1, rtol=1e-12)
+    assert abs(e2[1] - e2[0]) > 1e-9 * e2[0]             # the second draw is another tiling
+    k = two.report["refine_pass"]
+    assert 0 <= k < 4 and e2[k] <= min(e2) * 1.2 * (1 + 1e-12)
+    assert off_surface(src, two.mesh) < 1e-9
+    t = lodkit.topology(two.mesh)
+    assert t.is_manifold and t.genus == 0 and t.n_boundary_loops == 1
+    # without refine, draws alone give candidates to choose from too
+    solo = retile(src, 120, draws=3)
+    assert len(solo.report["refine_errors"]) == 3 and 0 <= solo.report["refine_pass"] < 3
+    with pytest.raises(OptionError, match="draws"):
+        retile(src, 120, draws=0)
+
+
 def test_refine_keeps_a_well_shaped_pass_of_nearly_the_smallest_error():
     """The keep rule of ``refine`` (issue 16): of the passes within 1.2x of the smallest
     error, one meeting the shape targets (smallest quality >= 0.3, then mean >= 0.85), the
