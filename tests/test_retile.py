@@ -227,6 +227,14 @@ def test_refine_keeps_a_well_shaped_pass_of_nearly_the_smallest_error():
     assert _keep_pass([1.0, 1.3, 2.0], [(0.80, 0.20), (0.95, 0.6), (0.99, 0.9)]) == 0
     # equal shape classes: the smallest error, whatever the order
     assert _keep_pass([1.1, 1.0, 1.05], [(0.90, 0.5), (0.90, 0.5), (0.95, 0.5)]) == 1
+    # with several draws a pass (draws > 1) the window is 1.7x: the well-shaped pass at 1.6x
+    # is kept there, not with one draw; one at 1.8x is not kept either way
+    from lodkit.retile import _KEEP_ERROR_SLACK_DRAWS
+
+    shapes = [(0.82, 0.30), (0.88, 0.31), (0.95, 0.6)]
+    assert _keep_pass([1.0, 1.6, 1.8], shapes) == 0
+    assert _keep_pass([1.0, 1.6, 1.8], shapes, _KEEP_ERROR_SLACK_DRAWS) == 1
+    assert _keep_pass([1.0, 1.8, 1.6], [(0.82, 0.30), (0.95, 0.6), (0.80, 0.2)], _KEEP_ERROR_SLACK_DRAWS) == 0
 
 
 def test_attributes_interpolated():
