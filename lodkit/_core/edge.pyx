@@ -926,6 +926,8 @@ cdef class EdgeCollapser:
             pts[5][i] = 0.75 * p[i] + 0.25 * pts[2][i]
             pts[6][i] = 0.5 * (p[i] + pts[2][i])
             pts[7][i] = 0.25 * p[i] + 0.75 * pts[2][i]
+        if n > 5 and same_point(p, pts[2]):
+            n = 5                       # p is the midpoint: the points towards it are it again
         for i in range(n):
             cost[i] = quadric_eval(q, pts[i])
             order[i] = i
