@@ -270,11 +270,11 @@ def _build_parser() -> argparse.ArgumentParser:
                    help="keep creases: edges whose faces turn by more than DEG degrees (default: off)")
     p.add_argument("--refine", type=_seed, default=0, metavar="K",
                    help="error-driven passes: re-tile K more times with the density raised where the "
-                        "last pass was far from the input; the pass with the smallest largest error "
-                        "is kept (default: 0)")
+                        "last pass was far from the input; of the passes within 1.2x of the smallest "
+                        "largest error, the best-shaped is kept (default: 0)")
     p.add_argument("--draws", type=_count, default=1, metavar="K",
                    help="re-tilings per pass at the same density; the choice among passes sees all of "
-                        "them (default: 1)")
+                        "them, within 1.7x of the smallest error (default: 1)")
     p.add_argument("--fit", type=_seed, default=0, metavar="K",
                    help="lodkit's addition, not Turk's: K rounds moving the new vertices along their normals "
                         "so that the result straddles the input (vertices leave the surface; default: 0)")

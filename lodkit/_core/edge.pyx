@@ -854,7 +854,8 @@ cdef class EdgeCollapser:
                        double* dvol_out) noexcept nogil:
         """``geometry_ok`` for a planned collapse, with a fallback: when the moved faces fail
         a check at the planned position ``p`` (an optimal placement), the collapse may still
-        go with the kept vertex at one of the edge's ends or its midpoint -- the cheapest
+        go with the kept vertex at one of the edge's ends or its midpoint (under an error
+        bound also its quarter points and points towards ``p``: end_points) -- the cheapest
         first -- if that passes every check and costs no more than ``limit``, what the driver would take
         next anyway (the greedy driver: the heap's top; the pass driver: the pass's dearest
         candidate; < 0: no fallback).  Under an error bound the cost limit is not applied:
