@@ -469,10 +469,13 @@ class Run:
     bound: float | None = None   # error="hausdorff": the distance certified, normalised
 
 
-def extract(work: Work, run: Run):
-    """(Mesh, vertex_map, face_map): the live part of the half-edge arrays compacted into a
-    Mesh, the copies made for non-manifold vertices welded back together; vertices that
-    did not move keep their input position bit for bit."""
+def extract(work: Work, run: Run, polish=None):
+    """(Mesh, vertex_map, face_map, polish report or None): the live part of the half-edge
+    arrays compacted into a Mesh, the copies made for non-manifold vertices welded back
+    together; vertices that did not move keep their input position bit for bit.
+    ``polish``: None, or ``f(input vertices, input faces, vertices, faces, slots) ->
+    (vertices, report)`` run on the output before it is made a Mesh (lodkit.polish),
+    ``slots`` the vertex slot each output vertex comes from."""
     src, prep = work.src, work.prep
     # weld: one output vertex per input vertex (split copies are locked, so they coincide);
     # faces in input order, whatever order the slots were laid out in
@@ -480,10 +483,13 @@ def extract(work: Work, run: Run):
         prep.hm, prep.input_vertex, prep.input_face, src.vertices, src.n_faces, prep.memory_order,
         run.moved, run.positions, prep.center, prep.scale)
     out_attrs = attribute_arrays(run.attributes[rep], work.names) if work.names else {}
+    polished = None
+    if polish is not None:
+        verts, polished = polish(src.vertices, src.faces, verts, out_faces, rep)
     out = Mesh(verts, out_faces, **out_attrs)
     if work.welded_faces is not None:
         face_map = work.welded_faces[face_map]       # faces of the welded mesh -> input faces
-    return out, vertex_map, face_map
+    return out, vertex_map, face_map, polished
 
 
 def attribute_arrays(block: np.ndarray, names) -> dict:

@@ -144,6 +144,10 @@ def _build_parser() -> argparse.ArgumentParser:
                    help="pair contraction: first merge vertices closer than T that share no edge, "
                         "joining parts and closing gaps (a fraction of the bbox diagonal, model "
                         "units with --absolute; off by default)")
+    p.add_argument("--polish", action="store_true",
+                   help="after the run, fit the output's vertices to the input surface: a lower "
+                        "mean error, for a closest-point search per round (docs/algorithms.md, "
+                        "\"Polish\"); not with --max-distance")
     tiles = p.add_argument_group("meshes too large for one process (docs/scale.md)")
     tiles.add_argument("--tiles", action="store_true",
                        help="simplify in spatial tiles on Dask workers (lodkit.simplify_large): positions only")
@@ -500,6 +504,10 @@ def _run_simplify(args) -> int:
                           "(see 'lodkit simplify --help')")
     if args.max_distance is not None and args.max_error is not None:
         raise _UsageError("give --max-error (the collapse error) or --max-distance (a guaranteed distance), not both")
+    if args.polish and args.max_distance is not None:
+        raise _UsageError("--polish does not go with --max-distance (moving vertices would void the bound)")
+    if args.polish and args.tiles:
+        raise _UsageError("--polish does not go with --tiles")
     if args.max_distance is not None and args.tiles:
         raise _UsageError("--max-distance does not go with --tiles (the tiles' seams are not bounded)")
     _check_output(args.output)     # before the work, not after it
@@ -519,6 +527,7 @@ def _run_simplify(args) -> int:
         "max_normal_angle": args.max_normal_angle,
         "min_quality": args.min_quality,
         "pair_threshold": args.pair_threshold,
+        "polish": True if args.polish else None,
     }
     # leave out what the user did not give, so simplify()'s own defaults apply
     options = {k: v for k, v in options.items() if v is not None}

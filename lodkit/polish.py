@@ -1,0 +1,219 @@
+"""``simplify(..., polish=True)``: fit the output's vertex positions to the input surface.
+
+An edge collapse places each vertex where its quadric is smallest: the point nearest (in the
+least-squares sense, area-weighted) to the planes of the input faces it stands for.  On a
+curved surface those are tangent planes, and the best place for a vertex is not on them:
+the output's faces are chords, and a chord is nearest the surface on average when its ends
+sit outside a convex arc (inside a concave one).  For an arc of radius R and a vertex
+spacing of angle t the quadric's point is R (1 + t^2/24) from the centre and the chords'
+best R (1 + t^2/12): every vertex of a smooth region is placed about half as far out as it
+should be, by an amount the quadric cannot see, since it knows the planes, not the faces
+the vertex will end up with.  This step, run once on the final mesh, measures exactly that:
+the distance of points of the input to the faces of the output.
+
+Each round (docs/algorithms.md, "Polish"):
+
+1. Every sample of the input (area-weighted, a fixed seed) is matched to the closest point
+   of the output (the face by Embree through Open3D, the point on it in double
+   precision); a sample whose input normal opposes that face's normal (the other side of
+   a thin sheet) is left out.
+2. The vertex positions minimise the weighted sum over the samples of the squared
+   distance from the sample to the plane of its face, through its matched point's
+   barycentric weights (point-to-plane: a vertex may slide along the surface without
+   cost, the regulariser below holds it), plus lambda |v - v_now|^2 per vertex. The
+   weights are those of iteratively reweighted least squares for the mean distance
+   (1 / max(|d|, delta), d the sample's distance now, delta a tenth of the RMS one): the
+   step lowers the mean error, which the quadric's squared one does not measure, and a
+   flat face that is exact stays exact.  A conjugate-gradient solve (Jacobi
+   preconditioned) from the current positions.
+3. A vertex moves at most as far as the RMS distance of the samples on its faces (the
+   leash: with few samples a vertex could otherwise fly off to pull them in), and a move
+   that turns any of its faces by more than ~45 degrees (cos < 0.7) is undone, with its
+   neighbours', until none does.
+
+Vertices that must stay put do not move: locked vertices, the fixed ones of the run
+(non-manifold copies, the boundary under ``boundary="lock"``), boundary vertices (a
+point-to-plane fit would let a border slide outwards) and vertices that share their
+position with another (attribute-seam copies, which must stay together).  Faces,
+connectivity and attributes are left as the run made them.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ._core.retile import closest_on_faces
+from .errors import OptionError
+from .evaluate import sample_surface
+from .geometry import face_normals
+from .retile import SurfaceProjector
+
+__all__ = ["DEFAULT_ROUNDS", "polish_positions", "resolve_polish"]
+
+#: rounds of ``polish=True``
+DEFAULT_ROUNDS = 3
+# samples of the input: this many per output face, at least the input's vertex count ...
+_SAMPLES_PER_FACE = 20
+# ... and within these bounds
+_MIN_SAMPLES, _MAX_SAMPLES = 10_000, 2_000_000
+# the regulariser: this times the vertex's summed sample weight (holds its tangential slide)
+_LAMBDA = 1e-3
+# the IRLS floor: delta = this times the samples' RMS distance
+_IRLS_FLOOR = 0.1
+# a vertex moves at most this times the RMS distance of the samples on its faces
+_LEASH = 1.0
+# a move that turns one of its faces' normals to a cosine below this is undone
+_TURN_COS = 0.7
+# the sample seed
+_SEED = 0
+# the solve: each round re-linearises, so a loose tolerance does
+_CG_RTOL, _CG_ITERATIONS = 1e-6, 200
+
+
+def resolve_polish(polish) -> int:
+    """The rounds ``polish`` stands for: False / 0 -> 0, True -> DEFAULT_ROUNDS, an int >= 0."""
+    if polish is None or polish is False:
+        return 0
+    if polish is True:
+        return DEFAULT_ROUNDS
+    if isinstance(polish, (int, np.integer)) and 0 <= int(polish) <= 100:
+        return int(polish)
+    raise OptionError(f"polish must be True, False or a number of rounds in 0..100, got {polish!r}")
+
+
+def _fixed_vertices(V: np.ndarray, F: np.ndarray, fixed: np.ndarray) -> np.ndarray:
+    """``fixed`` or on a boundary edge or sharing its position with another vertex."""
+    out = np.array(fixed, dtype=bool, copy=True)
+    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    u, c = np.unique(e, axis=0, return_counts=True)
+    out[u[c == 1].ravel()] = True
+    _, inv, cnt = np.unique(V, axis=0, return_inverse=True, return_counts=True)
+    out |= cnt[inv.ravel()] > 1
+    out[np.setdiff1d(np.arange(V.shape[0]), F.ravel())] = True   # unreferenced: nothing to fit
+    return out
+
+
+def _solve_cg(K, b, x0, diag):
+    """Conjugate gradients with the Jacobi preconditioner (deterministic: fixed sweeps)."""
+    from scipy.sparse.linalg import LinearOperator, cg
+
+    M = LinearOperator(K.shape, matvec=lambda r: r / diag, dtype=np.float64)
+    x, _ = cg(K, b, x0=x0, rtol=_CG_RTOL, atol=0.0, maxiter=_CG_ITERATIONS, M=M)
+    return x
+
+
+def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarray,
+                     fixed: np.ndarray, rounds: int = DEFAULT_ROUNDS,
+                     samples: int | None = None) -> tuple[np.ndarray, dict]:
+    """Fit (V, F)'s free vertices to the surface (V0, F0); (new V, report).
+
+    V0, F0 : the input surface; V, F: the output mesh; fixed: (len(V),) bool, vertices that
+    must not move (more are held: see the module's docstring).  Deterministic: the same
+    input gives the same output (fixed samples, a fixed number of sweeps)."""
+    from scipy.sparse import coo_matrix, diags
+
+    V0 = np.asarray(V0, dtype=np.float64)
+    F0 = np.asarray(F0, dtype=np.int64)
+    F = np.asarray(F, dtype=np.int64)
+    n = V.shape[0]
+    # the mean distances: of the samples to the output, as a fraction of the input's diagonal
+    report = {"rounds": 0, "samples": 0, "moved_vertices": 0, "held_vertices": 0,
+              "mean_distance_before": 0.0, "mean_distance_after": 0.0}
+    if rounds <= 0 or n == 0 or F.shape[0] == 0 or F0.shape[0] == 0:
+        return np.array(V, dtype=np.float64, copy=True), report
+    # normalised units: the input's bbox centre at the origin, diagonal 1
+    used = np.unique(F0)
+    lo, hi = V0[used].min(axis=0), V0[used].max(axis=0)
+    center, scale = 0.5 * (lo + hi), float(np.linalg.norm(hi - lo))
+    if not (scale > 0.0 and math.isfinite(scale)):
+        return np.array(V, dtype=np.float64, copy=True), report
+    X0 = (V0 - center) / scale
+    X = (np.asarray(V, dtype=np.float64) - center) / scale
+    hold = _fixed_vertices(X, F, fixed)
+    free = np.flatnonzero(~hold)
+    report["held_vertices"] = int(hold.sum())
+    if free.size == 0:
+        return np.array(V, dtype=np.float64, copy=True), report
+    ns = samples or min(max(_SAMPLES_PER_FACE * F.shape[0], V0.shape[0], _MIN_SAMPLES), _MAX_SAMPLES)
+    P, sface, _ = sample_surface(X0, F0, int(ns), seed=_SEED)
+    if P.shape[0] == 0:
+        return np.array(V, dtype=np.float64, copy=True), report
+    n_in = face_normals(X0, F0)[0][sface]
+    report["samples"] = int(P.shape[0])
+    # the unknowns: 3 per free vertex
+    col_of = np.full(n, -1, dtype=np.int64)
+    col_of[free] = np.arange(free.size)
+    start = X.copy()
+    first_mean = None
+    last = None
+    for _ in range(rounds):
+        N_out = face_normals(X, F)[0]
+        face, w, d = SurfaceProjector(X, F).closest(P)
+        last = face
+        nf = N_out[face]
+        keep = np.einsum("ij,ij->i", nf, n_in) > 0.0
+        if first_mean is None:
+            first_mean = float(d.mean())
+        face, w, nf, Pk = face[keep], w[keep], nf[keep], P[keep]
+        if face.size == 0:
+            break
+        corners = F[face]                                     # (m, 3)
+        signed = np.einsum("ij,ij->i", nf, np.einsum("ij,ijk->ik", w, X[corners]) - Pk)
+        rms = math.sqrt(float(np.mean(signed * signed)))
+        if not rms > 0.0:
+            break
+        sw = 1.0 / np.maximum(np.abs(signed), _IRLS_FLOOR * rms)          # IRLS weights (squared)
+        # rows: one per sample; the known part (fixed corners) goes to the right-hand side
+        target = np.einsum("ij,ij->i", nf, Pk)
+        cols = col_of[corners]                                # (m, 3), -1 for held
+        known = np.where(cols < 0, w, 0.0)
+        target = target - np.einsum("ij,ij->i", nf, np.einsum("ij,ijk->ik", known, X[corners]))
+        m = face.size
+        coef = (np.where(cols >= 0, w, 0.0)[:, :, None] * nf[:, None, :])     # (m, 3 corners, 3 axes)
+        rows = np.repeat(np.arange(m), 9)
+        cidx = (3 * np.maximum(cols, 0)[:, :, None] + np.arange(3)).reshape(-1)
+        vals = (coef * np.sqrt(sw)[:, None, None]).reshape(-1)
+        A = coo_matrix((vals, (rows, cidx)), shape=(m, 3 * free.size)).tocsr()
+        rhs = target * np.sqrt(sw)
+        # lambda per vertex: a share of its summed sample weight (at least the mean's)
+        wsum = np.bincount(np.maximum(cols, 0).ravel(), (np.where(cols >= 0, w, 0.0) * sw[:, None]).ravel(),
+                           minlength=free.size)
+        lam = _LAMBDA * np.maximum(wsum, float(wsum.mean()) if wsum.size else 1.0)
+        lam3 = np.repeat(lam, 3)
+        K = (A.T @ A + diags(lam3)).tocsr()
+        b = A.T @ rhs + lam3 * X[free].reshape(-1)
+        x = _solve_cg(K, b, X[free].reshape(-1), K.diagonal())
+        if not np.all(np.isfinite(x)):
+            break
+        Y = X.copy()
+        Y[free] = x.reshape(-1, 3)
+        # the leash: at most the RMS distance of the samples on the vertex's faces
+        sq = np.bincount(corners.ravel(), (w * (signed * signed)[:, None]).ravel(), minlength=n)
+        ws = np.bincount(corners.ravel(), w.ravel(), minlength=n)
+        lim = _LEASH * np.sqrt(sq / np.maximum(ws, 1e-300))
+        step = Y - X
+        length = np.linalg.norm(step, axis=1)
+        over = length > lim
+        step[over] *= (lim[over] / length[over])[:, None]
+        Y = X + step
+        # undo moves that turn a face too far, with the face's other corners, until none does
+        for _ in range(64):
+            N_new = face_normals(Y, F)[0]
+            bad = np.einsum("ij,ij->i", N_new, N_out) < _TURN_COS
+            bad &= np.any(Y[F] != X[F], axis=(1, 2))
+            if not bad.any():
+                break
+            back = np.unique(F[bad].ravel())
+            Y[back] = X[back]
+        X = Y
+        report["rounds"] += 1
+    report["mean_distance_before"] = float(first_mean if first_mean is not None else 0.0)
+    # after: to the faces matched last (no new search: at least the distance to the surface)
+    report["mean_distance_after"] = float(np.sqrt(closest_on_faces(P, X, F, last)[1]).mean()) \
+        if last is not None else report["mean_distance_before"]
+    moved = np.any(X != start, axis=1)
+    report["moved_vertices"] = int(moved.sum())
+    out = np.asarray(V, dtype=np.float64).copy()
+    out[moved] = X[moved] * scale + center
+    return out, report
