@@ -28,8 +28,8 @@ Each round (docs/algorithms.md, "Polish"):
    preconditioned) from the current positions.
 3. A vertex moves at most as far as the RMS distance of the samples on its faces (the
    leash: with few samples a vertex could otherwise fly off to pull them in), and a move
-   that turns any of its faces by more than ~45 degrees (cos < 0.7) is undone, with its
-   neighbours', until none does.
+   that would leave any of its faces turned by more than ~45 degrees (cos < 0.7) from the
+   run's output is undone, with its neighbours', until none does.
 
 Vertices that must stay put do not move: locked vertices, the fixed ones of the run
 (non-manifold copies, the boundary under ``boundary="lock"``), boundary vertices (a
@@ -54,7 +54,7 @@ __all__ = ["DEFAULT_ROUNDS", "polish_positions", "resolve_polish"]
 #: rounds of ``polish=True``
 DEFAULT_ROUNDS = 3
 # samples of the input: this many per output face, at least the input's vertex count ...
-_SAMPLES_PER_FACE = 20
+_SAMPLES_PER_FACE = 10
 # ... and within these bounds
 _MIN_SAMPLES, _MAX_SAMPLES = 10_000, 2_000_000
 # the regulariser: this times the vertex's summed sample weight (holds its tangential slide)
@@ -145,6 +145,7 @@ def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarra
     col_of = np.full(n, -1, dtype=np.int64)
     col_of[free] = np.arange(free.size)
     start = X.copy()
+    N_start = face_normals(X, F)[0]        # no face turns further than _TURN_COS from these
     first_mean = None
     last = None
     for _ in range(rounds):
@@ -197,10 +198,11 @@ def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarra
         over = length > lim
         step[over] *= (lim[over] / length[over])[:, None]
         Y = X + step
-        # undo moves that turn a face too far, with the face's other corners, until none does
+        # undo moves that leave a face turned too far from the run's output, with the face's other
+        # corners, until none does
         for _ in range(64):
             N_new = face_normals(Y, F)[0]
-            bad = np.einsum("ij,ij->i", N_new, N_out) < _TURN_COS
+            bad = np.einsum("ij,ij->i", N_new, N_start) < _TURN_COS
             bad &= np.any(Y[F] != X[F], axis=(1, 2))
             if not bad.any():
                 break

@@ -262,9 +262,9 @@ def test_live_output_is_the_numpy_extraction(monkeypatch, driver):
     seen = {}
     real = _pipeline.extract
 
-    def capture(work, run):
+    def capture(work, run, polish=None):
         seen["args"] = (work, run)
-        return real(work, run)
+        return real(work, run, polish=polish)
 
     monkeypatch.setattr(_pipeline, "extract", capture)
     r = lodkit.simplify(lodkit.Mesh(V, F), target_ratio=0.3, driver=driver, threads=2)

@@ -11,17 +11,7 @@ from lodkit import Mesh, OptionError
 from lodkit.cli import main
 from lodkit.geometry import face_normals
 from lodkit.polish import DEFAULT_ROUNDS, polish_positions, resolve_polish
-
-
-def grid(n: int, z=None) -> Mesh:
-    """An n x n vertex grid over the unit square, two triangles per cell; z heights (n, n)."""
-    xs, ys = np.meshgrid(np.linspace(0.0, 1.0, n), np.linspace(0.0, 1.0, n), indexing="ij")
-    zs = np.zeros_like(xs) if z is None else z
-    v = np.stack([xs.ravel(), ys.ravel(), zs.ravel()], axis=1)
-    idx = np.arange(n * n).reshape(n, n)
-    a, b, c, d = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()
-    f = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
-    return Mesh(v, f.astype(np.int32))
+from test_error_bound import grid
 
 
 def uv_sphere(n_lon: int = 48, n_lat: int = 24) -> Mesh:
@@ -148,8 +138,9 @@ def test_polish_rounds_zero_is_plain():
 @settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(seed=st.integers(0, 10_000), ratio=st.sampled_from([0.05, 0.1, 0.3]))
 def test_polish_turns_no_face_over(seed, ratio):
-    """On bumpy closed surfaces: same faces, no face turned by 90 degrees or more from the
-    unpolished output, positions finite."""
+    """On bumpy closed surfaces: same faces, no face turned by more than the step's limit
+    (cosine 0.7, ~45 degrees) from the unpolished output over all rounds together,
+    positions finite."""
     rng = np.random.default_rng(seed)
     m = uv_sphere(24, 12)
     V = m.vertices * (1.0 + 0.15 * rng.standard_normal((m.n_vertices, 1)))
@@ -161,7 +152,8 @@ def test_polish_turns_no_face_over(seed, ratio):
     n0, a0 = face_normals(plain.mesh.vertices, plain.mesh.faces)
     n1, _ = face_normals(pol.mesh.vertices, pol.mesh.faces)
     live = a0 > 0
-    assert (np.einsum("ij,ij->i", n0[live], n1[live]) > 0).all()
+    # the step checks in normalised units: a little slack for the rounding of the scaling
+    assert np.einsum("ij,ij->i", n0[live], n1[live]).min() > 0.7 - 1e-6
 
 
 def test_cli_polish(tmp_path):
