@@ -208,10 +208,12 @@ def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarra
                 break
             back = np.unique(F[bad].ravel())
             Y[back] = X[back]
+        else:
+            Y = X          # still a face too far after the sweeps: the round moves nothing
         X = Y
         report["rounds"] += 1
     report["mean_distance_before"] = float(first_mean if first_mean is not None else 0.0)
-    # after: to the faces matched last (no new search: at least the distance to the surface)
+    # after: to the faces matched last (no new search: an upper bound of the distance to the output)
     report["mean_distance_after"] = float(np.sqrt(closest_on_faces(P, X, F, last)[1]).mean()) \
         if last is not None else report["mean_distance_before"]
     moved = np.any(X != start, axis=1)
