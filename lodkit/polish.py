@@ -55,7 +55,8 @@ __all__ = ["DEFAULT_ROUNDS", "polish_positions", "resolve_polish"]
 DEFAULT_ROUNDS = 3
 # samples of the input: this many per output face, at least the input's vertex count ...
 _SAMPLES_PER_FACE = 10
-# ... and within these bounds
+# ... (this times the input's vertex count at least) and within these bounds
+_FLOOR_INPUT_VERTICES = 1
 _MIN_SAMPLES, _MAX_SAMPLES = 10_000, 2_000_000
 # the regulariser: this times the vertex's summed sample weight (holds its tangential slide)
 _LAMBDA = 1e-3
@@ -92,6 +93,37 @@ def _fixed_vertices(V: np.ndarray, F: np.ndarray, fixed: np.ndarray) -> np.ndarr
     out |= cnt[inv.ravel()] > 1
     out[np.setdiff1d(np.arange(V.shape[0]), F.ravel())] = True   # unreferenced: nothing to fit
     return out
+
+
+def _edge_neighbours(F: np.ndarray) -> np.ndarray:
+    """(faces, 3): the face across each edge (corners k, k+1), the face itself where there is
+    none (a border) or more than one (a non-manifold edge)."""
+    m = F.shape[0]
+    a = F.reshape(-1)
+    b = F[:, [1, 2, 0]].reshape(-1)
+    key = np.minimum(a, b).astype(np.int64) * (int(F.max()) + 1) + np.maximum(a, b)
+    order = np.argsort(key, kind="stable")
+    ks = key[order]
+    out = np.repeat(np.arange(m), 3)
+    _, first, count = np.unique(ks, return_index=True, return_counts=True)
+    two = first[count == 2]                      # an edge of exactly two faces
+    i, j = order[two], order[two + 1]
+    out[i], out[j] = j // 3, i // 3
+    return out.reshape(m, 3)
+
+
+def _closest_near(P, X, F, face, across):
+    """The closest point of each P[i] on its face ``face[i]`` or one of the three across
+    its edges (after a round's small moves a sample's closest face is mostly one of those):
+    (face, barycentric weights, distance), as SurfaceProjector.closest gives them."""
+    best_f = face.copy()
+    best_w, best_d2 = closest_on_faces(P, X, F, face)
+    for k in range(3):
+        f = np.ascontiguousarray(across[face, k])
+        w, d2 = closest_on_faces(P, X, F, f)
+        better = d2 < best_d2
+        best_f[better], best_w[better], best_d2[better] = f[better], w[better], d2[better]
+    return best_f, best_w, np.sqrt(best_d2)
 
 
 def _solve_cg(K, b, x0, diag):
@@ -135,7 +167,8 @@ def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarra
     report["held_vertices"] = int(hold.sum())
     if free.size == 0:
         return np.array(V, dtype=np.float64, copy=True), report
-    ns = samples or min(max(_SAMPLES_PER_FACE * F.shape[0], V0.shape[0], _MIN_SAMPLES), _MAX_SAMPLES)
+    ns = samples or min(max(_SAMPLES_PER_FACE * F.shape[0], _FLOOR_INPUT_VERTICES * V0.shape[0], _MIN_SAMPLES),
+                        _MAX_SAMPLES)
     P, sface, _ = sample_surface(X0, F0, int(ns), seed=_SEED)
     if P.shape[0] == 0:
         return np.array(V, dtype=np.float64, copy=True), report
@@ -148,9 +181,13 @@ def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarra
     N_start = face_normals(X, F)[0]        # no face turns further than _TURN_COS from these
     first_mean = None
     last = None
+    across = _edge_neighbours(F)
     for _ in range(rounds):
         N_out = face_normals(X, F)[0]
-        face, w, d = SurfaceProjector(X, F).closest(P)
+        if last is None:
+            face, w, d = SurfaceProjector(X, F).closest(P)
+        else:
+            face, w, d = _closest_near(P, X, F, last, across)
         last = face
         nf = N_out[face]
         keep = np.einsum("ij,ij->i", nf, n_in) > 0.0
@@ -160,30 +197,44 @@ def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarra
         if face.size == 0:
             break
         corners = F[face]                                     # (m, 3)
+        # per output face, the summed input normals of the samples matched to it: a move may not
+        # turn a face against the input surface it stands for
+        stand = np.stack([np.bincount(face, n_in[keep][:, k], minlength=F.shape[0]) for k in range(3)], axis=1)
+        facing = np.einsum("ij,ij->i", N_out, stand) > 0.0
         signed = np.einsum("ij,ij->i", nf, np.einsum("ij,ijk->ik", w, X[corners]) - Pk)
         rms = math.sqrt(float(np.mean(signed * signed)))
         if not rms > 0.0:
             break
         sw = 1.0 / np.maximum(np.abs(signed), _IRLS_FLOOR * rms)          # IRLS weights (squared)
-        # rows: one per sample; the known part (fixed corners) goes to the right-hand side
-        target = np.einsum("ij,ij->i", nf, Pk)
-        cols = col_of[corners]                                # (m, 3), -1 for held
-        known = np.where(cols < 0, w, 0.0)
-        target = target - np.einsum("ij,ij->i", nf, np.einsum("ij,ijk->ik", known, X[corners]))
-        m = face.size
-        coef = (np.where(cols >= 0, w, 0.0)[:, :, None] * nf[:, None, :])     # (m, 3 corners, 3 axes)
-        rows = np.repeat(np.arange(m), 9)
-        cidx = (3 * np.maximum(cols, 0)[:, :, None] + np.arange(3)).reshape(-1)
-        vals = (coef * np.sqrt(sw)[:, None, None]).reshape(-1)
-        A = coo_matrix((vals, (rows, cidx)), shape=(m, 3 * free.size)).tocsr()
-        rhs = target * np.sqrt(sw)
+        # the normal equations, summed per output face: a face's samples share its normal n, so
+        # their rows add up to C = sum sw w w^T (3 x 3, w the barycentric weights) and
+        # r = sum sw w (n . p); the blocks of K are C[a, b] n n^T
+        nF = F.shape[0]
+        t = np.einsum("ij,ij->i", nf, Pk)
+        C = np.stack([np.bincount(face, sw * w[:, a] * w[:, c], minlength=nF) for a in range(3) for c in range(3)],
+                     axis=1).reshape(nF, 3, 3)
+        r = np.stack([np.bincount(face, sw * w[:, a] * t, minlength=nF) for a in range(3)], axis=1)
+        cf = col_of[F]                                        # (faces, 3): the unknown of a corner, -1 held
+        nv = np.einsum("fj,fkj->fk", N_out, X[F])             # n . v of each corner
+        r = r - np.einsum("fab,fb->fa", C, np.where(cf < 0, nv, 0.0))   # held corners: known
+        NN = N_out[:, :, None] * N_out[:, None, :]
+        both = (cf[:, :, None] >= 0) & (cf[:, None, :] >= 0)  # (faces, a, b)
+        fi, ai, bi = np.nonzero(both)
+        ax = np.arange(3)
+        vals = (C[fi, ai, bi][:, None, None] * NN[fi]).reshape(-1)
+        rows = (3 * cf[fi, ai][:, None, None] + ax[None, :, None] + 0 * ax[None, None, :]).reshape(-1)
+        cols = (3 * cf[fi, bi][:, None, None] + 0 * ax[None, :, None] + ax[None, None, :]).reshape(-1)
         # lambda per vertex: a share of its summed sample weight (at least the mean's)
-        wsum = np.bincount(np.maximum(cols, 0).ravel(), (np.where(cols >= 0, w, 0.0) * sw[:, None]).ravel(),
-                           minlength=free.size)
+        own = np.stack([np.bincount(face, sw * w[:, a], minlength=nF) for a in range(3)], axis=1)
+        fr = cf >= 0
+        wsum = np.bincount(cf[fr], own[fr], minlength=free.size)
         lam = _LAMBDA * np.maximum(wsum, float(wsum.mean()) if wsum.size else 1.0)
         lam3 = np.repeat(lam, 3)
-        K = (A.T @ A + diags(lam3)).tocsr()
-        b = A.T @ rhs + lam3 * X[free].reshape(-1)
+        K = coo_matrix((vals, (rows, cols)), shape=(3 * free.size, 3 * free.size)).tocsr() + diags(lam3)
+        K = K.tocsr()
+        fa, aa = np.nonzero(fr)
+        b = np.bincount((3 * cf[fa, aa][:, None] + ax).reshape(-1), (r[fa, aa][:, None] * N_out[fa]).reshape(-1),
+                        minlength=3 * free.size) + lam3 * X[free].reshape(-1)
         x = _solve_cg(K, b, X[free].reshape(-1), K.diagonal())
         if not np.all(np.isfinite(x)):
             break
@@ -203,6 +254,7 @@ def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarra
         for _ in range(64):
             N_new = face_normals(Y, F)[0]
             bad = np.einsum("ij,ij->i", N_new, N_start) < _TURN_COS
+            bad |= facing & (np.einsum("ij,ij->i", N_new, stand) <= 0.0)
             bad &= np.any(Y[F] != X[F], axis=(1, 2))
             if not bad.any():
                 break

@@ -165,3 +165,11 @@ def test_cli_polish(tmp_path):
     bad = tmp_path / "bad.ply"
     assert main(["simplify", str(src), str(bad), "--max-distance", "1%", "--polish", "--quiet"]) == 2
     assert not bad.exists()
+
+
+def test_edge_neighbours():
+    from lodkit.polish import _edge_neighbours
+    F = np.array([[0, 1, 2], [2, 1, 3], [0, 2, 4], [0, 2, 5]])
+    # edge (0, 2) has three faces: non-manifold, each face keeps itself there
+    np.testing.assert_array_equal(_edge_neighbours(F), [[0, 1, 0], [0, 1, 1], [2, 2, 2], [3, 3, 3]])
+    np.testing.assert_array_equal(_edge_neighbours(F[:3]), [[0, 1, 2], [0, 1, 1], [0, 2, 2]])
