@@ -145,6 +145,8 @@ def simplify_case(data: bytes) -> tuple:
         opts["pair_threshold"] = b.choice([b.float(), 0.01])
     if b.int(0, 4) == 0:
         opts["driver"] = b.choice(["greedy", "pass", "nope"])
+    if b.int(0, 4) == 0:
+        opts["polish"] = b.choice([True, 1, -1, "x"])
     return vertices, faces, opts
 
 
@@ -183,6 +185,8 @@ def check_simplify(data: bytes) -> None:
     out_vertices, out_faces = result.mesh          # a (V, F) tuple in gives one out
     if out_faces.size and (out_faces.min() < 0 or out_faces.max() >= out_vertices.shape[0]):
         raise AssertionError(f"simplify returned out-of-range faces for {opts}")
+    if opts.get("polish") and np.isfinite(vertices).all() and not np.isfinite(out_vertices).all():
+        raise AssertionError(f"polish made a position that is not finite for {opts}")
 
 
 def check(target: str, data: bytes) -> None:
