@@ -43,7 +43,7 @@ import math
 
 import numpy as np
 
-from ._core.retile import closest_on_faces
+from ._core.retile import closest_on_faces, polish_sums
 from .errors import OptionError
 from .evaluate import sample_surface
 from .geometry import face_normals
@@ -112,20 +112,6 @@ def _edge_neighbours(F: np.ndarray) -> np.ndarray:
     return out.reshape(m, 3)
 
 
-def _closest_near(P, X, F, face, across):
-    """The closest point of each P[i] on its face ``face[i]`` or one of the three across
-    its edges (after a round's small moves a sample's closest face is mostly one of those):
-    (face, barycentric weights, distance), as SurfaceProjector.closest gives them."""
-    best_f = face.copy()
-    best_w, best_d2 = closest_on_faces(P, X, F, face)
-    for k in range(3):
-        f = np.ascontiguousarray(across[face, k])
-        w, d2 = closest_on_faces(P, X, F, f)
-        better = d2 < best_d2
-        best_f[better], best_w[better], best_d2[better] = f[better], w[better], d2[better]
-    return best_f, best_w, np.sqrt(best_d2)
-
-
 def _solve_cg(K, b, x0, diag):
     """Conjugate gradients with the Jacobi preconditioner (deterministic: fixed sweeps)."""
     from scipy.sparse.linalg import LinearOperator, cg
@@ -182,38 +168,26 @@ def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarra
     first_mean = None
     last = None
     across = _edge_neighbours(F)
+    face = None
     for _ in range(rounds):
         N_out = face_normals(X, F)[0]
-        if last is None:
-            face, w, d = SurfaceProjector(X, F).closest(P)
-        else:
-            face, w, d = _closest_near(P, X, F, last, across)
+        local = face is not None
+        if not local:
+            face = SurfaceProjector(X, F).closest(P)[0]
+        # one pass over the samples (native): each matched to its face (after the first round:
+        # the nearest of its last face and the three across its edges), the IRLS weights and
+        # the sums below
+        mean_d, C, r, own, sq, ws, stand, kept = polish_sums(P, n_in, X, F, N_out, face, across, local, _IRLS_FLOOR)
         last = face
-        nf = N_out[face]
-        keep = np.einsum("ij,ij->i", nf, n_in) > 0.0
         if first_mean is None:
-            first_mean = float(d.mean())
-        face, w, nf, Pk = face[keep], w[keep], nf[keep], P[keep]
-        if face.size == 0:
+            first_mean = float(mean_d)
+        if kept == 0 or not float(sq.sum()) > 0.0:
             break
-        corners = F[face]                                     # (m, 3)
-        # per output face, the summed input normals of the samples matched to it: a move may not
-        # turn a face against the input surface it stands for
-        stand = np.stack([np.bincount(face, n_in[keep][:, k], minlength=F.shape[0]) for k in range(3)], axis=1)
+        # a move may not turn a face against the input surface its samples stand for
         facing = np.einsum("ij,ij->i", N_out, stand) > 0.0
-        signed = np.einsum("ij,ij->i", nf, np.einsum("ij,ijk->ik", w, X[corners]) - Pk)
-        rms = math.sqrt(float(np.mean(signed * signed)))
-        if not rms > 0.0:
-            break
-        sw = 1.0 / np.maximum(np.abs(signed), _IRLS_FLOOR * rms)          # IRLS weights (squared)
         # the normal equations, summed per output face: a face's samples share its normal n, so
         # their rows add up to C = sum sw w w^T (3 x 3, w the barycentric weights) and
-        # r = sum sw w (n . p); the blocks of K are C[a, b] n n^T
-        nF = F.shape[0]
-        t = np.einsum("ij,ij->i", nf, Pk)
-        C = np.stack([np.bincount(face, sw * w[:, a] * w[:, c], minlength=nF) for a in range(3) for c in range(3)],
-                     axis=1).reshape(nF, 3, 3)
-        r = np.stack([np.bincount(face, sw * w[:, a] * t, minlength=nF) for a in range(3)], axis=1)
+        # r = sum sw w (n . p) (polish_sums); the blocks of K are C[a, b] n n^T
         cf = col_of[F]                                        # (faces, 3): the unknown of a corner, -1 held
         nv = np.einsum("fj,fkj->fk", N_out, X[F])             # n . v of each corner
         r = r - np.einsum("fab,fb->fa", C, np.where(cf < 0, nv, 0.0))   # held corners: known
@@ -225,7 +199,6 @@ def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarra
         rows = (3 * cf[fi, ai][:, None, None] + ax[None, :, None] + 0 * ax[None, None, :]).reshape(-1)
         cols = (3 * cf[fi, bi][:, None, None] + 0 * ax[None, :, None] + ax[None, None, :]).reshape(-1)
         # lambda per vertex: a share of its summed sample weight (at least the mean's)
-        own = np.stack([np.bincount(face, sw * w[:, a], minlength=nF) for a in range(3)], axis=1)
         fr = cf >= 0
         wsum = np.bincount(cf[fr], own[fr], minlength=free.size)
         lam = _LAMBDA * np.maximum(wsum, float(wsum.mean()) if wsum.size else 1.0)
@@ -241,8 +214,6 @@ def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarra
         Y = X.copy()
         Y[free] = x.reshape(-1, 3)
         # the leash: at most the RMS distance of the samples on the vertex's faces
-        sq = np.bincount(corners.ravel(), (w * (signed * signed)[:, None]).ravel(), minlength=n)
-        ws = np.bincount(corners.ravel(), w.ravel(), minlength=n)
         lim = _LEASH * np.sqrt(sq / np.maximum(ws, 1e-300))
         step = Y - X
         length = np.linalg.norm(step, axis=1)

@@ -31,3 +31,10 @@ def project_local(X: NDArray[np.float64], S: NDArray[np.int64], V: NDArray[np.fl
 def closest_on_faces(X: NDArray[np.float64], V: NDArray[np.float64], F: NDArray[np.int64],
                      face: NDArray[np.int64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """For each point X[i], the closest point of face face[i]: (weights, squared distance)."""
+
+def polish_sums(P: NDArray[np.float64], NI: NDArray[np.float64], X: NDArray[np.float64], F: NDArray[np.int64],
+                NF: NDArray[np.float64], face: NDArray[np.int64], across: NDArray[np.int64], local: bool,
+                floor: float) -> tuple[float, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                                       NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], int]:
+    """One round of lodkit.polish's sums over the samples (``face`` updated in place):
+    (mean distance, C, r, own, sq, ws, stand, samples kept)."""

@@ -18,6 +18,7 @@ from lodkit.kernel cimport KERNEL_OK, KERNEL_VETO
 from .halfedge cimport HEArrays, he_dest, he_prev, he_ring_next
 from lodkit.removal cimport RemovalKernel, Star, Removal, MAX_VALENCE, REMOVAL_API_VERSION
 from .vec3 cimport sub3, cross3, dot3, norm3
+from libc.math cimport sqrt, fabs, NAN
 
 cdef double SQRT3_4 = 4.0 * 1.7320508075688772
 
@@ -503,3 +504,90 @@ def closest_on_faces(const double[:, ::1] X, const double[:, ::1] V, const int64
             f = face[i]
             D[i] = closest_on_triangle(&X[i, 0], &V[F[f, 0], 0], &V[F[f, 1], 0], &V[F[f, 2], 0], &W[i, 0])
     return w_arr, d_arr
+
+
+def polish_sums(const double[:, ::1] P, const double[:, ::1] NI, const double[:, ::1] X,
+                const int64_t[:, ::1] F, const double[:, ::1] NF, int64_t[::1] face,
+                const int64_t[:, ::1] across, bint local, double floor):
+    """One round of lodkit.polish's sums over the samples, in one pass each.
+
+    P: (m, 3) samples, NI: (m, 3) the input normal at each, X / F: the output mesh, NF: its
+    unit face normals, face: (m,) each sample's face (in: from the search, or last round's;
+    out: the face it is matched to), across: (faces, 3) the face over each edge.  With
+    ``local``, a sample goes to the closest of its face and the three across its edges;
+    else it stays on ``face``.  A sample whose input normal opposes its face's normal is
+    left out.  The signed distance d of a sample to its face's plane gets the weight
+    sw = 1 / max(|d|, floor * RMS(d)).  Returns (the samples' mean distance to their
+    faces, C (faces, 3, 3) = sum sw w w^T, r (faces, 3) = sum sw w (n . p), own (faces, 3) =
+    sum sw w, sq (vertices,) = sum w d^2 and ws (vertices,) = sum w over the samples on the
+    vertex's faces, stand (faces, 3) = the summed input normals of the samples kept on the
+    face, and the number of samples kept)."""
+    cdef Py_ssize_t m = P.shape[0], nf = F.shape[0], nv = X.shape[0], i, k, a, c
+    if NI.shape[0] != m or face.shape[0] != m or NF.shape[0] != nf or across.shape[0] != nf:
+        raise ValueError("polish_sums: array sizes do not match")
+    C_arr = np.zeros((nf, 3, 3))
+    r_arr = np.zeros((nf, 3))
+    own_arr = np.zeros((nf, 3))
+    stand_arr = np.zeros((nf, 3))
+    sq_arr = np.zeros(nv)
+    ws_arr = np.zeros(nv)
+    W_arr = np.zeros((m, 3))
+    S_arr = np.zeros(m)
+    cdef double[:, :, ::1] C = C_arr
+    cdef double[:, ::1] R = r_arr
+    cdef double[:, ::1] OWN = own_arr
+    cdef double[:, ::1] STAND = stand_arr
+    cdef double[::1] SQ = sq_arr
+    cdef double[::1] WS = ws_arr
+    cdef double[:, ::1] W = W_arr
+    cdef double[::1] S = S_arr
+    cdef double w[3]
+    cdef double q[3]
+    cdef double d2, best, total = 0.0, ss = 0.0, s, sw, rms, t, dl
+    cdef int64_t f, g, kept = 0
+    with nogil:
+        for i in range(m):
+            f = face[i]
+            best = closest_on_triangle(&P[i, 0], &X[F[f, 0], 0], &X[F[f, 1], 0], &X[F[f, 2], 0], &W[i, 0])
+            if local:
+                for k in range(3):
+                    g = across[f, k]
+                    if g == f:
+                        continue
+                    d2 = closest_on_triangle(&P[i, 0], &X[F[g, 0], 0], &X[F[g, 1], 0], &X[F[g, 2], 0], w)
+                    if d2 < best:
+                        best = d2
+                        face[i] = g
+                        W[i, 0] = w[0]
+                        W[i, 1] = w[1]
+                        W[i, 2] = w[2]
+                f = face[i]
+            total += sqrt(best)
+            if NF[f, 0] * NI[i, 0] + NF[f, 1] * NI[i, 1] + NF[f, 2] * NI[i, 2] <= 0.0:
+                S[i] = NAN
+                continue
+            for k in range(3):
+                q[k] = (W[i, 0] * X[F[f, 0], k] + W[i, 1] * X[F[f, 1], k] + W[i, 2] * X[F[f, 2], k]) - P[i, k]
+            s = NF[f, 0] * q[0] + NF[f, 1] * q[1] + NF[f, 2] * q[2]
+            S[i] = s
+            ss += s * s
+            kept += 1
+        rms = sqrt(ss / kept) if kept else 0.0
+        dl = floor * rms
+        if rms > 0.0:
+            for i in range(m):
+                s = S[i]
+                if s != s:             # left out (NaN)
+                    continue
+                f = face[i]
+                sw = 1.0 / (fabs(s) if fabs(s) > dl else dl)
+                t = NF[f, 0] * P[i, 0] + NF[f, 1] * P[i, 1] + NF[f, 2] * P[i, 2]
+                for a in range(3):
+                    STAND[f, a] += NI[i, a]
+                    OWN[f, a] += sw * W[i, a]
+                    R[f, a] += sw * W[i, a] * t
+                    SQ[F[f, a]] += W[i, a] * s * s
+                    WS[F[f, a]] += W[i, a]
+                    for c in range(3):
+                        C[f, a, c] += sw * W[i, a] * W[i, c]
+    return (total / m if m else 0.0), C_arr, r_arr, own_arr, sq_arr, ws_arr, stand_arr, int(kept)
