@@ -211,3 +211,16 @@ def test_polish_open3d_in_open3d_out():
     t = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(m.vertices), o3d.utility.Vector3iVector(m.faces))
     out = lodkit.simplify(t, target_ratio=0.3, polish=True).mesh
     assert isinstance(out, o3d.geometry.TriangleMesh) and len(out.triangles) > 0
+
+
+def test_polish_sums_refuses_out_of_range_faces():
+    from lodkit._core.retile import polish_sums
+    X = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    F = np.array([[0, 1, 2]], dtype=np.int64)
+    N = np.array([[0.0, 0, 1]])
+    P = np.array([[0.2, 0.2, 0.1]])
+    across = np.zeros((1, 3), dtype=np.int64)
+    out = polish_sums(P, N, X, F, N, np.zeros(1, dtype=np.int64), across, False, 0.1)
+    assert out[-1] == 1 and out[0] == pytest.approx(0.1)
+    with pytest.raises(ValueError, match="out of range"):
+        polish_sums(P, N, X, F, N, np.array([4294967295], dtype=np.int64), across, False, 0.1)

@@ -525,6 +525,10 @@ def polish_sums(const double[:, ::1] P, const double[:, ::1] NI, const double[:,
     cdef Py_ssize_t m = P.shape[0], nf = F.shape[0], nv = X.shape[0], i, k, a, c
     if NI.shape[0] != m or face.shape[0] != m or NF.shape[0] != nf or across.shape[0] != nf:
         raise ValueError("polish_sums: array sizes do not match")
+    if m and (np.min(face) < 0 or np.max(face) >= nf):
+        raise ValueError("polish_sums: a sample's face is out of range")
+    if nf and (np.min(across) < 0 or np.max(across) >= nf or np.min(F) < 0 or np.max(F) >= nv):
+        raise ValueError("polish_sums: a face or neighbour index is out of range")
     C_arr = np.zeros((nf, 3, 3))
     r_arr = np.zeros((nf, 3))
     own_arr = np.zeros((nf, 3))
