@@ -83,33 +83,64 @@ def resolve_polish(polish) -> int:
     raise OptionError(f"polish must be True, False or a number of rounds in 0..100, got {polish!r}")
 
 
-def _fixed_vertices(V: np.ndarray, F: np.ndarray, fixed: np.ndarray) -> np.ndarray:
-    """``fixed`` or on a boundary edge or sharing its position with another vertex."""
-    out = np.array(fixed, dtype=bool, copy=True)
-    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    u, c = np.unique(e, axis=0, return_counts=True)
-    out[u[c == 1].ravel()] = True
-    _, inv, cnt = np.unique(V, axis=0, return_inverse=True, return_counts=True)
-    out |= cnt[inv.ravel()] > 1
-    out[np.setdiff1d(np.arange(V.shape[0]), F.ravel())] = True   # unreferenced: nothing to fit
-    return out
+def _fixed_vertices(V: np.ndarray, F: np.ndarray, fixed: np.ndarray, border: np.ndarray) -> np.ndarray:
+    """``fixed`` or ``border`` or sharing its position with another vertex, or unreferenced."""
+    out = np.array(fixed, dtype=bool, copy=True) | border
+    order = np.lexsort((V[:, 2], V[:, 1], V[:, 0]))
+    same = np.all(V[order[1:]] == V[order[:-1]], axis=1)          # a sorted row equal to the next
+    out[order[1:][same]] = True
+    out[order[:-1][same]] = True
+    used = np.zeros(V.shape[0], dtype=bool)
+    used[F.ravel()] = True
+    return out | ~used                                          # unreferenced: nothing to fit
 
 
-def _edge_neighbours(F: np.ndarray) -> np.ndarray:
-    """(faces, 3): the face across each edge (corners k, k+1), the face itself where there is
-    none (a border) or more than one (a non-manifold edge)."""
+def _edge_neighbours(F: np.ndarray, n: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """((faces, 3): the face across each edge (corners k, k+1), the face itself where there
+    is none (a border) or more than one (a non-manifold edge); (n,) bool: the vertices on a
+    border edge, one face only)."""
     m = F.shape[0]
+    n = int(F.max()) + 1 if n is None else n
     a = F.reshape(-1)
     b = F[:, [1, 2, 0]].reshape(-1)
-    key = np.minimum(a, b).astype(np.int64) * (int(F.max()) + 1) + np.maximum(a, b)
+    key = np.minimum(a, b).astype(np.int64) * n + np.maximum(a, b)
     order = np.argsort(key, kind="stable")
     ks = key[order]
+    first = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]])        # runs of one edge (sorted)
+    count = np.diff(np.r_[first, ks.size])
     out = np.repeat(np.arange(m), 3)
-    _, first, count = np.unique(ks, return_index=True, return_counts=True)
     two = first[count == 2]                      # an edge of exactly two faces
     i, j = order[two], order[two + 1]
     out[i], out[j] = j // 3, i // 3
-    return out.reshape(m, 3)
+    border = np.zeros(n, dtype=bool)
+    one = order[first[count == 1]]
+    border[a[one]] = True
+    border[b[one]] = True
+    return out.reshape(m, 3), border
+
+
+class _Blocks:
+    """The block sparsity of the normal equations: a BSR matrix's indptr and indices, its
+    number of blocks and where each row's diagonal block is."""
+
+    def __init__(self, indptr, indices, diagonal):
+        self.indptr, self.indices, self.diagonal = indptr, indices, diagonal
+        self.nnzb = int(indices.size)
+
+
+def _block_structure(cf: np.ndarray, n_free: int):
+    """(_Blocks, and for each (face, a, b) with both corners free: face, a, b, its block)."""
+    both = (cf[:, :, None] >= 0) & (cf[:, None, :] >= 0)
+    pair_face, pair_a, pair_b = np.nonzero(both)
+    key = cf[pair_face, pair_a] * np.int64(n_free) + cf[pair_face, pair_b]
+    # every vertex's diagonal block too (a free vertex of no face keeps its lambda)
+    diag_key = np.arange(n_free, dtype=np.int64) * (n_free + 1)
+    uniq, inverse = np.unique(np.concatenate([key, diag_key]), return_inverse=True)
+    pair_block = inverse[:key.size]
+    rows = uniq // n_free
+    indptr = np.zeros(n_free + 1, dtype=np.int64)
+    np.cumsum(np.bincount(rows, minlength=n_free), out=indptr[1:])
+    return _Blocks(indptr, (uniq % n_free).astype(np.int64), inverse[key.size:]), pair_face, pair_a, pair_b, pair_block
 
 
 def _solve_cg(K, b, x0, diag):
@@ -129,7 +160,7 @@ def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarra
     V0, F0 : the input surface; V, F: the output mesh; fixed: (len(V),) bool, vertices that
     must not move (more are held: see the module's docstring).  Deterministic: the same
     input gives the same output (fixed samples, a fixed number of sweeps)."""
-    from scipy.sparse import coo_matrix, diags
+    from scipy.sparse import bsr_matrix
 
     V0 = np.asarray(V0, dtype=np.float64)
     F0 = np.asarray(F0, dtype=np.int64)
@@ -141,14 +172,16 @@ def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarra
     if rounds <= 0 or n == 0 or F.shape[0] == 0 or F0.shape[0] == 0:
         return np.array(V, dtype=np.float64, copy=True), report
     # normalised units: the input's bbox centre at the origin, diagonal 1
-    used = np.unique(F0)
+    used = np.zeros(V0.shape[0], dtype=bool)
+    used[F0.ravel()] = True
     lo, hi = V0[used].min(axis=0), V0[used].max(axis=0)
     center, scale = 0.5 * (lo + hi), float(np.linalg.norm(hi - lo))
     if not (scale > 0.0 and math.isfinite(scale)):
         return np.array(V, dtype=np.float64, copy=True), report
     X0 = (V0 - center) / scale
     X = (np.asarray(V, dtype=np.float64) - center) / scale
-    hold = _fixed_vertices(X, F, fixed)
+    across, border = _edge_neighbours(F, n)
+    hold = _fixed_vertices(X, F, fixed, border)
     free = np.flatnonzero(~hold)
     report["held_vertices"] = int(hold.sum())
     if free.size == 0:
@@ -158,6 +191,10 @@ def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarra
     P, sface, _ = sample_surface(X0, F0, int(ns), seed=_SEED)
     if P.shape[0] == 0:
         return np.array(V, dtype=np.float64, copy=True), report
+    # in the input's face order (the draws come in random order): the passes over the samples
+    # then walk the output's faces and vertices in about the order the input lists its own
+    by_face = np.argsort(sface, kind="stable")
+    P, sface = P[by_face], sface[by_face]
     n_in = face_normals(X0, F0)[0][sface]
     report["samples"] = int(P.shape[0])
     # the unknowns: 3 per free vertex
@@ -167,7 +204,10 @@ def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarra
     N_start = face_normals(X, F)[0]        # no face turns further than _TURN_COS from these
     first_mean = None
     last = None
-    across = _edge_neighbours(F)
+    # the block structure of the normal equations (fixed connectivity: once), each face's free
+    # corner pairs (a, b) and the block they add to
+    cf = col_of[F]                                        # (faces, 3): the unknown of a corner, -1 held
+    blocks, pair_face, pair_a, pair_b, pair_block = _block_structure(cf, free.size)
     face = None
     for _ in range(rounds):
         N_out = face_normals(X, F)[0]
@@ -188,27 +228,27 @@ def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarra
         # the normal equations, summed per output face: a face's samples share its normal n, so
         # their rows add up to C = sum sw w w^T (3 x 3, w the barycentric weights) and
         # r = sum sw w (n . p) (polish_sums); the blocks of K are C[a, b] n n^T
-        cf = col_of[F]                                        # (faces, 3): the unknown of a corner, -1 held
         nv = np.einsum("fj,fkj->fk", N_out, X[F])             # n . v of each corner
         r = r - np.einsum("fab,fb->fa", C, np.where(cf < 0, nv, 0.0))   # held corners: known
         NN = N_out[:, :, None] * N_out[:, None, :]
-        both = (cf[:, :, None] >= 0) & (cf[:, None, :] >= 0)  # (faces, a, b)
-        fi, ai, bi = np.nonzero(both)
-        ax = np.arange(3)
-        vals = (C[fi, ai, bi][:, None, None] * NN[fi]).reshape(-1)
-        rows = (3 * cf[fi, ai][:, None, None] + ax[None, :, None] + 0 * ax[None, None, :]).reshape(-1)
-        cols = (3 * cf[fi, bi][:, None, None] + 0 * ax[None, :, None] + ax[None, None, :]).reshape(-1)
+        # K's 3 x 3 blocks (free a, free b), summed per block by one bincount per entry
+        data = np.empty((blocks.nnzb, 3, 3))
+        cpair = C[pair_face, pair_a, pair_b]
+        for i in range(3):
+            for j in range(3):
+                data[:, i, j] = np.bincount(pair_block, cpair * NN[pair_face, i, j], minlength=blocks.nnzb)
         # lambda per vertex: a share of its summed sample weight (at least the mean's)
         fr = cf >= 0
         wsum = np.bincount(cf[fr], own[fr], minlength=free.size)
         lam = _LAMBDA * np.maximum(wsum, float(wsum.mean()) if wsum.size else 1.0)
         lam3 = np.repeat(lam, 3)
-        K = coo_matrix((vals, (rows, cols)), shape=(3 * free.size, 3 * free.size)).tocsr() + diags(lam3)
-        K = K.tocsr()
+        data[blocks.diagonal] += lam[:, None, None] * np.eye(3)
+        K = bsr_matrix((data, blocks.indices, blocks.indptr), shape=(3 * free.size, 3 * free.size))
+        ax = np.arange(3)
         fa, aa = np.nonzero(fr)
         b = np.bincount((3 * cf[fa, aa][:, None] + ax).reshape(-1), (r[fa, aa][:, None] * N_out[fa]).reshape(-1),
                         minlength=3 * free.size) + lam3 * X[free].reshape(-1)
-        x = _solve_cg(K, b, X[free].reshape(-1), K.diagonal())
+        x = _solve_cg(K, b, X[free].reshape(-1), data[blocks.diagonal][:, ax, ax].reshape(-1))
         if not np.all(np.isfinite(x)):
             break
         Y = X.copy()

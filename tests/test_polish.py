@@ -171,8 +171,13 @@ def test_edge_neighbours():
     from lodkit.polish import _edge_neighbours
     F = np.array([[0, 1, 2], [2, 1, 3], [0, 2, 4], [0, 2, 5]])
     # edge (0, 2) has three faces: non-manifold, each face keeps itself there
-    np.testing.assert_array_equal(_edge_neighbours(F), [[0, 1, 0], [0, 1, 1], [2, 2, 2], [3, 3, 3]])
-    np.testing.assert_array_equal(_edge_neighbours(F[:3]), [[0, 1, 2], [0, 1, 1], [0, 2, 2]])
+    across, border = _edge_neighbours(F)
+    np.testing.assert_array_equal(across, [[0, 1, 0], [0, 1, 1], [2, 2, 2], [3, 3, 3]])
+    # borders: (0, 1), (1, 3), (3, 2), (2, 4), (4, 0), (2, 5), (5, 0); (0, 2) is not one (three faces)
+    np.testing.assert_array_equal(border, [True] * 6)
+    across, border = _edge_neighbours(F[:3], 6)
+    np.testing.assert_array_equal(across, [[0, 1, 2], [0, 1, 1], [0, 2, 2]])
+    np.testing.assert_array_equal(border, [True, True, True, True, True, False])
 
 
 def test_polish_keeps_uv_seams_closed_and_attributes():
