@@ -28,6 +28,7 @@ with import_guard():     # Ctrl-C while the `lodkit` command starts: one line, e
     from .large import LargeResult, simplify_large
     from .mesh import Mesh
     from .optimize import OptimizeResult, optimize
+    from .polish import PolishResult, polish_mesh
     from .progressive import ProgressiveMesh, progressive
     from .retile import RetileResult, retile
     from .topology import TopologyReport, topology
@@ -50,6 +51,7 @@ __all__ = [
     "MetricError",
     "OptimizeResult",
     "OptionError",
+    "PolishResult",
     "ProgressiveMesh",
     "RetileResult",
     "SimplifyResult",
@@ -63,6 +65,7 @@ __all__ = [
     "metrics",
     "optimize",
     "point_curvature",
+    "polish_mesh",
     "progressive",
     "retile",
     "save",

@@ -4,7 +4,8 @@
                                   locks, attribute seams, attribute block, the core's vertex rows
     metric_context() -> MetricContext   what the metrics see at set-up
     (the driver runs: lodkit.drivers)   -> Run
-    extract()        -> (Mesh, vertex_map, face_map)   the live part of the half-edge arrays
+    extract()        -> (Mesh, vertex_map, face_map, polish report)   the live part of the
+                                  half-edge arrays (then lodkit.polish, when asked)
     report()         -> dict      result.report
 
 Also the helpers the drivers share: the chunked run loop with its progress bar and the

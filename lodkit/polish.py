@@ -39,17 +39,22 @@ connectivity and attributes are left as the run made them.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
+from typing import Any
 
 import numpy as np
 
 from ._core.retile import closest_on_faces, polish_sums
-from .errors import OptionError
+from .adapters import coerce
+from .errors import MeshError, OptionError
 from .evaluate import sample_surface
 from .geometry import face_normals
+from .io import load
 from .retile import SurfaceProjector
+from .settings import locked_mask
 
-__all__ = ["DEFAULT_ROUNDS", "polish_positions", "resolve_polish"]
+__all__ = ["DEFAULT_ROUNDS", "PolishResult", "polish_mesh", "polish_positions", "resolve_polish"]
 
 #: rounds of ``polish=True``
 DEFAULT_ROUNDS = 3
@@ -72,12 +77,41 @@ _SEED = 0
 _CG_RTOL, _CG_ITERATIONS = 1e-6, 200
 
 
+@dataclasses.dataclass
+class PolishResult:
+    """What :func:`polish_mesh` returns: the mesh (the type ``simplified`` came in) and
+    the report ``simplify(polish=True)`` puts in ``report["polish"]``."""
+
+    mesh: Any
+    report: dict
+
+
+def polish_mesh(original, simplified, *, rounds: int = DEFAULT_ROUNDS, locked=None) -> PolishResult:
+    """Fit ``simplified``'s vertices to ``original``'s surface: the step of
+    ``simplify(polish=True)`` for any simplified mesh (a progressive mesh's level, another
+    tool's output).  Faces and attributes stay; boundary vertices, vertices sharing a
+    position and ``locked`` ones (a bool mask or indices into ``simplified``'s vertices)
+    do not move.  ``original`` and ``simplified``: any mesh type lodkit reads, or paths.
+
+    Raises MeshError for an unusable mesh, OptionError for bad options."""
+    n_rounds = resolve_polish(rounds)
+    src, _ = coerce(original, "original", load=load)
+    out, back = coerce(simplified, "simplified", load=load)
+    if src.n_faces == 0 or out.n_faces == 0:
+        raise MeshError("polish_mesh needs faces in both meshes")
+    fixed = np.zeros(out.n_vertices, dtype=bool) if locked is None else locked_mask(locked, out.n_vertices)
+    V, report = polish_positions(src.vertices, src.faces, out.vertices, out.faces, fixed, rounds=n_rounds)
+    return PolishResult(mesh=back(dataclasses.replace(out, vertices=V)), report=report)
+
+
 def resolve_polish(polish) -> int:
     """The rounds ``polish`` stands for: False / 0 -> 0, True -> DEFAULT_ROUNDS, an int >= 0."""
     if polish is None or polish is False:
         return 0
     if polish is True:
         return DEFAULT_ROUNDS
+    if isinstance(polish, np.bool_):
+        return DEFAULT_ROUNDS if polish else 0
     if isinstance(polish, (int, np.integer)) and 0 <= int(polish) <= 100:
         return int(polish)
     raise OptionError(f"polish must be True, False or a number of rounds in 0..100, got {polish!r}")
@@ -98,7 +132,7 @@ def _fixed_vertices(V: np.ndarray, F: np.ndarray, fixed: np.ndarray, border: np.
 def _edge_neighbours(F: np.ndarray, n: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """((faces, 3): the face across each edge (corners k, k+1), the face itself where there
     is none (a border) or more than one (a non-manifold edge); (n,) bool: the vertices on a
-    border edge, one face only)."""
+    border edge (one face) or a non-manifold one (three or more), which polish holds)."""
     m = F.shape[0]
     n = int(F.max()) + 1 if n is None else n
     a = F.reshape(-1)
@@ -113,7 +147,7 @@ def _edge_neighbours(F: np.ndarray, n: int | None = None) -> tuple[np.ndarray, n
     i, j = order[two], order[two + 1]
     out[i], out[j] = j // 3, i // 3
     border = np.zeros(n, dtype=bool)
-    one = order[first[count == 1]]
+    one = order[first[(count == 1) | (count > 2)]]     # a border edge, or the first of a fin's
     border[a[one]] = True
     border[b[one]] = True
     return out.reshape(m, 3), border
@@ -143,12 +177,37 @@ def _block_structure(cf: np.ndarray, n_free: int):
     return _Blocks(indptr, (uniq % n_free).astype(np.int64), inverse[key.size:]), pair_face, pair_a, pair_b, pair_block
 
 
-def _solve_cg(K, b, x0, diag):
-    """Conjugate gradients with the Jacobi preconditioner (deterministic: fixed sweeps)."""
-    from scipy.sparse.linalg import LinearOperator, cg
+def _dot(a: np.ndarray, b: np.ndarray) -> float:
+    """A dot product by numpy's own pairwise sum, not BLAS: OpenBLAS splits long dot
+    products over its threads, so their last bits would depend on the machine's thread
+    count (np.dot, and scipy's cg, which uses it)."""
+    return float(np.add.reduce(a * b))
 
-    M = LinearOperator(K.shape, matvec=lambda r: r / diag, dtype=np.float64)
-    x, _ = cg(K, b, x0=x0, rtol=_CG_RTOL, atol=0.0, maxiter=_CG_ITERATIONS, M=M)
+
+def _solve_cg(K, b, x0, diag):
+    """Conjugate gradients with the Jacobi preconditioner, its reductions by :func:`_dot`:
+    the same bits for any thread count of the BLAS library (a test).  Stops at a relative
+    residual of _CG_RTOL or after _CG_ITERATIONS."""
+    x = x0.copy()
+    r = b - K @ x
+    tol2 = (_CG_RTOL * _CG_RTOL) * _dot(b, b)
+    z = r / diag
+    p = z.copy()
+    rz = _dot(r, z)
+    for _ in range(_CG_ITERATIONS):
+        if _dot(r, r) <= tol2 or not rz > 0.0:
+            break
+        Kp = K @ p
+        pKp = _dot(p, Kp)
+        if not pKp > 0.0:
+            break
+        alpha = rz / pKp
+        x += alpha * p
+        r -= alpha * Kp
+        z = r / diag
+        rz_next = _dot(r, z)
+        p = z + (rz_next / rz) * p
+        rz = rz_next
     return x
 
 
@@ -188,14 +247,16 @@ def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarra
         return np.array(V, dtype=np.float64, copy=True), report
     ns = samples or min(max(_SAMPLES_PER_FACE * F.shape[0], _FLOOR_INPUT_VERTICES * V0.shape[0], _MIN_SAMPLES),
                         _MAX_SAMPLES)
+    n_in_all, area_in = face_normals(X0, F0)
+    total = float(area_in.sum())
+    if not (total > 0.0 and math.isfinite(total)):
+        return np.array(V, dtype=np.float64, copy=True), report      # no surface to fit to
     P, sface, _ = sample_surface(X0, F0, int(ns), seed=_SEED)
-    if P.shape[0] == 0:
-        return np.array(V, dtype=np.float64, copy=True), report
     # in the input's face order (the draws come in random order): the passes over the samples
     # then walk the output's faces and vertices in about the order the input lists its own
     by_face = np.argsort(sface, kind="stable")
     P, sface = P[by_face], sface[by_face]
-    n_in = face_normals(X0, F0)[0][sface]
+    n_in = n_in_all[sface]
     report["samples"] = int(P.shape[0])
     # the unknowns: 3 per free vertex
     col_of = np.full(n, -1, dtype=np.int64)
@@ -240,7 +301,9 @@ def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarra
         # lambda per vertex: a share of its summed sample weight (at least the mean's)
         fr = cf >= 0
         wsum = np.bincount(cf[fr], own[fr], minlength=free.size)
-        lam = _LAMBDA * np.maximum(wsum, float(wsum.mean()) if wsum.size else 1.0)
+        if not float(wsum.sum()) > 0.0:
+            break                                         # no free vertex has a sample
+        lam = _LAMBDA * np.maximum(wsum, float(wsum.mean()))
         lam3 = np.repeat(lam, 3)
         data[blocks.diagonal] += lam[:, None, None] * np.eye(3)
         K = bsr_matrix((data, blocks.indices, blocks.indptr), shape=(3 * free.size, 3 * free.size))

@@ -65,7 +65,9 @@ def test_polish_lowers_the_mean_error_on_a_sphere():
     assert np.linalg.norm(pol.mesh.vertices, axis=1).mean() > np.linalg.norm(plain.mesh.vertices, axis=1).mean()
 
 
-def test_polish_keeps_a_plane_flat_and_its_border_exact():
+def test_polish_moves_nothing_on_an_exact_plane():
+    """A flat input is fitted exactly by any flat output: the first round finds every
+    sample at distance 0 and stops; nothing moves."""
     rng = np.random.default_rng(1)
     m = grid(21)
     inner = (m.vertices[:, 0] > 0) & (m.vertices[:, 0] < 1) & (m.vertices[:, 1] > 0) & (m.vertices[:, 1] < 1)
@@ -74,10 +76,25 @@ def test_polish_keeps_a_plane_flat_and_its_border_exact():
     m = Mesh(V, m.faces)
     plain = lodkit.simplify(m, target_ratio=0.2)
     pol = lodkit.simplify(m, target_ratio=0.2, polish=True)
-    assert np.abs(pol.mesh.vertices[:, 2]).max() < 1e-12
+    assert pol.report["polish"]["moved_vertices"] == 0 and pol.report["polish"]["rounds"] == 0
+    # exact: nothing moved, so the run's positions are kept bit for bit
+    np.testing.assert_array_equal(pol.mesh.vertices, plain.mesh.vertices)
+
+
+def test_polish_keeps_the_border_of_a_curved_sheet_exact():
+    """An open curved sheet: the interior moves (and gets closer), the border stays bit for bit."""
+    xs = np.linspace(0.0, 1.0, 41)
+    z = 0.3 * np.sin(3 * xs)[:, None] * np.cos(2 * xs)[None, :]
+    m = grid(41, z)
+    plain = lodkit.simplify(m, target_ratio=0.1)
+    pol = lodkit.simplify(m, target_ratio=0.1, polish=True)
     on_border = np.isin(np.arange(pol.mesh.n_vertices), _border_vertices(pol.mesh.faces))
+    assert pol.report["polish"]["moved_vertices"] > 0.5 * (~on_border).sum()
     # exact: boundary vertices are held, not moved and written back
     np.testing.assert_array_equal(pol.mesh.vertices[on_border], plain.mesh.vertices[on_border])
+    e0 = lodkit.evaluate(m, plain.mesh, samples=20_000).distance.mean
+    e1 = lodkit.evaluate(m, pol.mesh, samples=20_000).distance.mean
+    assert e1 < e0
 
 
 def _border_vertices(F) -> np.ndarray:
@@ -97,21 +114,33 @@ def test_polish_leaves_locked_vertices_where_they_are():
 
 
 def test_polish_holds_coincident_vertices_and_the_fixed_mask():
-    """Seam copies (two vertices at one position) stay; so does a vertex marked fixed."""
-    m = uv_sphere(16, 8)
-    V = np.concatenate([m.vertices, m.vertices[[5]]])          # a copy of vertex 5 ...
-    F = m.faces.astype(np.int64).copy()
-    F[F[:, 0] == 5, 0] = len(V) - 1                              # ... taking some of its faces
-    Vs = V * 1.02                                                # an output "off" the input
+    """Two closed parts meeting at a point through two copies of one position (no border
+    anywhere): both copies stay, and so does a vertex marked fixed; the rest move back to
+    the input."""
+    from lodkit.polish import _edge_neighbours, _fixed_vertices
+    a = uv_sphere(16, 8)
+    b = Mesh(a.vertices + [0.0, 0.0, 2.0], a.faces)              # touches a's north pole with its south
+    V = np.concatenate([a.vertices, b.vertices])
+    F = np.concatenate([a.faces, b.faces + a.n_vertices]).astype(np.int64)
+    north, south = 0, a.n_vertices + (b.n_vertices - 1)
+    assert np.allclose(V[north], V[south])
+    V[south] = V[north]                                          # exactly one position
+    _, border = _edge_neighbours(F, len(V))
+    assert not border.any()
+    held = _fixed_vertices(V, F, np.zeros(len(V), dtype=bool), border)
+    assert set(np.flatnonzero(held)) == {north, south}
     fixed = np.zeros(len(V), dtype=bool)
     fixed[9] = True
+    Vs = V * 1.02                                                # an output "off" the input
+    Vs[south] = Vs[north]
     out, rep = polish_positions(V, F, Vs, F, fixed)
     # exact: held vertices are copied, not recomputed
-    np.testing.assert_array_equal(out[[5, len(V) - 1, 9]], Vs[[5, len(V) - 1, 9]])
-    assert rep["held_vertices"] >= 3 and rep["moved_vertices"] > 0
-    # the free vertices come back towards the input sphere
-    free = np.setdiff1d(np.arange(len(V)), [5, len(V) - 1, 9])
-    assert np.abs(np.linalg.norm(out[free], axis=1) - 1).mean() < 0.5 * 0.02
+    np.testing.assert_array_equal(out[[north, south, 9]], Vs[[north, south, 9]])
+    assert rep["held_vertices"] == 3 and rep["moved_vertices"] > 0
+    free = np.setdiff1d(np.arange(len(V)), [north, south, 9])
+    d0 = np.abs(np.linalg.norm(Vs[free] - np.where(free[:, None] < a.n_vertices, 0.0, [0, 0, 2.0]), axis=1) - 1)
+    d1 = np.abs(np.linalg.norm(out[free] - np.where(free[:, None] < a.n_vertices, 0.0, [0, 0, 2.0]), axis=1) - 1)
+    assert d1.mean() < 0.5 * d0.mean()
 
 
 def test_polish_is_deterministic_and_thread_independent():
@@ -161,7 +190,10 @@ def test_cli_polish(tmp_path):
     lodkit.save(uv_sphere(), str(src))
     out = tmp_path / "out.ply"
     assert main(["simplify", str(src), str(out), "--ratio", "0.2", "--polish", "--quiet"]) == 0
-    assert lodkit.load(str(out)).n_faces > 0
+    plain = tmp_path / "plain.ply"
+    assert main(["simplify", str(src), str(plain), "--ratio", "0.2", "--quiet"]) == 0
+    a, b = lodkit.load(str(out)), lodkit.load(str(plain))
+    assert a.n_faces == b.n_faces > 0 and np.any(a.vertices != b.vertices)
     bad = tmp_path / "bad.ply"
     assert main(["simplify", str(src), str(bad), "--max-distance", "1%", "--polish", "--quiet"]) == 2
     assert not bad.exists()
@@ -215,7 +247,10 @@ def test_polish_open3d_in_open3d_out():
     m = uv_sphere(24, 12)
     t = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(m.vertices), o3d.utility.Vector3iVector(m.faces))
     out = lodkit.simplify(t, target_ratio=0.3, polish=True).mesh
+    plain = lodkit.simplify(t, target_ratio=0.3).mesh
     assert isinstance(out, o3d.geometry.TriangleMesh) and len(out.triangles) > 0
+    np.testing.assert_array_equal(np.asarray(out.triangles), np.asarray(plain.triangles))
+    assert np.any(np.asarray(out.vertices) != np.asarray(plain.vertices))
 
 
 def test_polish_sums_refuses_out_of_range_faces():
@@ -229,3 +264,72 @@ def test_polish_sums_refuses_out_of_range_faces():
     assert out[-1] == 1 and out[0] == pytest.approx(0.1)
     with pytest.raises(ValueError, match="out of range"):
         polish_sums(P, N, X, F, N, np.array([4294967295], dtype=np.int64), across, False, 0.1)
+
+
+def test_polish_mesh_on_a_progressive_level_and_another_tools_output():
+    """lodkit.polish_mesh: a progressive mesh's level and a plain (V, F) result polish as
+    simplify(polish=True) does; locked indices stay; bad input is a lodkit error."""
+    m = uv_sphere()
+    pm = lodkit.progressive(m)
+    level = pm.at(ratio=0.1)
+    res = lodkit.polish_mesh(m, level)
+    np.testing.assert_array_equal(res.mesh.faces, level.faces)
+    assert radial_mean_error(res.mesh) < 0.9 * radial_mean_error(level)
+    assert res.report["rounds"] == DEFAULT_ROUNDS
+    # the same step as simplify's: simplify(polish=True) equals polishing its plain output
+    plain = lodkit.simplify(m, target_ratio=0.1)
+    pol = lodkit.simplify(m, target_ratio=0.1, polish=True)
+    np.testing.assert_array_equal(lodkit.polish_mesh(m, plain.mesh).mesh.vertices, pol.mesh.vertices)
+    # a (V, F) tuple in, one out; locked vertices keep their bits
+    V, F = plain.mesh.vertices, plain.mesh.faces
+    out_V, out_F = lodkit.polish_mesh((m.vertices, m.faces), (V, F), locked=[0, 1, 2]).mesh
+    # exact: held vertices are copied
+    np.testing.assert_array_equal(out_V[:3], V[:3])
+    assert np.any(out_V != V)
+    with pytest.raises(OptionError, match="polish"):
+        lodkit.polish_mesh(m, plain.mesh, rounds=-1)
+    with pytest.raises(lodkit.MeshError):
+        lodkit.polish_mesh(m, (V, np.zeros((0, 3), dtype=np.int64)))
+
+
+def test_polish_of_a_zero_area_input_is_the_plain_run():
+    """Four collinear points as a closed tetrahedron: no surface to fit to; the run is the
+    plain one, not an error."""
+    V = np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]])
+    F = np.array([[0, 1, 2], [0, 3, 1], [1, 3, 2], [2, 3, 0]])
+    plain = lodkit.simplify(Mesh(V, F), target_faces=2)
+    pol = lodkit.simplify(Mesh(V, F), target_faces=2, polish=True)
+    np.testing.assert_array_equal(pol.mesh.vertices, plain.mesh.vertices)
+    assert pol.report["polish"]["rounds"] == 0
+
+
+_BLAS_RUN = """
+import hashlib, sys, numpy as np, lodkit
+sys.path.insert(0, {tests!r})
+from test_polish import uv_sphere
+m = uv_sphere(200, 100)
+rng = np.random.default_rng(0)
+m = lodkit.Mesh(m.vertices * (1 + 0.01 * rng.standard_normal((m.n_vertices, 1))), m.faces)
+r = lodkit.simplify(m, target_ratio=0.3, polish=True, threads=1)
+print(hashlib.sha256(np.ascontiguousarray(r.mesh.vertices).tobytes()).hexdigest())
+"""
+
+
+def test_polish_is_the_same_for_any_blas_thread_count(tmp_path):
+    """The solve's reductions are numpy's own sums, not BLAS dot products (which OpenBLAS
+    splits over its threads): the same bits with one and with two BLAS threads, on a system
+    large enough for OpenBLAS to split (20k unknowns)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from conftest import lodkit_subprocess_env
+    code = _BLAS_RUN.format(tests=str(Path(__file__).resolve().parent))
+    out = []
+    for n in ("1", "2"):
+        env = lodkit_subprocess_env(OPENBLAS_NUM_THREADS=n, OMP_NUM_THREADS=n, MKL_NUM_THREADS=n)
+        res = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True,
+                             timeout=300)
+        assert res.returncode == 0, res.stderr[-2000:]
+        out.append(res.stdout.strip().splitlines()[-1])
+    assert out[0] == out[1]

@@ -525,6 +525,11 @@ def polish_sums(const double[:, ::1] P, const double[:, ::1] NI, const double[:,
     cdef Py_ssize_t m = P.shape[0], nf = F.shape[0], nv = X.shape[0], i, k, a, c
     if NI.shape[0] != m or face.shape[0] != m or NF.shape[0] != nf or across.shape[0] != nf:
         raise ValueError("polish_sums: array sizes do not match")
+    if (P.shape[1] != 3 or NI.shape[1] != 3 or X.shape[1] != 3 or F.shape[1] != 3 or NF.shape[1] != 3
+            or across.shape[1] != 3):
+        raise ValueError("polish_sums: points, normals, faces and neighbours must have 3 columns")
+    if not floor > 0.0:
+        raise ValueError("polish_sums: floor must be positive")
     if m and (np.min(face) < 0 or np.max(face) >= nf):
         raise ValueError("polish_sums: a sample's face is out of range")
     if nf and (np.min(across) < 0 or np.max(across) >= nf or np.min(F) < 0 or np.max(F) >= nv):
