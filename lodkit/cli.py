@@ -224,7 +224,7 @@ def _build_parser() -> argparse.ArgumentParser:
                    help="comma-separated lodkit metrics (default: qem); 'lodkit metrics' lists them")
     p.add_argument("--peers", default="", metavar="NAMES",
                    help="comma-separated peer libraries: open3d, fast_simplification, pyfqmr, pymeshlab; "
-                        "or lodkit's global methods retile, optimize")
+                        "or lodkit's global methods retile, optimize; or polish (lodkit's QEM with polish=True)")
     p.add_argument("--ratios", default="0.5,0.1,0.02", type=_ratio_list, metavar="R,R,...",
                    help="fractions of the faces to keep (default: 0.5,0.1,0.02)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (created if missing)")
