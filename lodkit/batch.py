@@ -33,7 +33,7 @@ MANIFEST_CSV = "manifest.csv"
 FORMATS = ("ply", "obj", "glb")
 #: options of simplify() that batch passes on (its targets are the ratios)
 SIMPLIFY_OPTIONS = ("metric", "placement", "boundary", "boundary_weight", "max_normal_angle", "min_quality",
-                    "absolute", "operator", "driver")
+                    "absolute", "operator", "driver", "polish")
 CSV_COLUMNS = ("key", "input", "status", "error", "sha256", "input_faces", "faces", "errors", "files",
                "seconds", "worker")
 _MANIFEST_EVERY = 2.0   # seconds between rewrites of the manifest while the batch runs
@@ -93,7 +93,7 @@ def batch(inputs, out_dir, *, ratios=(0.5, 0.1, 0.02), format: str = "ply", sche
                 row of the manifest already in ``out_dir`` and whose files are all there
     progress  : a progress bar across inputs on stderr (default: when stderr is a terminal)
     options   : passed to :func:`lodkit.simplify`: metric, placement, boundary,
-                boundary_weight, max_normal_angle, min_quality, absolute, operator, driver
+                boundary_weight, max_normal_angle, min_quality, absolute, operator, driver, polish
 
     A file that cannot be read or simplified is a "failed" row with the error; the others
     go on.  Dask runs a task again elsewhere if its worker dies.

@@ -334,6 +334,8 @@ def _build_parser() -> argparse.ArgumentParser:
                         help="a running Dask scheduler (e.g. tcp://10.0.0.5:8786), or 'threads' / "
                              "'sync' to run in this process without Dask")
     p.add_argument("--threads", type=_count, metavar="N", help="with --scheduler threads: N threads")
+    p.add_argument("--polish", action="store_true",
+                   help="fit each level's vertices to the input surface, as 'lodkit simplify --polish'")
     p.add_argument("--force", action="store_true", help="redo every input, even those the manifest says are done")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress bar and no summary line")
     p.set_defaults(run=_run_batch)
@@ -798,7 +800,8 @@ def _run_batch(args) -> int:
     from .batch import batch
 
     metric = _metric_spec(args.metric)
-    options = {"metric": metric, "placement": args.placement, "boundary": args.boundary}
+    options = {"metric": metric, "placement": args.placement, "boundary": args.boundary,
+               "polish": True if args.polish else None}
     options = {k: v for k, v in options.items() if v is not None}
     workers = args.workers
     if args.threads is not None:

@@ -345,3 +345,23 @@ def test_a_cluster_without_workers_fails_instead_of_waiting(tmp_path, monkeypatc
         with pytest.raises(lodkit.LodkitError, match="no worker"):
             lodkit.batch(paths, tmp_path / "out", ratios=RATIOS, client=client)
         assert time.monotonic() - t0 < 30
+
+
+def test_batch_polish_equals_serial_polished_simplify(tmp_path):
+    """batch(..., polish=True) and `lodkit batch --polish`: each level is simplify(polish=True)'s."""
+    from lodkit.cli import main
+    paths = write_meshes(tmp_path / "in", sizes=(900,))
+    result = lodkit.batch(paths, tmp_path / "out", ratios=RATIOS, scheduler="sync", polish=True)
+    assert [r["status"] for r in result.rows] == ["ok"]
+    mesh = lodkit.load(paths[0])
+    for i, r in enumerate(RATIOS):
+        want = lodkit.simplify(mesh, target_ratio=r, polish=True).mesh
+        plain = lodkit.simplify(mesh, target_ratio=r).mesh
+        got = lodkit.load(tmp_path / "out" / f"{paths[0].stem}_lod{i}.ply")
+        np.testing.assert_allclose(got.vertices, want.vertices, rtol=0, atol=1e-6)   # PLY stores float32
+        assert np.abs(got.vertices - plain.vertices).max() > 1e-5
+    assert main(["batch", str(paths[0]), "--out-dir", str(tmp_path / "cli"), "--ratios", "0.2", "--polish",
+                 "--scheduler", "sync", "--quiet"]) == 0
+    got = lodkit.load(tmp_path / "cli" / f"{paths[0].stem}_lod0.ply")
+    want = lodkit.simplify(mesh, target_ratio=0.2, polish=True).mesh
+    np.testing.assert_allclose(got.vertices, want.vertices, rtol=0, atol=1e-6)
