@@ -51,7 +51,7 @@ from .errors import MeshError, OptionError
 from .evaluate import sample_surface
 from .geometry import face_normals
 from .io import load
-from .retile import SurfaceProjector
+from .retile import SurfaceProjector, face_twins
 from .settings import locked_mask
 
 __all__ = ["DEFAULT_ROUNDS", "PolishResult", "polish_mesh", "polish_positions", "resolve_polish"]
@@ -130,27 +130,18 @@ def _fixed_vertices(V: np.ndarray, F: np.ndarray, fixed: np.ndarray, border: np.
 
 
 def _edge_neighbours(F: np.ndarray, n: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """((faces, 3): the face across each edge (corners k, k+1), the face itself where there
-    is none (a border) or more than one (a non-manifold edge); (n,) bool: the vertices on a
-    border edge (one face) or a non-manifold one (three or more), which polish holds)."""
+    """((faces, 3): the face across each edge (corners k, k+1), the face itself where the
+    edge has no twin (retile.face_twins: a border, a non-manifold edge, or two faces that
+    disagree on its direction); (n,) bool: the vertices of such edges, which polish holds)."""
     m = F.shape[0]
     n = int(F.max()) + 1 if n is None else n
-    a = F.reshape(-1)
-    b = F[:, [1, 2, 0]].reshape(-1)
-    key = np.minimum(a, b).astype(np.int64) * n + np.maximum(a, b)
-    order = np.argsort(key, kind="stable")
-    ks = key[order]
-    first = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]])        # runs of one edge (sorted)
-    count = np.diff(np.r_[first, ks.size])
-    out = np.repeat(np.arange(m), 3)
-    two = first[count == 2]                      # an edge of exactly two faces
-    i, j = order[two], order[two + 1]
-    out[i], out[j] = j // 3, i // 3
+    twin = face_twins(F)
+    across = np.where(twin >= 0, twin // 3, np.repeat(np.arange(m), 3))
     border = np.zeros(n, dtype=bool)
-    one = order[first[(count == 1) | (count > 2)]]     # a border edge, or the first of a fin's
-    border[a[one]] = True
-    border[b[one]] = True
-    return out.reshape(m, 3), border
+    open_ = np.flatnonzero(twin < 0)
+    border[F.reshape(-1)[open_]] = True
+    border[F[:, [1, 2, 0]].reshape(-1)[open_]] = True
+    return across.reshape(m, 3).astype(np.int64), border
 
 
 class _Blocks:
@@ -212,8 +203,7 @@ def _solve_cg(K, b, x0, diag):
 
 
 def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarray,
-                     fixed: np.ndarray, rounds: int = DEFAULT_ROUNDS,
-                     samples: int | None = None) -> tuple[np.ndarray, dict]:
+                     fixed: np.ndarray, rounds: int = DEFAULT_ROUNDS) -> tuple[np.ndarray, dict]:
     """Fit (V, F)'s free vertices to the surface (V0, F0); (new V, report).
 
     V0, F0 : the input surface; V, F: the output mesh; fixed: (len(V),) bool, vertices that
@@ -245,7 +235,7 @@ def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarra
     report["held_vertices"] = int(hold.sum())
     if free.size == 0:
         return np.array(V, dtype=np.float64, copy=True), report
-    ns = samples or min(max(_SAMPLES_PER_FACE * F.shape[0], _FLOOR_INPUT_VERTICES * V0.shape[0], _MIN_SAMPLES),
+    ns = min(max(_SAMPLES_PER_FACE * F.shape[0], _FLOOR_INPUT_VERTICES * V0.shape[0], _MIN_SAMPLES),
                         _MAX_SAMPLES)
     n_in_all, area_in = face_normals(X0, F0)
     total = float(area_in.sum())
@@ -270,8 +260,8 @@ def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarra
     cf = col_of[F]                                        # (faces, 3): the unknown of a corner, -1 held
     blocks, pair_face, pair_a, pair_b, pair_block = _block_structure(cf, free.size)
     face = None
+    N_out = N_start                      # the normals of X, kept up to date below
     for _ in range(rounds):
-        N_out = face_normals(X, F)[0]
         local = face is not None
         if not local:
             face = SurfaceProjector(X, F).closest(P)[0]
@@ -335,8 +325,8 @@ def polish_positions(V0: np.ndarray, F0: np.ndarray, V: np.ndarray, F: np.ndarra
             back = np.unique(F[bad].ravel())
             Y[back] = X[back]
         else:
-            Y = X          # still a face too far after the sweeps: the round moves nothing
-        X = Y
+            Y, N_new = X, N_out   # still a face too far after the sweeps: the round moves nothing
+        X, N_out = Y, N_new
         report["rounds"] += 1
     report["mean_distance_before"] = float(first_mean if first_mean is not None else 0.0)
     # after: to the faces matched last (no new search: an upper bound of the distance to the output)
